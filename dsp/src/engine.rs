@@ -156,6 +156,11 @@ pub struct NoteId {
     pub key: u8,
 }
 
+impl NoteId {
+    /// Channel or key wildcard: matches every channel or key (release, choke, expressions).
+    pub const ANY: u8 = u8::MAX;
+}
+
 /// A voice ended (silent, stolen or choked) `offset` samples into the last `render` call.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Terminated {
@@ -227,7 +232,10 @@ impl Voice {
         self.active
             && match (note.voice_id, self.note.voice_id) {
                 (Some(a), Some(b)) => a == b,
-                _ => self.note.channel == note.channel && self.note.key == note.key,
+                _ => {
+                    (note.channel == NoteId::ANY || self.note.channel == note.channel)
+                        && (note.key == NoteId::ANY || self.note.key == note.key)
+                }
             }
     }
 

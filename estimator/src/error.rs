@@ -1,0 +1,82 @@
+//! Errors of the estimator. Every variant carries the data needed to act on it, and every
+//! message says what to do.
+
+use std::path::PathBuf;
+
+/// Why an estimate could not be produced.
+#[derive(Debug, thiserror::Error)]
+pub enum EstimateError {
+    /// The file could not be opened or decoded as WAV.
+    #[error("{path}: cannot read as WAV ({reason}); export the recording as a PCM or float WAV file")]
+    Wav {
+        /// The file.
+        path: PathBuf,
+        /// What the decoder said.
+        reason: String,
+    },
+    /// The WAV file holds no samples, or only digital silence.
+    #[error("{path}: the recording is silent; check the input level and that the right file/channel was chosen")]
+    Silent {
+        /// The file.
+        path: PathBuf,
+    },
+    /// The requested channel does not exist.
+    #[error("{path}: channel {channel} requested but the file has {channels} channel(s); channels count from 0")]
+    NoSuchChannel {
+        /// The file.
+        path: PathBuf,
+        /// Requested channel (0-based).
+        channel: usize,
+        /// Channels in the file.
+        channels: usize,
+    },
+    /// Sample rate outside 8–192 kHz.
+    #[error("{path}: sample rate {sample_rate} Hz is not supported; resample to between 8 and 192 kHz")]
+    SampleRate {
+        /// The file.
+        path: PathBuf,
+        /// The file's rate in Hz.
+        sample_rate: u32,
+    },
+    /// No impact could be found in any file.
+    #[error("no impacts found in {files} file(s); record taps well above the background noise, with a short silence between them")]
+    NoImpacts {
+        /// Number of files searched.
+        files: usize,
+    },
+    /// Too few (λ, c) points for the requested model.
+    #[error("found {found} usable mode feature(s) but the fit needs at least {needed}; record more taps or choose a model with fewer parameters (rayleigh)")]
+    TooFewFeatures {
+        /// Features available.
+        found: usize,
+        /// Features needed.
+        needed: usize,
+    },
+    /// Input points contain NaN, infinities, or non-positive λ.
+    #[error("invalid input point {index}: (λ = {lambda}, c = {c}); λ must be > 0 and both finite")]
+    InvalidPoint {
+        /// Index in the input slice.
+        index: usize,
+        /// λ in rad²/s².
+        lambda: f64,
+        /// c in 1/s.
+        c: f64,
+    },
+    /// Every point has the same λ, so no curve can be fitted.
+    #[error("all {n} features have the same frequency; record taps at several places so more modes ring")]
+    Degenerate {
+        /// Number of points.
+        n: usize,
+    },
+    /// The optimiser failed to produce finite parameters.
+    #[error("the {method} fit did not converge ({reason}); try the lsq method or another model")]
+    NoConvergence {
+        /// Method name.
+        method: &'static str,
+        /// Details.
+        reason: String,
+    },
+    /// The caller set the cancel flag.
+    #[error("cancelled")]
+    Cancelled,
+}

@@ -1,0 +1,331 @@
+//! Struck's offline estimator: from recordings of a struck object to its material damping.
+//!
+//! Pipeline: WAV ([`load_wav`]) → impact segmentation ([`segment`]) → modal features per
+//! impact ([`features`], Ren et al. 2013 §4, Sterling thesis §4.2.2) → (λ, c) points →
+//! damping fit ([`fit_damping`]: EMG / LSQ / LB, thesis §4.2.3–4.2.6) → optional known-object
+//! match ([`object`], Ren §5).
+//!
+//! Conventions: frequencies in Hz (`freq_hz`) or rad/s (ω); a feature decays as e^(−d t) with
+//! d = `decay_per_s` in s⁻¹; λ = ω_d² + d² in rad²/s²; c = 2d in s⁻¹ (thesis eq. 4.2);
+//! damping parameters in SI units as in `dsp::Damping`. Spectra in [`features`] are one-sided
+//! real FFTs, unnormalised, bin k at k·fs/M Hz.
+//!
+//! Everything here allocates and may take seconds: run it on a background thread. Inputs
+//! and outputs are `Send`; progress is reported through a callback (0..1) and a shared
+//! `AtomicBool` cancels between impacts and inside long loops.
+
+#![warn(missing_docs)]
+
+pub mod error;
+pub mod features;
+pub mod fit;
+pub mod object;
+pub mod optim;
+pub mod segment;
+#[doc(hidden)]
+pub mod synth;
+pub mod wav;
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use serde::{Deserialize, Serialize};
+
+pub use error::EstimateError;
+pub use features::{ExtractOptions, Feature, ImpactFit};
+pub use fit::{fit_damping, FitResult, Method, ModelKind};
+pub use object::ObjectMatch;
+pub use segment::SegmentOptions;
+pub use wav::Recording;
+
+/// What to estimate and how. `Default`: Rayleigh, EMG, all channels mixed, no object.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Options {
+    /// Damping model to fit.
+    pub model: ModelKind,
+    /// Fitting method whose result is the chosen one.
+    pub method: Method,
+    /// Channel to analyse (0-based); `None` mixes all channels to mono.
+    pub channel: Option<usize>,
+    /// Reference eigenvalues λᵢ⁰ (rad²/s²) of the recorded object's bank, if known.
+    pub object_lambdas: Option<Vec<f64>>,
+    /// Per-mode gains of that bank (same order), for the amplitude scale.
+    pub object_gains: Option<Vec<f64>>,
+    /// Segmentation thresholds.
+    pub segment: SegmentOptions,
+    /// Feature-extraction thresholds.
+    pub extract: ExtractOptions,
+}
+
+/// Features of one impact. Serialises as
+/// `{"file", "onset_s", "features": [{"freq_hz", "decay_per_s", "amplitude"}], …}`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ImpactFeatures {
+    /// The file it came from.
+    pub file: String,
+    /// Onset time in the file, s.
+    pub onset_s: f64,
+    /// Modal features, strongest first.
+    pub features: Vec<Feature>,
+    /// Length of the analysed segment, s.
+    pub duration_s: f64,
+    /// Peak frame power over the noise floor, dB.
+    pub snr_db: f64,
+    /// Fraction of the segment's power explained by the fitted modes.
+    pub explained_power: f64,
+    /// Residual power over the noise floor (≈ 1 when only noise is left).
+    pub residual_to_noise: f64,
+    /// Spectral peaks whose local fit was rejected.
+    pub rejected_peaks: usize,
+}
+
+/// An impact that was found but not analysed.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SkippedImpact {
+    /// The file.
+    pub file: String,
+    /// Onset time, s.
+    pub onset_s: f64,
+    /// Why it was skipped, and what to do.
+    pub reason: String,
+}
+
+/// Per-file summary.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FileSummary {
+    /// The file.
+    pub file: String,
+    /// Sample rate, Hz.
+    pub sample_rate: u32,
+    /// Channels in the file.
+    pub channels: u16,
+    /// Duration analysed, s.
+    pub duration_s: f64,
+    /// Noise floor, dBFS (power of the quietest 10 % of 5 ms frames).
+    pub noise_floor_db: f64,
+    /// Impacts detected.
+    pub impacts_found: usize,
+    /// Impacts analysed.
+    pub impacts_used: usize,
+}
+
+/// Output of [`extract_features`].
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct FeaturesReport {
+    /// Every analysed impact, in file and time order.
+    pub impacts: Vec<ImpactFeatures>,
+    /// Impacts found but skipped.
+    pub skipped: Vec<SkippedImpact>,
+    /// Per-file summaries.
+    pub files: Vec<FileSummary>,
+    /// Problems that did not stop the analysis.
+    pub warnings: Vec<String>,
+}
+
+impl FeaturesReport {
+    /// All features as (λ, c) points (rad²/s², s⁻¹).
+    pub fn points(&self) -> Vec<(f64, f64)> {
+        self.impacts.iter().flat_map(|i| i.features.iter().map(|f| (f.lambda(), f.c()))).collect()
+    }
+}
+
+/// Rayleigh against hybrid by BIC (lower is better).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ModelComparison {
+    /// EMG Rayleigh fit.
+    pub rayleigh: FitResult,
+    /// EMG hybrid fit (None if it failed).
+    pub hybrid: Option<FitResult>,
+    /// The recommended model.
+    pub recommended: ModelKind,
+    /// BIC(hybrid) − BIC(Rayleigh); negative favours hybrid.
+    pub delta_bic: Option<f64>,
+}
+
+/// Output of [`estimate`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EstimateReport {
+    /// Every analysed impact with its features.
+    pub impacts: Vec<ImpactFeatures>,
+    /// Impacts found but skipped.
+    pub skipped: Vec<SkippedImpact>,
+    /// Per-file summaries.
+    pub files: Vec<FileSummary>,
+    /// Chosen model name ("rayleigh", "hybrid", "power", "caughey").
+    pub model: String,
+    /// Chosen method.
+    pub method: Method,
+    /// Chosen fit's parameters in SI units (`dsp::Damping` conventions).
+    pub params: Vec<f64>,
+    /// The chosen fit.
+    pub chosen: FitResult,
+    /// Fits of every method (EMG, LSQ, LB) for the chosen model; failed ones are absent.
+    pub fits: Vec<FitResult>,
+    /// Rayleigh vs hybrid (EMG) comparison.
+    pub comparison: Option<ModelComparison>,
+    /// Known-object match, if `object_lambdas` was given.
+    pub object: Option<ObjectMatch>,
+    /// Number of (λ, c) points fitted.
+    pub n_points: usize,
+    /// Problems that did not stop the analysis.
+    pub warnings: Vec<String>,
+}
+
+impl EstimateReport {
+    /// The chosen damping law.
+    pub fn damping(&self) -> dsp::Damping {
+        self.chosen.damping()
+    }
+}
+
+/// Reads a WAV file to mono. See [`wav::load_wav`].
+///
+/// # Errors
+/// As [`wav::load_wav`].
+pub fn load_wav(path: &Path, channel: Option<usize>) -> Result<Recording, EstimateError> {
+    wav::load_wav(path, channel)
+}
+
+/// Finds the impacts in `files` and extracts each one's modal features.
+/// `progress` receives 0..1; `cancel` stops the work between impacts and inside the
+/// extraction loop.
+///
+/// # Errors
+/// The first file that cannot be read ([`EstimateError::Wav`], [`EstimateError::Silent`], …),
+/// [`EstimateError::NoImpacts`] if no file holds a usable impact, [`EstimateError::Cancelled`].
+pub fn extract_features(
+    files: &[PathBuf],
+    opts: &Options,
+    progress: &dyn Fn(f32),
+    cancel: &AtomicBool,
+) -> Result<FeaturesReport, EstimateError> {
+    let mut report = FeaturesReport::default();
+    let nfiles = files.len().max(1);
+    for (fi, path) in files.iter().enumerate() {
+        if cancel.load(Ordering::Relaxed) {
+            return Err(EstimateError::Cancelled);
+        }
+        let rec = load_wav(path, opts.channel)?;
+        let name = path.display().to_string();
+        report.warnings.extend(rec.warnings.iter().cloned());
+        let fs = f64::from(rec.sample_rate);
+        let seg = segment::segment(&rec.samples, fs, &opts.segment);
+        for (s, reason) in &seg.skipped {
+            report.skipped.push(SkippedImpact { file: name.clone(), onset_s: s.start as f64 / fs, reason: reason.clone() });
+        }
+        let nimp = seg.impacts.len().max(1);
+        let mut used = 0;
+        for (ii, s) in seg.impacts.iter().enumerate() {
+            if cancel.load(Ordering::Relaxed) {
+                return Err(EstimateError::Cancelled);
+            }
+            let fit = features::extract_impact(&rec.samples[s.start..s.end], fs, seg.noise_var, &opts.extract, cancel)?;
+            if fit.features.is_empty() {
+                report.skipped.push(SkippedImpact {
+                    file: name.clone(),
+                    onset_s: s.start as f64 / fs,
+                    reason: "no modal features found (noise or a dull thud); tap a freely ringing object".into(),
+                });
+            } else {
+                used += 1;
+                report.impacts.push(ImpactFeatures {
+                    file: name.clone(),
+                    onset_s: s.start as f64 / fs,
+                    features: fit.features,
+                    duration_s: (s.end - s.start) as f64 / fs,
+                    snr_db: s.snr_db,
+                    explained_power: fit.explained_power,
+                    residual_to_noise: fit.residual_to_noise,
+                    rejected_peaks: fit.rejected_peaks,
+                });
+            }
+            progress((fi as f32 + (ii + 1) as f32 / nimp as f32) / nfiles as f32);
+        }
+        if seg.impacts.is_empty() {
+            report.warnings.push(format!("{name}: no impacts found; taps must rise well above the background noise"));
+        }
+        report.files.push(FileSummary {
+            file: name,
+            sample_rate: rec.sample_rate,
+            channels: rec.channels,
+            duration_s: rec.duration_s(),
+            noise_floor_db: 10.0 * seg.noise_var.max(1e-30).log10(),
+            impacts_found: seg.impacts.len() + seg.skipped.len(),
+            impacts_used: used,
+        });
+        progress((fi + 1) as f32 / nfiles as f32);
+    }
+    if report.impacts.is_empty() {
+        return Err(EstimateError::NoImpacts { files: files.len() });
+    }
+    Ok(report)
+}
+
+/// Full estimate: features of every impact in `files`, then every method's fit of
+/// `opts.model`, the Rayleigh/hybrid comparison and, if `opts.object_lambdas` is set, the
+/// known-object match. The chosen fit is `opts.method`'s.
+///
+/// # Errors
+/// As [`extract_features`], plus [`EstimateError::TooFewFeatures`] and the chosen method's
+/// fit errors ([`fit_damping`]).
+pub fn estimate(
+    files: &[PathBuf],
+    opts: &Options,
+    progress: &dyn Fn(f32),
+    cancel: &AtomicBool,
+) -> Result<EstimateReport, EstimateError> {
+    let feats = extract_features(files, opts, &|p| progress(0.9 * p), cancel)?;
+    let points = feats.points();
+    let mut warnings = feats.warnings.clone();
+    let mut fits = Vec::new();
+    let mut chosen = None;
+    for (i, m) in [Method::Emg, Method::Lsq, Method::Lb].into_iter().enumerate() {
+        if cancel.load(Ordering::Relaxed) {
+            return Err(EstimateError::Cancelled);
+        }
+        match fit_damping(&points, opts.model, m) {
+            Ok(f) => {
+                if m == opts.method {
+                    chosen = Some(f.clone());
+                }
+                fits.push(f);
+            }
+            Err(e) if m == opts.method => return Err(e),
+            Err(e) => warnings.push(format!("{} fit failed: {e}", m.name())),
+        }
+        progress(0.9 + 0.03 * (i + 1) as f32);
+    }
+    // PANIC: the chosen method either succeeded (Some) or returned above.
+    let chosen = chosen.expect("chosen fit present");
+    let comparison = match fit_damping(&points, ModelKind::Rayleigh, Method::Emg) {
+        Ok(ray) => {
+            let hyb = fit_damping(&points, ModelKind::Hybrid, Method::Emg).ok();
+            let delta = hyb.as_ref().and_then(|h| Some(h.bic? - ray.bic?));
+            let recommended = if delta.is_some_and(|d| d < 0.0) { ModelKind::Hybrid } else { ModelKind::Rayleigh };
+            Some(ModelComparison { rayleigh: ray, hybrid: hyb, recommended, delta_bic: delta })
+        }
+        Err(_) => None,
+    };
+    let all: Vec<Feature> = feats.impacts.iter().flat_map(|i| i.features.iter().copied()).collect();
+    let object =
+        opts.object_lambdas.as_deref().and_then(|l| object::match_object(&all, l, opts.object_gains.as_deref()));
+    if opts.object_lambdas.is_some() && object.as_ref().is_none_or(|o| o.matched == 0) {
+        warnings.push("the object's modes did not match any recorded feature; check that the right object was chosen".into());
+    }
+    progress(1.0);
+    Ok(EstimateReport {
+        impacts: feats.impacts,
+        skipped: feats.skipped,
+        files: feats.files,
+        model: chosen.model.name().to_string(),
+        method: chosen.method,
+        params: chosen.params.clone(),
+        n_points: points.len(),
+        chosen,
+        fits,
+        comparison,
+        object,
+        warnings,
+    })
+}

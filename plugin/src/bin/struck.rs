@@ -1,0 +1,132 @@
+//! `struck`: list objects and materials, show the modes a strike sounds, and render notes
+//! offline through the plugin's own `process()`.
+
+use clap::{Parser, Subcommand};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use struck::cli::{self, RenderOptions, SoundOptions};
+
+#[derive(Parser)]
+#[command(name = "struck", version, about = "Struck: modal synthesis of struck objects (offline tools)")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// List the objects (mode banks).
+    Objects {
+        /// Machine-readable output.
+        #[arg(long)]
+        json: bool,
+    },
+    /// List the materials.
+    Materials {
+        /// Machine-readable output.
+        #[arg(long)]
+        json: bool,
+    },
+    /// List the plugin's parameters (ids usable with `render --set`).
+    Params {
+        /// Machine-readable output.
+        #[arg(long)]
+        json: bool,
+    },
+    /// The modes a strike would sound.
+    Modes {
+        #[command(flatten)]
+        sound: SoundArgs,
+        /// MIDI key (Pitched key mode transposes from the root note).
+        #[arg(long, default_value_t = 60)]
+        note: u8,
+        /// MIDI velocity 1..=127.
+        #[arg(long, default_value_t = 100)]
+        velocity: u8,
+        /// Machine-readable output.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Render notes to a WAV file through the plugin's process().
+    Render {
+        #[command(flatten)]
+        sound: SoundArgs,
+        /// Notes "key:velocity@position+start_seconds", comma separated; `@position` and
+        /// `+start` are optional (position: the strike-position parameter; start: 0).
+        #[arg(long)]
+        notes: Option<String>,
+        /// A standard MIDI file to play (with or instead of --notes).
+        #[arg(long)]
+        midi: Option<PathBuf>,
+        /// Length in seconds (default: until 3 s after the last note starts).
+        #[arg(long)]
+        seconds: Option<f64>,
+        /// Host block size in samples.
+        #[arg(long, default_value_t = 512)]
+        block_size: usize,
+        /// Output WAV (32-bit float, stereo).
+        #[arg(long)]
+        out: PathBuf,
+    },
+}
+
+#[derive(clap::Args)]
+struct SoundArgs {
+    /// Object id, name or index (`struck objects`).
+    #[arg(long, default_value = "bar")]
+    object: String,
+    /// Material id, name or index (`struck materials`), or a material JSON file.
+    #[arg(long, default_value = struck::library::DEFAULT_MATERIAL)]
+    material: String,
+    /// Size relative to the object's reference dimensions.
+    #[arg(long)]
+    size: Option<f32>,
+    /// Strike position 0..=1 along the object's strike points.
+    #[arg(long)]
+    position: Option<f32>,
+    /// Sample rate in Hz.
+    #[arg(long, default_value_t = 48_000)]
+    sample_rate: u32,
+    /// Set any parameter: `--set id=value` (plain units; repeatable; see `struck params`).
+    #[arg(long = "set", value_name = "ID=VALUE")]
+    set: Vec<String>,
+}
+
+impl SoundArgs {
+    fn options(&self) -> SoundOptions {
+        SoundOptions {
+            object: self.object.clone(),
+            material: self.material.clone(),
+            size: self.size,
+            position: self.position,
+            sample_rate: self.sample_rate,
+            set: self.set.clone(),
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<(), String> {
+    match cli.command {
+        Command::Objects { json } => cli::print_objects(json),
+        Command::Materials { json } => cli::print_materials(json),
+        Command::Params { json } => cli::print_params(json),
+        Command::Modes { sound, note, velocity, json } => cli::print_modes(&sound.options(), note, velocity, json),
+        Command::Render { sound, notes, midi, seconds, block_size, out } => {
+            let opts = RenderOptions { sound: sound.options(), notes, midi: midi.as_deref().map(Path::to_path_buf), seconds, block_size, out };
+            let summary = cli::render(&opts)?;
+            eprintln!("{summary}");
+            Ok(())
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("struck: error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,491 @@
+//! The command line's work, as a library so tests and `xtask` use the same code.
+
+use crate::library::Library;
+use crate::offline::{note_off, note_on, set_timing, OfflineHost, TimedEvent};
+use crate::params::{DampingModelParam, LAMBDA_10K, LAMBDA_1K};
+use dsp::Damping;
+use nice_plug::midi::{Channel, Key, VoiceID};
+use nice_plug::prelude::{Enum, NoteEvent, Param};
+use presets::Material;
+use std::path::{Path, PathBuf};
+
+/// Object, material and parameter choices shared by `modes` and `render`.
+#[derive(Clone, Debug)]
+pub struct SoundOptions {
+    /// Object id, name or index.
+    pub object: String,
+    /// Material id, name, index, or path of a material JSON file.
+    pub material: String,
+    /// Size relative to the reference.
+    pub size: Option<f32>,
+    /// Default strike position.
+    pub position: Option<f32>,
+    /// Sample rate, Hz.
+    pub sample_rate: u32,
+    /// `id=value` parameter settings.
+    pub set: Vec<String>,
+}
+
+impl Default for SoundOptions {
+    fn default() -> Self {
+        SoundOptions {
+            object: "bar".into(),
+            material: crate::library::DEFAULT_MATERIAL.into(),
+            size: None,
+            position: None,
+            sample_rate: 48_000,
+            set: vec![],
+        }
+    }
+}
+
+/// What `render` plays and where it writes.
+#[derive(Clone, Debug)]
+pub struct RenderOptions {
+    /// Sound choices.
+    pub sound: SoundOptions,
+    /// `--notes` text.
+    pub notes: Option<String>,
+    /// `--midi` file.
+    pub midi: Option<PathBuf>,
+    /// Length, seconds.
+    pub seconds: Option<f64>,
+    /// Host block size.
+    pub block_size: usize,
+    /// Output WAV.
+    pub out: PathBuf,
+}
+
+fn find(names: &[(&str, &str)], what: &str, query: &str) -> Result<usize, String> {
+    if let Ok(i) = query.parse::<usize>() {
+        if i < names.len() {
+            return Ok(i);
+        }
+    }
+    let q = query.to_lowercase();
+    names
+        .iter()
+        .position(|(id, name)| id.to_lowercase() == q || name.to_lowercase() == q)
+        .ok_or_else(|| format!("unknown {what} '{query}' (known: {})", names.iter().map(|(id, _)| *id).collect::<Vec<_>>().join(", ")))
+}
+
+/// Index of an object given by id, name or index.
+///
+/// # Errors
+/// If no object matches.
+pub fn resolve_object(lib: &Library, query: &str) -> Result<usize, String> {
+    let names: Vec<(&str, &str)> = lib.banks.iter().map(|b| (b.id.as_str(), b.name.as_str())).collect();
+    find(&names, "object", query)
+}
+
+/// A factory material index, or a material read from a file.
+pub enum MaterialChoice {
+    /// A factory material.
+    Factory(usize),
+    /// A material from a JSON file, played through the *Custom* knobs.
+    File(Box<Material>),
+}
+
+/// Resolves a material given by id, name, index or JSON file path.
+///
+/// # Errors
+/// If nothing matches, or the file cannot be read or is not a valid material.
+pub fn resolve_material(lib: &Library, query: &str) -> Result<MaterialChoice, String> {
+    let names: Vec<(&str, &str)> = lib.materials.iter().map(|m| (m.id.as_str(), m.name.as_str())).collect();
+    match find(&names, "material", query) {
+        Ok(i) => Ok(MaterialChoice::Factory(i)),
+        Err(e) if query.ends_with(".json") || Path::new(query).exists() => {
+            let _ = e;
+            Material::load(Path::new(query)).map(|m| MaterialChoice::File(Box::new(m))).map_err(|e| e.to_string())
+        }
+        Err(e) => Err(e),
+    }
+}
+
+/// Sets the *Custom* material knobs so that they reproduce `d` (exactly for Rayleigh,
+/// hybrid, power law and Caughey up to order 3).
+///
+/// # Errors
+/// If the law needs a knob beyond its range or a fourth Caughey term.
+pub fn set_custom_damping(host: &mut OfflineHost, d: &Damping) -> Result<(), String> {
+    let lib = host.plugin().library().clone();
+    let (model, a1, c1k, e, c10k) = match *d {
+        Damping::Rayleigh { alpha1, alpha2 } => (DampingModelParam::Rayleigh, alpha1, alpha2 * LAMBDA_1K, 1.0, 0.0),
+        Damping::Hybrid { alpha1, alpha2, alpha3 } => (DampingModelParam::Hybrid, alpha1, alpha2 * LAMBDA_1K.powf(alpha3), alpha3, 0.0),
+        Damping::Power { alpha1, alpha2 } => (DampingModelParam::Power, 0.0, alpha1 * LAMBDA_1K.powf(alpha2), alpha2, 0.0),
+        Damping::Caughey { coeffs, order } => {
+            if order > 3 && coeffs[3] != 0.0 {
+                return Err("the plugin's Custom material plays Caughey series up to order 3".into());
+            }
+            (DampingModelParam::Caughey, coeffs[0], coeffs[1] * LAMBDA_1K, 1.0, coeffs[2] * LAMBDA_10K * LAMBDA_10K)
+        }
+    };
+    let p = host.plugin().struck_params().clone();
+    let check = |name: &str, v: f64, param: &nice_plug::prelude::FloatParam| -> Result<f32, String> {
+        let v = v as f32;
+        let (lo, hi) = (param.preview_plain(0.0), param.preview_plain(1.0));
+        if !(lo..=hi).contains(&v) {
+            return Err(format!("{name} = {v} is outside the plugin's range {lo}..={hi}"));
+        }
+        Ok(v)
+    };
+    let a1 = check("base damping α₁ (1/s)", a1, &p.alpha1_per_s)?;
+    let c1k = check("damping at 1 kHz (1/s)", c1k, &p.damping_1k_per_s)?;
+    let e = check("exponent", e, &p.exponent)?;
+    let c10k = check("Caughey c at 10 kHz (1/s)", c10k, &p.caughey_10k_per_s)?;
+    host.set_param("material", lib.custom_material_index() as f32).map_err(|e| e.to_string())?;
+    host.set_param("dmodel", model.to_index() as f32).map_err(|e| e.to_string())?;
+    host.set_param("alpha1", a1).map_err(|e| e.to_string())?;
+    host.set_param("c1k", c1k).map_err(|e| e.to_string())?;
+    host.set_param("expo", e).map_err(|e| e.to_string())?;
+    host.set_param("c10k", c10k).map_err(|e| e.to_string())?;
+    Ok(())
+}
+
+/// A host at the options' sample rate with object, material and parameters set.
+///
+/// # Errors
+/// Unknown object, material or parameter; a bad `id=value`; an unusable sample rate.
+pub fn configured_host(opts: &SoundOptions, max_block: usize) -> Result<OfflineHost, String> {
+    let mut host = OfflineHost::new(opts.sample_rate as f32, max_block).map_err(|e| e.to_string())?;
+    let lib = host.plugin().library().clone();
+    let object = resolve_object(&lib, &opts.object)?;
+    host.set_param("object", object as f32).map_err(|e| e.to_string())?;
+    match resolve_material(&lib, &opts.material)? {
+        MaterialChoice::Factory(i) => host.set_param("material", i as f32).map_err(|e| e.to_string())?,
+        MaterialChoice::File(m) => {
+            let d = m.damping.to_damping().map_err(|e| e.to_string())?;
+            set_custom_damping(&mut host, &d)?;
+        }
+    }
+    if let Some(s) = opts.size {
+        check_range("size", s, 0.05, 20.0)?;
+        host.set_param("size", s).map_err(|e| e.to_string())?;
+    }
+    if let Some(p) = opts.position {
+        check_range("position", p, 0.0, 1.0)?;
+        host.set_param("pos", p).map_err(|e| e.to_string())?;
+    }
+    for kv in &opts.set {
+        let (k, v) = kv.split_once('=').ok_or_else(|| format!("--set expects id=value, got '{kv}'"))?;
+        let v: f32 = v.trim().parse().map_err(|_| format!("--set {k}: '{v}' is not a number"))?;
+        if !v.is_finite() {
+            return Err(format!("--set {k}: value must be finite"));
+        }
+        host.set_param(k.trim(), v).map_err(|e| e.to_string())?;
+    }
+    host.reset();
+    Ok(host)
+}
+
+fn check_range(name: &str, v: f32, lo: f32, hi: f32) -> Result<(), String> {
+    if v.is_finite() && (lo..=hi).contains(&v) {
+        Ok(())
+    } else {
+        Err(format!("--{name} {v} is outside {lo}..={hi}"))
+    }
+}
+
+/// One parsed `--notes` entry.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NoteSpec {
+    /// MIDI key.
+    pub key: u8,
+    /// MIDI velocity 1..=127.
+    pub velocity: u8,
+    /// Strike position 0..=1, if given.
+    pub position: Option<f32>,
+    /// Start time, seconds.
+    pub start_s: f64,
+}
+
+/// Parses `"60:100@0.25,67:80@0.5+1.0"` (key:velocity@position+start_seconds; `@…` and
+/// `+…` optional).
+///
+/// # Errors
+/// A message naming the bad entry and what is expected.
+pub fn parse_notes(text: &str) -> Result<Vec<NoteSpec>, String> {
+    let bad = |entry: &str, why: &str| format!("bad note '{entry}': {why} (expected key:velocity@position+start_seconds, e.g. 60:100@0.25+0.5)");
+    let mut out = Vec::new();
+    for entry in text.split(',').map(str::trim).filter(|e| !e.is_empty()) {
+        let (rest, start) = match entry.split_once('+') {
+            Some((a, b)) => (a, Some(b)),
+            None => (entry, None),
+        };
+        let (rest, pos) = match rest.split_once('@') {
+            Some((a, b)) => (a, Some(b)),
+            None => (rest, None),
+        };
+        let (k, v) = rest.split_once(':').ok_or_else(|| bad(entry, "missing ':' between key and velocity"))?;
+        let key: u8 = k.trim().parse().map_err(|_| bad(entry, "key must be 0..=127"))?;
+        if key > 127 {
+            return Err(bad(entry, "key must be 0..=127"));
+        }
+        let velocity: u8 = v.trim().parse().map_err(|_| bad(entry, "velocity must be 1..=127"))?;
+        if !(1..=127).contains(&velocity) {
+            return Err(bad(entry, "velocity must be 1..=127"));
+        }
+        let position = match pos {
+            Some(p) => {
+                let p: f32 = p.trim().parse().map_err(|_| bad(entry, "position must be a number in 0..=1"))?;
+                if !(0.0..=1.0).contains(&p) {
+                    return Err(bad(entry, "position must be in 0..=1"));
+                }
+                Some(p)
+            }
+            None => None,
+        };
+        let start_s = match start {
+            Some(s) => {
+                let s: f64 = s.trim().parse().map_err(|_| bad(entry, "start must be seconds ≥ 0"))?;
+                if !(s.is_finite() && s >= 0.0) {
+                    return Err(bad(entry, "start must be seconds ≥ 0"));
+                }
+                s
+            }
+            None => 0.0,
+        };
+        out.push(NoteSpec { key, velocity, position, start_s });
+    }
+    if out.is_empty() {
+        return Err("--notes holds no notes".into());
+    }
+    Ok(out)
+}
+
+/// The demo phrase played when `render` gets no notes.
+pub fn demo_notes() -> Vec<NoteSpec> {
+    let n = |key, velocity, position, start_s| NoteSpec { key, velocity, position: Some(position), start_s };
+    vec![
+        n(60, 100, 0.15, 0.0),
+        n(67, 80, 0.45, 0.35),
+        n(64, 90, 0.3, 0.7),
+        n(72, 110, 0.1, 1.05),
+        n(48, 120, 0.2, 1.6),
+        n(55, 90, 0.6, 1.6),
+        n(79, 70, 0.8, 2.2),
+        n(60, 127, 0.05, 2.6),
+    ]
+}
+
+/// Note events of `notes` at `sample_rate`: a note-on, plus a brightness expression at the
+/// same sample when the note has its own position (CLAP's way of per-note timbre).
+pub fn note_events(notes: &[NoteSpec], sample_rate: f64) -> Vec<TimedEvent> {
+    let mut ev = Vec::new();
+    for (i, n) in notes.iter().enumerate() {
+        let sample = (n.start_s * sample_rate).round() as u64;
+        let voice_id = VoiceID::ID(i as i32);
+        let mut on = note_on(n.key, f32::from(n.velocity) / 127.0);
+        if let NoteEvent::NoteOn { voice_id: v, .. } = &mut on {
+            *v = voice_id;
+        }
+        ev.push(TimedEvent { sample, event: on });
+        if let Some(p) = n.position {
+            ev.push(TimedEvent {
+                sample,
+                event: NoteEvent::PolyBrightness { timing: 0, voice_id, channel: Channel::Number(0), key: Key::Number(n.key), brightness: p },
+            });
+        }
+    }
+    ev.sort_by_key(|e| e.sample);
+    ev
+}
+
+/// Renders per the options and writes the WAV; returns a one-line summary.
+///
+/// # Errors
+/// Bad options, unreadable MIDI, unwritable output.
+pub fn render(opts: &RenderOptions) -> Result<String, String> {
+    if opts.block_size == 0 || opts.block_size > 65_536 {
+        return Err(format!("--block-size {} is outside 1..=65536", opts.block_size));
+    }
+    let mut host = configured_host(&opts.sound, opts.block_size)?;
+    let sr = f64::from(opts.sound.sample_rate);
+    let mut events = Vec::new();
+    if let Some(text) = &opts.notes {
+        events.extend(note_events(&parse_notes(text)?, sr));
+    }
+    if let Some(path) = &opts.midi {
+        let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+        events.extend(crate::midi_file::read_midi(&bytes, sr).map_err(|e| format!("{}: {e}", path.display()))?);
+    }
+    if opts.notes.is_none() && opts.midi.is_none() {
+        events = note_events(&demo_notes(), sr);
+    }
+    events.sort_by_key(|e| e.sample);
+    let last = events.last().map_or(0, |e| e.sample) as f64 / sr;
+    let seconds = opts.seconds.unwrap_or(last + 3.0);
+    if !(seconds.is_finite() && seconds > 0.0 && seconds <= 3600.0) {
+        return Err(format!("--seconds {seconds} is outside (0, 3600]"));
+    }
+    let total = (seconds * sr).round() as usize;
+    // Notes still held at the end are released there (hosts do the same on stop).
+    let mut offs: Vec<TimedEvent> = events
+        .iter()
+        .filter_map(|e| match e.event {
+            NoteEvent::NoteOn { key: Key::Number(k), .. } => Some(TimedEvent { sample: total as u64, event: note_off(k) }),
+            _ => None,
+        })
+        .collect();
+    events.append(&mut offs);
+    for e in &mut events {
+        set_timing(&mut e.event, 0);
+    }
+    // Check the output is writable before spending time rendering.
+    let spec = hound::WavSpec { channels: 2, sample_rate: opts.sound.sample_rate, bits_per_sample: 32, sample_format: hound::SampleFormat::Float };
+    let mut writer = hound::WavWriter::create(&opts.out, spec).map_err(|e| format!("cannot write {}: {e}", opts.out.display()))?;
+    let (audio, _) = host.render(&events, total, opts.block_size);
+    let mut peak = 0.0f32;
+    for i in 0..total {
+        for ch in &audio {
+            peak = peak.max(ch[i].abs());
+            writer.write_sample(ch[i]).map_err(|e| format!("cannot write {}: {e}", opts.out.display()))?;
+        }
+    }
+    writer.finalize().map_err(|e| format!("cannot write {}: {e}", opts.out.display()))?;
+    let lib = host.plugin().library().clone();
+    let p = host.plugin().struck_params();
+    let obj = lib.banks.get(p.object.value() as usize).map_or("?", |b| b.name.as_str());
+    let mat = lib.materials.get(p.material.value() as usize).map_or("Custom", |m| m.name.as_str());
+    Ok(format!(
+        "wrote {} ({:.2} s, {} Hz, peak {:.1} dBFS): {} notes on {obj}, {mat}",
+        opts.out.display(),
+        seconds,
+        opts.sound.sample_rate,
+        20.0 * peak.max(1e-12).log10(),
+        events.iter().filter(|e| matches!(e.event, NoteEvent::NoteOn { .. })).count()
+    ))
+}
+
+/// Prints the object list.
+///
+/// # Errors
+/// Never (kept for symmetry with the other commands).
+pub fn print_objects(json: bool) -> Result<(), String> {
+    let lib = Library::factory();
+    if json {
+        let v: Vec<_> = lib
+            .banks
+            .iter()
+            .enumerate()
+            .map(|(i, b)| {
+                let f = b.frequencies_hz();
+                serde_json::json!({
+                    "index": i, "id": b.id, "name": b.name, "description": b.description, "provenance": b.provenance,
+                    "modes": b.num_modes(), "strike_points": b.num_points(),
+                    "lowest_hz": f.first(), "highest_hz": f.last(),
+                })
+            })
+            .collect();
+        println!("{}", serde_json::to_string_pretty(&v).map_err(|e| e.to_string())?);
+    } else {
+        for (i, b) in lib.banks.iter().enumerate() {
+            let f = b.frequencies_hz();
+            println!(
+                "{i:2}  {:16} {:28} {:4} modes, {:3} points, {:.1}–{:.0} Hz",
+                b.id,
+                b.name,
+                b.num_modes(),
+                b.num_points(),
+                f.first().copied().unwrap_or(0.0),
+                f.last().copied().unwrap_or(0.0)
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Prints the material list.
+///
+/// # Errors
+/// Never.
+pub fn print_materials(json: bool) -> Result<(), String> {
+    let lib = Library::factory();
+    if json {
+        let v: Vec<_> = lib
+            .materials
+            .iter()
+            .enumerate()
+            .map(|(i, m)| serde_json::json!({"index": i, "id": m.id, "name": m.name, "provenance": m.provenance, "specific_modulus": m.specific_modulus, "damping": m.damping}))
+            .collect();
+        println!("{}", serde_json::to_string_pretty(&v).map_err(|e| e.to_string())?);
+    } else {
+        for (i, (m, d)) in lib.materials.iter().zip(&lib.dampings).enumerate() {
+            let t60 = |f: f64| 6.91 / (0.5 * d.c((2.0 * std::f64::consts::PI * f).powi(2)));
+            println!("{i:2}  {:28} {:30} T60 {:6.2} s @200 Hz, {:6.3} s @1 kHz, {:6.3} s @5 kHz", m.id, m.name, t60(200.0), t60(1000.0), t60(5000.0));
+        }
+        println!("{:2}  custom                       (the damping knobs)", lib.custom_material_index());
+    }
+    Ok(())
+}
+
+/// Prints the parameter list.
+///
+/// # Errors
+/// Never.
+pub fn print_params(json: bool) -> Result<(), String> {
+    let plugin = crate::Struck::default();
+    let params = nice_plug::prelude::Plugin::params(&plugin);
+    let mut rows = Vec::new();
+    for (id, ptr, _) in params.param_map() {
+        // SAFETY: the pointers target `params`, alive for this whole function.
+        let (name, def, lo, hi, shown) = unsafe {
+            (
+                ptr.name().to_string(),
+                ptr.default_plain_value(),
+                ptr.preview_plain(0.0),
+                ptr.preview_plain(1.0),
+                ptr.normalized_value_to_string(ptr.default_normalized_value(), true),
+            )
+        };
+        rows.push((id, name, def, lo, hi, shown));
+    }
+    if json {
+        let v: Vec<_> = rows.iter().map(|(id, n, d, lo, hi, s)| serde_json::json!({"id": id, "name": n, "default": d, "min": lo, "max": hi, "default_text": s})).collect();
+        println!("{}", serde_json::to_string_pretty(&v).map_err(|e| e.to_string())?);
+    } else {
+        for (id, n, d, lo, hi, s) in rows {
+            println!("{id:10} {n:24} default {d:<10} range {lo}..={hi}  ({s})");
+        }
+    }
+    Ok(())
+}
+
+/// Prints the modes a strike would sound.
+///
+/// # Errors
+/// As [`configured_host`].
+pub fn print_modes(opts: &SoundOptions, note: u8, velocity: u8, json: bool) -> Result<(), String> {
+    let modes = predicted_modes(opts, note, velocity)?;
+    if json {
+        let v: Vec<_> = modes
+            .iter()
+            .map(|&(f, d, a)| serde_json::json!({"freq_hz": f, "decay_per_s": d, "gain": a, "t60_s": 6.91 / d}))
+            .collect();
+        println!("{}", serde_json::to_string_pretty(&v).map_err(|e| e.to_string())?);
+    } else {
+        println!("{:>12} {:>12} {:>10} {:>12}", "freq_hz", "decay_per_s", "t60_s", "gain");
+        for (f, d, a) in modes {
+            println!("{f:12.3} {d:12.4} {:10.3} {a:12.6}", 6.91 / d);
+        }
+    }
+    Ok(())
+}
+
+/// `(freq_hz, decay_per_s, gain)` of the modes a note would sound, as the engine computes them.
+///
+/// # Errors
+/// As [`configured_host`], or a key above 127.
+pub fn predicted_modes(opts: &SoundOptions, note: u8, velocity: u8) -> Result<Vec<(f64, f64, f32)>, String> {
+    if note > 127 || velocity == 0 || velocity > 127 {
+        return Err("--note must be 0..=127 and --velocity 1..=127".into());
+    }
+    let host = configured_host(opts, 64)?;
+    let plugin = host.plugin();
+    let mut strike = plugin.strike_for(note, f32::from(velocity) / 127.0);
+    if let Some(p) = opts.position {
+        strike.position = p;
+    }
+    let engine = plugin.engine().ok_or("the plugin did not activate")?;
+    Ok(engine.predict_modes(engine.object(), strike))
+}

@@ -1,0 +1,285 @@
+//! Struck: a modal-synthesis instrument (CLAP and VST3) built with nice-plug.
+//!
+//! Glue only: parameters live in [`params`], the objects and materials in [`library`], the
+//! synthesis in the `dsp` crate; [`offline`] hosts this plugin for the command line and tests.
+
+pub mod cli;
+pub mod library;
+pub mod midi_file;
+pub mod offline;
+pub mod params;
+
+use dsp::engine::{Engine, NoteId, SoundParams, Strike};
+use dsp::ftz::DenormalGuard;
+use library::Library;
+use nice_plug::midi::{Channel, Key, VoiceID};
+use nice_plug::prelude::*;
+use params::{KeyMode, StruckParams, POSITION_POLY_MOD_ID};
+use std::sync::Arc;
+
+/// Voices in the pool (the CLAP voice capacity).
+pub const MAX_VOICES: usize = 64;
+/// Mono scratch length; longer host buffers are processed in pieces of this size.
+pub const MAX_BLOCK: usize = 8192;
+
+/// The plugin.
+pub struct Struck {
+    params: Arc<StruckParams>,
+    library: Arc<Library>,
+    engine: Option<Engine>,
+    mono: Vec<f32>,
+    sample_rate: f32,
+}
+
+impl Default for Struck {
+    fn default() -> Self {
+        let library = Library::factory();
+        Struck { params: Arc::new(StruckParams::new(&library)), library, engine: None, mono: Vec::new(), sample_rate: 48_000.0 }
+    }
+}
+
+impl Struck {
+    /// The parameters (shared with hosts and the offline renderer).
+    pub fn struck_params(&self) -> &Arc<StruckParams> {
+        &self.params
+    }
+
+    /// The library this instance plays.
+    pub fn library(&self) -> &Arc<Library> {
+        &self.library
+    }
+
+    /// The engine, once activated.
+    pub fn engine(&self) -> Option<&Engine> {
+        self.engine.as_ref()
+    }
+
+    /// Index of the selected object, clamped to the library.
+    fn object_index(&self) -> usize {
+        (self.params.object.value().max(0) as usize).min(self.library.banks.len().saturating_sub(1))
+    }
+
+    /// The engine controls from the current parameter values. Realtime-safe.
+    pub fn sound_params(&self) -> SoundParams {
+        let p = &self.params;
+        let material = p.material.value().max(0) as usize;
+        let damping = self.library.dampings.get(material).copied().unwrap_or_else(|| p.custom_damping());
+        let mut modulus = f64::from(p.modulus_ratio.value());
+        if p.material_pitch.value() {
+            modulus *= self.library.material_modulus_ratio(material, self.object_index());
+        }
+        SoundParams {
+            damping,
+            decay_scale: f64::from(p.decay_scale.value()),
+            modulus_ratio: modulus,
+            size: f64::from(p.size.value()),
+            hardness: p.hardness.value(),
+            noise: p.noise.value(),
+            velocity_sensitivity: p.velocity_sensitivity.value(),
+            release_damping: f64::from(p.release_damping_per_s.value()),
+            pressure_damping: f64::from(p.pressure_damping_per_s.value()),
+            quality_db: p.quality_db.value(),
+        }
+    }
+
+    /// How a note-on of `key` strikes: per-key λ factor and position by key mode.
+    pub fn strike_for(&self, key: u8, velocity: f32) -> Strike {
+        let p = &self.params;
+        let root = p.root_note.value();
+        let base = p.strike_position.value();
+        match p.key_mode.value() {
+            // One semitone per key: pitch ∝ sqrt(λ), so λ scales by 2^(1/6) per key.
+            KeyMode::Pitched => {
+                let semis = if p.key_tuning.value() {
+                    // Lowest mode at the key's equal-tempered pitch: λ factor (f_key / f₁)².
+                    let f1 = self.library.banks.get(self.object_index()).and_then(|b| b.lambdas.first()).map_or(1.0, |l| l.sqrt() / (2.0 * std::f64::consts::PI));
+                    let f_key = 440.0 * 2f64.powf((f64::from(key) - 69.0) / 12.0);
+                    12.0 * (f_key / f1).log2()
+                } else {
+                    f64::from(i32::from(key) - root)
+                };
+                Strike { velocity, position: base, lambda_factor: 2f64.powf(semis / 6.0) }
+            }
+            KeyMode::Positions => {
+                let points = self.library.banks.get(self.object_index()).map_or(1, |b| b.points.len()).max(1) as i32;
+                let idx = (i32::from(key) - root).rem_euclid(points);
+                let position = if points > 1 { idx as f32 / (points - 1) as f32 } else { 0.0 };
+                Strike { velocity, position, lambda_factor: 1.0 }
+            }
+        }
+    }
+
+    fn handle_event(&mut self, event: NoteEvent<()>) {
+        let strike = match &event {
+            NoteEvent::NoteOn { key: Key::Number(key), velocity, .. } => Some(self.strike_for(*key, *velocity)),
+            _ => None,
+        };
+        let Some(engine) = self.engine.as_mut() else { return };
+        // nice-plug's identifiers may be wildcards; the engine's NoteId::ANY matches all.
+        let note = |voice_id: VoiceID, channel: Channel, key: Key| NoteId {
+            voice_id: voice_id.id(),
+            channel: channel.number().unwrap_or(NoteId::ANY),
+            key: key.number().unwrap_or(NoteId::ANY),
+        };
+        match event {
+            NoteEvent::NoteOn { voice_id, channel, key, .. } => {
+                if let Some(s) = strike {
+                    engine.note_on(note(voice_id, channel, key), s);
+                }
+            }
+            NoteEvent::NoteOff { voice_id, channel, key, .. } => engine.note_off(note(voice_id, channel, key)),
+            NoteEvent::Choke { voice_id, channel, key, .. } => engine.choke(note(voice_id, channel, key)),
+            NoteEvent::PolyPressure { voice_id, channel, key, pressure, .. } => engine.set_pressure(note(voice_id, channel, key), pressure),
+            // CLAP brightness expression / MPE timbre → strike position of the note.
+            NoteEvent::PolyBrightness { voice_id, channel, key, brightness, .. } => {
+                engine.set_note_position(note(voice_id, channel, key), brightness)
+            }
+            NoteEvent::MidiChannelPressure { channel, pressure, .. } => {
+                engine.set_channel_pressure(channel, pressure)
+            }
+            // MPE timbre (CC 74) on a member channel → strike position of that channel's notes.
+            NoteEvent::MidiCC { channel, cc: 74, value, .. } => {
+                engine.set_note_position(NoteId { voice_id: None, channel, key: NoteId::ANY }, value)
+            }
+            NoteEvent::PolyModulation { voice_id, poly_modulation_id: POSITION_POLY_MOD_ID, normalized_offset, .. } => {
+                // The position range is linear 0..1, so the normalised offset is the offset.
+                engine.set_position_offset(voice_id, normalized_offset)
+            }
+            _ => {}
+        }
+    }
+}
+
+impl Plugin for Struck {
+    const NAME: &'static str = "Struck";
+    const VENDOR: &'static str = "Struck developers";
+    const URL: &'static str = env!("CARGO_PKG_HOMEPAGE");
+    const EMAIL: &'static str = "struck@example.invalid";
+    const VERSION: &'static str = env!("CARGO_PKG_VERSION");
+
+    const AUDIO_IO_LAYOUTS: &'static [AudioIOLayout] =
+        &[AudioIOLayout { main_input_channels: None, main_output_channels: NonZeroU32::new(2), ..AudioIOLayout::const_default() }];
+    const MIDI_INPUT: MidiConfig = MidiConfig::MidiCCs;
+    const SAMPLE_ACCURATE_AUTOMATION: bool = false;
+
+    type SysExMessage = ();
+    type BackgroundTask = ();
+    type Editor = ();
+
+    fn params(&self) -> Arc<dyn Params> {
+        self.params.clone()
+    }
+
+    fn activate(&mut self, _layout: &AudioIOLayout, config: &BufferConfig, context: &mut impl ActivateContext<Self>) -> bool {
+        self.sample_rate = config.sample_rate;
+        let rebuild = self.engine.as_ref().is_none_or(|e| e.sample_rate() != f64::from(config.sample_rate));
+        if rebuild {
+            self.engine = Some(Engine::new(self.library.object_modes(), MAX_VOICES, f64::from(config.sample_rate)));
+        }
+        let max = (config.max_buffer_size as usize).clamp(1, MAX_BLOCK);
+        if self.mono.len() < max {
+            self.mono = vec![0.0; max];
+        }
+        context.set_current_voice_capacity(MAX_VOICES as u32);
+        true
+    }
+
+    fn reset(&mut self) {
+        let sp = self.sound_params();
+        let object = self.object_index();
+        if let Some(e) = self.engine.as_mut() {
+            e.set_params(sp);
+            e.set_object(object);
+            e.reset();
+        }
+    }
+
+    fn process(&mut self, buffer: &mut Buffer, _aux: &mut AuxiliaryBuffers, context: &mut impl ProcessContext<Self>) -> ProcessStatus {
+        let _ftz = DenormalGuard::new();
+        let total = buffer.samples();
+        let outputs = buffer.as_slice();
+        // Every sample of every block is written, silence included.
+        for ch in outputs.iter_mut() {
+            ch.fill(0.0);
+        }
+        if self.engine.is_none() || self.mono.is_empty() {
+            return ProcessStatus::Normal;
+        }
+        let sp = self.sound_params();
+        let object = self.object_index();
+        if let Some(e) = self.engine.as_mut() {
+            e.set_params(sp);
+            e.set_object(object);
+        }
+
+        let mut next = context.next_event();
+        let mut start = 0;
+        while start < total {
+            let len = (total - start).min(self.mono.len());
+            self.mono[..len].fill(0.0);
+            let mut pos = 0;
+            loop {
+                // Apply every event due at `pos` (late ones at once), then render to the next.
+                while let Some(ev) = next {
+                    if ev.timing() as usize > start + pos {
+                        break;
+                    }
+                    self.handle_event(ev);
+                    next = context.next_event();
+                }
+                let until = next.map_or(len, |ev| (ev.timing() as usize).saturating_sub(start).min(len));
+                if until > pos {
+                    if let Some(e) = self.engine.as_mut() {
+                        e.render(&mut self.mono[pos..until]);
+                        e.drain_terminated(|t| {
+                            let _ = context.try_send_event(NoteEvent::VoiceTerminated {
+                                timing: (start + pos) as u32 + t.offset,
+                                voice_id: t.note.voice_id.map_or(VoiceID::Wildcard, VoiceID::ID),
+                                channel: Channel::Number(t.note.channel),
+                                key: Key::Number(t.note.key),
+                            });
+                        });
+                    }
+                    pos = until;
+                }
+                if pos >= len {
+                    break;
+                }
+            }
+            for i in 0..len {
+                let g = util::db_to_gain_fast(self.params.gain_db.smoothed.next());
+                let s = self.mono[i] * g;
+                // Never pass NaN or infinities to the host.
+                let s = if s.is_finite() { s } else { 0.0 };
+                for ch in outputs.iter_mut() {
+                    ch[start + i] = s;
+                }
+            }
+            start += len;
+        }
+        // Events past the end of the buffer (hosts should not send them) are applied now.
+        while let Some(ev) = next {
+            self.handle_event(ev);
+            next = context.next_event();
+        }
+        ProcessStatus::Normal
+    }
+}
+
+impl ClapPlugin for Struck {
+    const CLAP_ID: &'static str = "org.struck.struck";
+    const CLAP_DESCRIPTION: Option<&'static str> = Some("Modal synthesis of struck objects: any object, any material");
+    const CLAP_MANUAL_URL: Option<&'static str> = None;
+    const CLAP_SUPPORT_URL: Option<&'static str> = None;
+    const CLAP_FEATURES: &'static [ClapFeature] = &[ClapFeature::Instrument, ClapFeature::Synthesizer, ClapFeature::Stereo];
+    const CLAP_POLY_MODULATION_CONFIG: Option<PolyModulationConfig> =
+        Some(PolyModulationConfig { max_voice_capacity: MAX_VOICES as u32, supports_overlapping_voices: true });
+}
+
+impl Vst3Plugin for Struck {
+    const VST3_CLASS_ID: [u8; 16] = *b"StruckModalSynth";
+    const VST3_SUBCATEGORIES: &'static [Vst3SubCategory] = &[Vst3SubCategory::Instrument, Vst3SubCategory::Synth];
+}
+
+nice_export_clap!(Struck);
+nice_export_vst3!(Struck);

@@ -1,0 +1,285 @@
+//! An offline host: drives [`Struck`] through its own `activate()`, `reset()` and
+//! `process()` the way a DAW does, for the command-line renderer and the tests.
+//!
+//! With the `assert_process_allocs` feature (and debug assertions) every `process()` call runs
+//! under nice-plug's allocation assertion: an allocation in the audio path aborts the test.
+
+use crate::Struck;
+use nice_plug::prelude::*;
+use std::collections::HashMap;
+
+/// A note event at an absolute sample time of a render.
+#[derive(Clone, Copy, Debug)]
+pub struct TimedEvent {
+    /// Absolute sample position.
+    pub sample: u64,
+    /// The event (its own `timing` is ignored and set per block).
+    pub event: NoteEvent<()>,
+}
+
+/// Events sent by the plugin (voice terminations), with absolute sample positions.
+pub type SentEvents = Vec<(u64, NoteEvent<()>)>;
+
+struct Context<'a> {
+    events: &'a [NoteEvent<()>],
+    next: usize,
+    sent: &'a mut Vec<NoteEvent<()>>,
+    transport: Transport,
+}
+
+impl ProcessContext<Struck> for Context<'_> {
+    fn plugin_api(&self) -> PluginApi {
+        PluginApi::Clap
+    }
+    fn execute_background(&self, _task: ()) {}
+    fn execute_gui(&self, _task: ()) {}
+    fn transport(&self) -> &Transport {
+        &self.transport
+    }
+    fn next_event(&mut self) -> Option<NoteEvent<()>> {
+        let e = self.events.get(self.next).copied();
+        self.next += 1;
+        e
+    }
+    fn try_send_event(&mut self, event: NoteEvent<()>) -> Result<(), (NoteEvent<()>, nice_plug::context::process::SendEventError)> {
+        if self.sent.len() < self.sent.capacity() {
+            self.sent.push(event);
+            Ok(())
+        } else {
+            Err((event, nice_plug::context::process::SendEventError::HostBufferFull))
+        }
+    }
+    fn set_latency_samples(&self, _samples: u32) {}
+    fn request_restart(&self) {}
+    fn set_current_voice_capacity(&self, _capacity: u32) {}
+}
+
+struct Activate;
+impl ActivateContext<Struck> for Activate {
+    fn plugin_api(&self) -> PluginApi {
+        PluginApi::Clap
+    }
+    fn execute(&self, _task: ()) {}
+    fn set_latency_samples(&self, _samples: u32) {}
+    fn set_current_voice_capacity(&self, _capacity: u32) {}
+}
+
+/// Hosts one instance of the plugin offline.
+pub struct OfflineHost {
+    plugin: Struck,
+    params: HashMap<String, ParamPtr>,
+    sample_rate: f32,
+    max_block: usize,
+    clock: u64,
+    block_events: Vec<NoteEvent<()>>,
+    sent: Vec<NoteEvent<()>>,
+    left: Vec<f32>,
+    right: Vec<f32>,
+    buffer: Buffer<'static>,
+}
+
+// SAFETY: the raw parameter pointers point into `plugin`'s `Arc<StruckParams>`, which lives
+// as long as the host and is only touched from the thread that owns the host.
+unsafe impl Send for OfflineHost {}
+
+/// Errors of the offline host.
+#[derive(Debug, thiserror::Error)]
+pub enum HostError {
+    /// No parameter has this id.
+    #[error("unknown parameter '{0}' (see `struck params` for the list)")]
+    UnknownParam(String),
+    /// The sample rate or block size cannot be used.
+    #[error("{0}")]
+    Config(String),
+}
+
+impl OfflineHost {
+    /// A fresh plugin activated at `sample_rate` with blocks of at most `max_block` samples.
+    ///
+    /// # Errors
+    /// If the sample rate is outside 8 kHz..=768 kHz or `max_block` is 0 or over 65536.
+    pub fn new(sample_rate: f32, max_block: usize) -> Result<Self, HostError> {
+        Self::with_plugin(Struck::default(), sample_rate, max_block)
+    }
+
+    /// Hosts `plugin` (e.g. one whose parameters were set already).
+    ///
+    /// # Errors
+    /// As [`new`](Self::new).
+    pub fn with_plugin(plugin: Struck, sample_rate: f32, max_block: usize) -> Result<Self, HostError> {
+        if !(8_000.0..=768_000.0).contains(&sample_rate) {
+            return Err(HostError::Config(format!("sample rate {sample_rate} Hz is outside 8000..=768000 Hz")));
+        }
+        if max_block == 0 || max_block > 65_536 {
+            return Err(HostError::Config(format!("block size {max_block} is outside 1..=65536")));
+        }
+        let params = plugin.params().param_map().into_iter().map(|(id, ptr, _)| (id, ptr)).collect();
+        let mut host = OfflineHost {
+            plugin,
+            params,
+            sample_rate,
+            max_block,
+            clock: 0,
+            block_events: Vec::with_capacity(4096),
+            sent: Vec::with_capacity(4096),
+            left: vec![0.0; max_block],
+            right: vec![0.0; max_block],
+            buffer: Buffer::default(),
+        };
+        host.activate();
+        Ok(host)
+    }
+
+    fn activate(&mut self) {
+        let layout = Struck::AUDIO_IO_LAYOUTS[0];
+        let config = BufferConfig { sample_rate: self.sample_rate, min_buffer_size: None, max_buffer_size: self.max_block as u32, process_mode: ProcessMode::Offline };
+        for ptr in self.params.values() {
+            // SAFETY: see the Send impl; the pointer targets live parameters.
+            unsafe { ptr._internal_update_smoother(self.sample_rate, true) };
+        }
+        self.plugin.activate(&layout, &config, &mut Activate);
+        self.plugin.reset();
+        self.clock = 0;
+    }
+
+    /// The hosted plugin.
+    pub fn plugin(&self) -> &Struck {
+        &self.plugin
+    }
+
+    /// Sample rate in Hz.
+    pub fn sample_rate(&self) -> f32 {
+        self.sample_rate
+    }
+
+    /// Sets a parameter by id to a plain value (clamped to its range), as a host would
+    /// between blocks.
+    ///
+    /// # Errors
+    /// If no parameter has that id.
+    pub fn set_param(&mut self, id: &str, plain: f32) -> Result<(), HostError> {
+        let ptr = self.params.get(id).ok_or_else(|| HostError::UnknownParam(id.to_string()))?;
+        // SAFETY: see the Send impl.
+        unsafe {
+            let normalized = ptr.preview_normalized(plain);
+            ptr._internal_set_normalized_value(normalized);
+            ptr._internal_update_smoother(self.sample_rate, false);
+        }
+        Ok(())
+    }
+
+    /// A parameter's plain value.
+    ///
+    /// # Errors
+    /// If no parameter has that id.
+    pub fn param(&self, id: &str) -> Result<f32, HostError> {
+        let ptr = self.params.get(id).ok_or_else(|| HostError::UnknownParam(id.to_string()))?;
+        // SAFETY: see the Send impl.
+        Ok(unsafe { ptr.unmodulated_plain_value() })
+    }
+
+    /// Clears the plugin's voices and restarts the clock (as a host's transport reset).
+    pub fn reset(&mut self) {
+        self.plugin.reset();
+        self.clock = 0;
+    }
+
+    /// Renders `num_samples` samples in blocks of `block_size` (the last may be shorter),
+    /// applying `events` (sorted by sample) at their exact samples. Returns the stereo output
+    /// and the events the plugin sent.
+    pub fn render(&mut self, events: &[TimedEvent], num_samples: usize, block_size: usize) -> ([Vec<f32>; 2], SentEvents) {
+        let block_size = block_size.clamp(1, self.max_block);
+        let mut out = [vec![0.0; num_samples], vec![0.0; num_samples]];
+        let mut sent_all = Vec::new();
+        let mut ev = 0;
+        let mut pos = 0;
+        while pos < num_samples {
+            let n = block_size.min(num_samples - pos);
+            let start = self.clock;
+            self.block_events.clear();
+            while ev < events.len() && events[ev].sample < start + n as u64 {
+                let mut e = events[ev].event;
+                set_timing(&mut e, events[ev].sample.saturating_sub(start) as u32);
+                self.block_events.push(e);
+                ev += 1;
+            }
+            self.process_block(n);
+            out[0][pos..pos + n].copy_from_slice(&self.left[..n]);
+            out[1][pos..pos + n].copy_from_slice(&self.right[..n]);
+            sent_all.extend(self.sent.drain(..).map(|e| (start + u64::from(e.timing()), e)));
+            pos += n;
+        }
+        (out, sent_all)
+    }
+
+    /// One `process()` call of `n` samples with `block_events`, into `left`/`right`.
+    fn process_block(&mut self, n: usize) {
+        // Garbage in the host's buffers must not leak out: the plugin writes every sample.
+        self.left[..n].fill(f32::NAN);
+        self.right[..n].fill(f32::NAN);
+        let (left, right) = (&mut self.left[..n], &mut self.right[..n]);
+        // SAFETY: the slices live until the end of this function, where `buffer` is cleared
+        // again before they are touched; the 'static lifetime never escapes this call.
+        unsafe {
+            let l: &'static mut [f32] = std::mem::transmute::<&mut [f32], &'static mut [f32]>(left);
+            let r: &'static mut [f32] = std::mem::transmute::<&mut [f32], &'static mut [f32]>(right);
+            self.buffer.set_slices(n, |slices| {
+                slices.clear();
+                slices.push(l);
+                slices.push(r);
+            });
+        }
+        let mut aux = AuxiliaryBuffers { inputs: &mut [], outputs: &mut [] };
+        let mut ctx = Context { events: &self.block_events, next: 0, sent: &mut self.sent, transport: Transport::new(self.sample_rate) };
+        let plugin = &mut self.plugin;
+        let buffer = &mut self.buffer;
+        run_guarded(|| {
+            plugin.process(buffer, &mut aux, &mut ctx);
+        });
+        // SAFETY: drop the borrowed slices (no allocation: capacity is kept).
+        unsafe { self.buffer.set_slices(0, |slices| slices.clear()) };
+        self.clock += n as u64;
+    }
+}
+
+/// Runs `f` under nice-plug's allocation assertion when it is enabled.
+fn run_guarded(f: impl FnOnce()) {
+    #[cfg(all(debug_assertions, feature = "assert_process_allocs"))]
+    nice_assert_no_alloc::assert_no_alloc(f);
+    #[cfg(not(all(debug_assertions, feature = "assert_process_allocs")))]
+    f();
+}
+
+/// Sets the `timing` field of any note event.
+pub fn set_timing(e: &mut NoteEvent<()>, t: u32) {
+    match e {
+        NoteEvent::NoteOn { timing, .. }
+        | NoteEvent::NoteOff { timing, .. }
+        | NoteEvent::Choke { timing, .. }
+        | NoteEvent::VoiceTerminated { timing, .. }
+        | NoteEvent::PolyModulation { timing, .. }
+        | NoteEvent::MonoAutomation { timing, .. }
+        | NoteEvent::PolyPressure { timing, .. }
+        | NoteEvent::PolyVolume { timing, .. }
+        | NoteEvent::PolyPan { timing, .. }
+        | NoteEvent::PolyTuning { timing, .. }
+        | NoteEvent::PolyVibrato { timing, .. }
+        | NoteEvent::PolyExpression { timing, .. }
+        | NoteEvent::PolyBrightness { timing, .. }
+        | NoteEvent::MidiChannelPressure { timing, .. }
+        | NoteEvent::MidiPitchBend { timing, .. }
+        | NoteEvent::MidiCC { timing, .. }
+        | NoteEvent::MidiProgramChange { timing, .. } => *timing = t,
+        _ => {}
+    }
+}
+
+/// A note-on event (timing is set by the host).
+pub fn note_on(key: u8, velocity: f32) -> NoteEvent<()> {
+    NoteEvent::NoteOn { timing: 0, voice_id: nice_plug::midi::VoiceID::Wildcard, channel: nice_plug::midi::Channel::Number(0), key: nice_plug::midi::Key::Number(key), velocity }
+}
+
+/// A note-off event (timing is set by the host).
+pub fn note_off(key: u8) -> NoteEvent<()> {
+    NoteEvent::NoteOff { timing: 0, voice_id: nice_plug::midi::VoiceID::Wildcard, channel: nice_plug::midi::Channel::Number(0), key: nice_plug::midi::Key::Number(key), velocity: 0.0 }
+}

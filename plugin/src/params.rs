@@ -1,0 +1,216 @@
+//! Struck's parameters. IDs never change once released; units go in the names.
+
+use crate::library::Library;
+use dsp::Damping;
+use nice_plug::prelude::*;
+use std::sync::Arc;
+
+/// Poly-modulation id of the strike position (CLAP polyphonic modulation).
+pub const POSITION_POLY_MOD_ID: u32 = 0;
+
+/// Eigenvalue of the 1 kHz reference used to express λ-dependent damping: (2π·1000)².
+pub const LAMBDA_1K: f64 = (2.0 * std::f64::consts::PI * 1000.0) * (2.0 * std::f64::consts::PI * 1000.0);
+/// Eigenvalue of the 10 kHz reference (Caughey's quadratic term): (2π·10000)².
+pub const LAMBDA_10K: f64 = LAMBDA_1K * 100.0;
+
+/// What the keyboard does.
+#[derive(Enum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum KeyMode {
+    /// Each key transposes: γ is scaled by 2^((key − root)/6), i.e. one semitone per key.
+    #[id = "pitched"]
+    Pitched,
+    /// Keys select strike points (from the root upwards) at a fixed pitch.
+    #[id = "positions"]
+    Positions,
+}
+
+/// The damping law used by the *Custom* material.
+#[derive(Enum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DampingModelParam {
+    /// c = α₁ + α₂ λ.
+    #[id = "rayleigh"]
+    Rayleigh,
+    /// c = α₀ + α₁ λ + α₂ λ² (third-order Caughey series).
+    #[id = "caughey"]
+    Caughey,
+    /// c = α₁ λ^α₂.
+    #[id = "power"]
+    #[name = "Power law"]
+    Power,
+    /// c = α₁ + α₂ λ^α₃.
+    #[id = "hybrid"]
+    Hybrid,
+}
+
+/// All parameters.
+#[derive(Params)]
+pub struct StruckParams {
+    /// Index of the object (bank) new notes play.
+    #[id = "object"]
+    pub object: IntParam,
+    /// Index of the factory material; the last value is *Custom* (the damping knobs below).
+    #[id = "material"]
+    pub material: IntParam,
+    /// Damping law of the *Custom* material.
+    #[id = "dmodel"]
+    pub damping_model: EnumParam<DampingModelParam>,
+    /// Custom material: constant damping α₁ (s⁻¹), the part of c that is the same for all modes.
+    #[id = "alpha1"]
+    pub alpha1_per_s: FloatParam,
+    /// Custom material: the λ-dependent part of c at 1 kHz (s⁻¹). Sets α₂ = this / λ₁ₖ^exponent.
+    #[id = "c1k"]
+    pub damping_1k_per_s: FloatParam,
+    /// Custom material: exponent of λ for the power-law and hybrid models.
+    #[id = "expo"]
+    pub exponent: FloatParam,
+    /// Custom material: Caughey's quadratic term expressed as its c at 10 kHz (s⁻¹).
+    #[id = "c10k"]
+    pub caughey_10k_per_s: FloatParam,
+    /// Multiplies every damping coefficient (all materials): below 1 rings longer.
+    #[id = "dscale"]
+    pub decay_scale: FloatParam,
+    /// Specific modulus relative to the object's reference material, γ/γ₀. Pitch ∝ sqrt(γ/γ₀).
+    #[id = "gamma"]
+    pub modulus_ratio: FloatParam,
+    /// When on, the material's own specific modulus (if known) also sets the pitch.
+    #[id = "matpitch"]
+    pub material_pitch: BoolParam,
+    /// Key at which the object sounds at its set pitch (Pitched) or the first strike point
+    /// (Positions).
+    #[id = "root"]
+    pub root_note: IntParam,
+    /// Pitched mode: when on, the object's lowest mode sounds at each key's equal-tempered
+    /// pitch (A4 = 440 Hz) before γ/γ₀ and size; when off, the root key plays the object's
+    /// physical reference pitch.
+    #[id = "keytune"]
+    pub key_tuning: BoolParam,
+    /// Keyboard mode.
+    #[id = "keymode"]
+    pub key_mode: EnumParam<KeyMode>,
+    /// Size relative to the object's reference dimensions (λ ∝ 1/size²).
+    #[id = "size"]
+    pub size: FloatParam,
+    /// Where the object is struck, 0..=1 along the bank's strike points.
+    #[id = "pos"]
+    pub strike_position: FloatParam,
+    /// Mallet hardness, 0 (felt, long contact) to 1 (steel, short contact).
+    #[id = "hard"]
+    pub hardness: FloatParam,
+    /// Share of the strike delivered as a noise burst (rough strikes).
+    #[id = "noise"]
+    pub noise: FloatParam,
+    /// How much velocity changes loudness.
+    #[id = "velsens"]
+    pub velocity_sensitivity: FloatParam,
+    /// Extra decay rate d added at note-off ("hand on the object"), s⁻¹; 0 lets notes ring.
+    #[id = "release"]
+    pub release_damping_per_s: FloatParam,
+    /// Extra decay rate d at full per-note pressure, s⁻¹.
+    #[id = "pressdamp"]
+    pub pressure_damping_per_s: FloatParam,
+    /// Modes more than this many dB below a strike's strongest are not rendered.
+    #[id = "quality"]
+    pub quality_db: FloatParam,
+    /// Output gain.
+    #[id = "gain"]
+    pub gain_db: FloatParam,
+}
+
+fn object_name(lib: &Arc<Library>) -> Arc<dyn Fn(i32) -> String + Send + Sync> {
+    let lib = lib.clone();
+    Arc::new(move |v| lib.banks.get(v as usize).map_or_else(|| format!("#{v}"), |b| b.name.clone()))
+}
+
+fn material_name(lib: &Arc<Library>) -> Arc<dyn Fn(i32) -> String + Send + Sync> {
+    let lib = lib.clone();
+    Arc::new(move |v| lib.materials.get(v as usize).map_or_else(|| "Custom".to_string(), |m| m.name.clone()))
+}
+
+/// Formats a multiplier with its pitch change in semitones (pitch ∝ sqrt(ratio)).
+fn ratio_with_semitones(sqrt_law: bool) -> Arc<dyn Fn(f32) -> String + Send + Sync> {
+    Arc::new(move |v| {
+        let st = if sqrt_law { 6.0 * v.log2() } else { -12.0 * v.log2() };
+        format!("×{v:.3} ({st:+.1} st)")
+    })
+}
+
+impl StruckParams {
+    /// Parameters for the objects and materials of `lib`.
+    pub fn new(lib: &Arc<Library>) -> Self {
+        let default_material = lib.default_material_index() as i32;
+        StruckParams {
+            object: IntParam::new("Object", 0, IntRange::Linear { min: 0, max: lib.banks.len().max(1) as i32 - 1 })
+                .with_value_to_string(object_name(lib)),
+            material: IntParam::new("Material", default_material, IntRange::Linear { min: 0, max: lib.materials.len() as i32 })
+                .with_value_to_string(material_name(lib)),
+            damping_model: EnumParam::new("Damping model", DampingModelParam::Rayleigh),
+            alpha1_per_s: FloatParam::new("Base damping α₁", 5.0, FloatRange::Skewed { min: 0.0, max: 2000.0, factor: FloatRange::skew_factor(-2.5) })
+                .with_unit(" 1/s")
+                .with_value_to_string(formatters::v2s_f32_rounded(3)),
+            damping_1k_per_s: FloatParam::new("Damping at 1 kHz", 4.0, FloatRange::Skewed { min: 0.0, max: 5000.0, factor: FloatRange::skew_factor(-2.5) })
+                .with_unit(" 1/s")
+                .with_value_to_string(formatters::v2s_f32_rounded(3)),
+            exponent: FloatParam::new("Exponent", 1.0, FloatRange::Linear { min: 0.05, max: 2.0 }).with_value_to_string(formatters::v2s_f32_rounded(3)),
+            caughey_10k_per_s: FloatParam::new("Caughey c at 10 kHz", 0.0, FloatRange::Skewed { min: 0.0, max: 1e5, factor: FloatRange::skew_factor(-2.5) })
+                .with_unit(" 1/s")
+                .with_value_to_string(formatters::v2s_f32_rounded(2)),
+            decay_scale: FloatParam::new("Decay scale", 1.0, FloatRange::Skewed { min: 0.05, max: 20.0, factor: FloatRange::skew_factor(-2.0) })
+                .with_value_to_string(Arc::new(|v| format!("×{v:.3}"))),
+            modulus_ratio: FloatParam::new("Stiffness γ/γ₀", 1.0, FloatRange::Skewed { min: 0.001, max: 1000.0, factor: FloatRange::skew_factor(-2.6) })
+                .with_value_to_string(ratio_with_semitones(true)),
+            material_pitch: BoolParam::new("Material sets pitch", false),
+            root_note: IntParam::new("Root note", 60, IntRange::Linear { min: 0, max: 127 }),
+            key_tuning: BoolParam::new("Keys tune the object", true),
+            key_mode: EnumParam::new("Key mode", KeyMode::Pitched),
+            size: FloatParam::new("Size", 1.0, FloatRange::Skewed { min: 0.05, max: 20.0, factor: FloatRange::skew_factor(-2.0) })
+                .with_value_to_string(ratio_with_semitones(false)),
+            strike_position: FloatParam::new("Strike position", 0.3, FloatRange::Linear { min: 0.0, max: 1.0 })
+                .with_poly_modulation_id(POSITION_POLY_MOD_ID)
+                .with_value_to_string(formatters::v2s_f32_percentage(1))
+                .with_unit("%")
+                .with_string_to_value(formatters::s2v_f32_percentage()),
+            hardness: FloatParam::new("Mallet hardness", 0.6, FloatRange::Linear { min: 0.0, max: 1.0 })
+                .with_value_to_string(formatters::v2s_f32_percentage(0))
+                .with_unit("%")
+                .with_string_to_value(formatters::s2v_f32_percentage()),
+            noise: FloatParam::new("Noise", 0.0, FloatRange::Linear { min: 0.0, max: 1.0 })
+                .with_value_to_string(formatters::v2s_f32_percentage(0))
+                .with_unit("%")
+                .with_string_to_value(formatters::s2v_f32_percentage()),
+            velocity_sensitivity: FloatParam::new("Velocity sensitivity", 0.7, FloatRange::Linear { min: 0.0, max: 1.0 })
+                .with_value_to_string(formatters::v2s_f32_percentage(0))
+                .with_unit("%")
+                .with_string_to_value(formatters::s2v_f32_percentage()),
+            release_damping_per_s: FloatParam::new("Release damping", 0.0, FloatRange::Skewed { min: 0.0, max: 500.0, factor: FloatRange::skew_factor(-2.0) })
+                .with_unit(" 1/s")
+                .with_value_to_string(formatters::v2s_f32_rounded(2)),
+            pressure_damping_per_s: FloatParam::new("Pressure damping", 40.0, FloatRange::Skewed { min: 0.0, max: 500.0, factor: FloatRange::skew_factor(-2.0) })
+                .with_unit(" 1/s")
+                .with_value_to_string(formatters::v2s_f32_rounded(2)),
+            quality_db: FloatParam::new("Quality", 60.0, FloatRange::Linear { min: 12.0, max: 120.0 })
+                .with_unit(" dB")
+                .with_value_to_string(formatters::v2s_f32_rounded(0)),
+            gain_db: FloatParam::new("Gain", 0.0, FloatRange::Linear { min: -60.0, max: 12.0 })
+                .with_smoother(SmoothingStyle::Linear(20.0))
+                .with_unit(" dB")
+                .with_value_to_string(formatters::v2s_f32_rounded(1)),
+        }
+    }
+
+    /// The *Custom* material's damping law from the knobs (exact reparametrisation: α₂ is
+    /// chosen so that the λ-dependent part of c equals the knob at λ₁ₖ = (2π·1 kHz)²).
+    pub fn custom_damping(&self) -> Damping {
+        let a1 = f64::from(self.alpha1_per_s.value());
+        let c1k = f64::from(self.damping_1k_per_s.value());
+        let e = f64::from(self.exponent.value());
+        match self.damping_model.value() {
+            DampingModelParam::Rayleigh => Damping::Rayleigh { alpha1: a1, alpha2: c1k / LAMBDA_1K },
+            DampingModelParam::Caughey => Damping::Caughey {
+                coeffs: [a1, c1k / LAMBDA_1K, f64::from(self.caughey_10k_per_s.value()) / (LAMBDA_10K * LAMBDA_10K), 0.0],
+                order: 3,
+            },
+            DampingModelParam::Power => Damping::Power { alpha1: c1k / LAMBDA_1K.powf(e), alpha2: e },
+            DampingModelParam::Hybrid => Damping::Hybrid { alpha1: a1, alpha2: c1k / LAMBDA_1K.powf(e), alpha3: e },
+        }
+    }
+}

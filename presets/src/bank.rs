@@ -1,0 +1,345 @@
+//! Object banks: the modes (λᵢ⁰, gains at strike points) of one object at a reference
+//! material and size.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::json;
+use crate::PresetError;
+
+/// Most modes a bank may hold (guards against absurd files; factory banks have ~100–300).
+pub const MAX_BANK_MODES: usize = 4096;
+/// Most strike points a bank may hold.
+pub const MAX_BANK_POINTS: usize = 1024;
+/// Tolerance above 1 accepted for |gain| (f32 round-off of the normalisation).
+const GAIN_TOLERANCE: f32 = 1e-4;
+
+/// One place where the object can be struck.
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+pub struct StrikePoint {
+    /// Short display label, e.g. `"x = 0.10 L"`.
+    pub label: String,
+    /// Drawing coordinates in [0, 1]² for the editor (how they map onto the object is in the
+    /// bank's `description`).
+    pub xy: [f32; 2],
+    /// Position on the reference object in metres (frame in the bank's `description`).
+    pub position_m: [f32; 3],
+}
+
+/// The reference object the bank's eigenvalues were computed for.
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+pub struct BankReference {
+    /// γ₀ = E/ρ of the reference material, m²/s². λ scales by γ/γ₀ (Ren 2013 eq. 10).
+    pub specific_modulus: f64,
+    /// Poisson's ratio ν of the reference material (λ scaling assumes it fixed).
+    pub poisson: f64,
+    /// Density of the reference material, kg/m³ (informative).
+    pub density: f64,
+    /// Shape-specific dimensions in metres, documented in the bank's `description`.
+    pub dimensions_m: Vec<f64>,
+    /// Characteristic length in metres: size s = 1 means `dimensions_m`; λ scales by 1/s².
+    pub size_m: f64,
+}
+
+/// A modal bank: eigenvalues and per-strike-point gains of one object.
+///
+/// Conventions: λ = ω² in rad²/s² at the reference material and size; the gains are the
+/// surface-normal, mass-normalised mode shapes at each strike point, all scaled by one
+/// common factor so that max |gain| = 1.
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+pub struct Bank {
+    /// Format version; must equal [`crate::SCHEMA_VERSION`].
+    pub schema_version: u32,
+    /// Stable kebab-case identifier, e.g. `"circular-plate"`.
+    pub id: String,
+    /// Display name.
+    pub name: String,
+    /// What the object is, its dimensions, and how `xy` / `position_m` map onto it.
+    pub description: String,
+    /// Where the modes come from (formula, book, section).
+    pub provenance: String,
+    /// The reference material and dimensions.
+    pub reference: BankReference,
+    /// λᵢ⁰ in rad²/s² at the reference, ascending (non-decreasing), all finite and > 0.
+    pub lambdas: Vec<f64>,
+    /// Strike points ordered along a path so that neighbours are close: the plugin's strike
+    /// position 0..1 interpolates linearly along this order.
+    pub points: Vec<StrikePoint>,
+    /// `gains[point][mode]`: mode shape at that point, max |gain| over the bank = 1.
+    pub gains: Vec<Vec<f32>>,
+    /// One label per mode (e.g. `"bend 3"`, `"(m,n)=(0,2)"`), or empty.
+    #[serde(default)]
+    pub mode_labels: Vec<String>,
+}
+
+impl Bank {
+    /// Number of modes.
+    pub fn num_modes(&self) -> usize {
+        self.lambdas.len()
+    }
+
+    /// Number of strike points.
+    pub fn num_points(&self) -> usize {
+        self.points.len()
+    }
+
+    /// Undamped mode frequencies sqrt(λ)/(2π) in Hz at the reference.
+    pub fn frequencies_hz(&self) -> Vec<f64> {
+        self.lambdas
+            .iter()
+            .map(|l| l.sqrt() / (2.0 * std::f64::consts::PI))
+            .collect()
+    }
+
+    /// Eigenvalues in rad²/s² for a material of specific modulus `specific_modulus` (m²/s²)
+    /// and size `size` relative to the reference: λ = (γ/γ₀) λ⁰ / s² (Ren 2013 eq. 10;
+    /// uniform scaling of every dimension by s scales λ by 1/s²).
+    pub fn scaled_lambdas(&self, specific_modulus: f64, size: f64) -> Vec<f64> {
+        let k = specific_modulus / self.reference.specific_modulus / (size * size);
+        self.lambdas.iter().map(|l| l * k).collect()
+    }
+
+    /// Writes into `out` the gains at strike `position` in 0..=1, interpolated linearly
+    /// between neighbouring strike points (0 = first point, 1 = last). Only
+    /// `min(out.len(), num_modes)` entries are written.
+    ///
+    /// # Realtime safety
+    /// No allocation.
+    pub fn gains_at(&self, position: f32, out: &mut [f32]) {
+        let n = self.gains.len();
+        if n == 0 {
+            return;
+        }
+        let t = if position.is_finite() {
+            position.clamp(0.0, 1.0)
+        } else {
+            0.0
+        } * (n - 1) as f32;
+        // `t` is in 0..=n−1, so the floor fits and `i` is a valid index.
+        let i = (t.floor() as usize).min(n.saturating_sub(2));
+        let frac = if n == 1 { 0.0 } else { t - i as f32 };
+        let a = &self.gains[i];
+        let b = &self.gains[(i + 1).min(n - 1)];
+        for ((o, &ga), &gb) in out.iter_mut().zip(a).zip(b) {
+            // Written so that frac = 0 and frac = 1 reproduce the rows exactly.
+            *o = ga * (1.0 - frac) + gb * frac;
+        }
+    }
+
+    /// Scales all gains by one factor so that max |gain| = 1 (no-op if all are zero).
+    pub fn normalize_gains(&mut self) {
+        let max = self
+            .gains
+            .iter()
+            .flatten()
+            .fold(0.0f32, |m, g| m.max(g.abs()));
+        if max > 0.0 && max.is_finite() {
+            for g in self.gains.iter_mut().flatten() {
+                *g /= max;
+            }
+        }
+    }
+
+    /// Parses a bank from JSON and validates it.
+    ///
+    /// # Errors
+    /// [`PresetError::Json`] for malformed JSON or missing/mistyped fields,
+    /// [`PresetError::SchemaVersion`] for another format version, and
+    /// [`PresetError::Invalid`] for values [`Bank::validate`] rejects.
+    pub fn from_json(s: &str) -> Result<Bank, PresetError> {
+        Self::parse(s, "bank")
+    }
+
+    fn parse(s: &str, what: &str) -> Result<Bank, PresetError> {
+        let b: Bank = json::parse(s, what)?;
+        b.validate()?;
+        Ok(b)
+    }
+
+    /// Pretty-printed JSON (with a trailing newline). Does not validate.
+    pub fn to_json(&self) -> String {
+        json::to_pretty(self)
+    }
+
+    /// Reads and validates a bank file.
+    ///
+    /// # Errors
+    /// [`PresetError::Io`] naming `path` if it cannot be read; otherwise as
+    /// [`Bank::from_json`], with the path in [`PresetError::Json`]'s `what`.
+    pub fn load(path: &Path) -> Result<Bank, PresetError> {
+        let text = json::read(path)?;
+        Self::parse(&text, &path.display().to_string())
+    }
+
+    /// Validates, then writes pretty JSON to `path` (through a temporary file and a rename).
+    ///
+    /// # Errors
+    /// As [`Bank::validate`] (nothing is written), or [`PresetError::Io`] naming `path`.
+    pub fn save(&self, path: &Path) -> Result<(), PresetError> {
+        self.validate()?;
+        json::write(path, &self.to_json())
+    }
+
+    /// Checks every field.
+    ///
+    /// # Errors
+    /// [`PresetError::SchemaVersion`] for another `schema_version`; otherwise
+    /// [`PresetError::Invalid`] naming the field for: an id that is not kebab-case; a blank
+    /// name; reference values that are not finite and > 0 (Poisson's ratio must be in
+    /// (−1, 0.5)); no modes or more than [`MAX_BANK_MODES`]; a λ that is NaN, infinite or
+    /// ≤ 0, or smaller than the one before; no strike points or more than
+    /// [`MAX_BANK_POINTS`]; non-finite or out-of-[0, 1] `xy`; non-finite `position_m`; a
+    /// gains matrix that is not points × modes; non-finite gains, |gain| > 1, or all gains
+    /// zero; `mode_labels` neither empty nor one per mode.
+    pub fn validate(&self) -> Result<(), PresetError> {
+        json::check_version(self.schema_version)?;
+        json::check_id(&self.id)?;
+        json::check_name(&self.name)?;
+        self.validate_reference()?;
+
+        let n_modes = self.lambdas.len();
+        if n_modes == 0 {
+            return Err(PresetError::invalid(
+                "lambdas",
+                "the bank has no modes; add at least one eigenvalue (rad^2/s^2)",
+            ));
+        }
+        if n_modes > MAX_BANK_MODES {
+            return Err(PresetError::invalid(
+                "lambdas",
+                format!("{n_modes} modes; at most {MAX_BANK_MODES} are supported"),
+            ));
+        }
+        let mut previous = 0.0;
+        for (i, &l) in self.lambdas.iter().enumerate() {
+            let field = format!("lambdas[{i}]");
+            if !l.is_finite() || l <= 0.0 {
+                return Err(PresetError::invalid(
+                    field,
+                    format!("eigenvalues must be finite and > 0 (rad^2/s^2), found {l}"),
+                ));
+            }
+            if l < previous {
+                return Err(PresetError::invalid(
+                    field,
+                    format!("eigenvalues must be in ascending order, but {l} follows {previous}; sort the modes (and their gains) by lambda"),
+                ));
+            }
+            previous = l;
+        }
+
+        let n_points = self.points.len();
+        if n_points == 0 {
+            return Err(PresetError::invalid(
+                "points",
+                "the bank has no strike points; add at least one",
+            ));
+        }
+        if n_points > MAX_BANK_POINTS {
+            return Err(PresetError::invalid(
+                "points",
+                format!("{n_points} strike points; at most {MAX_BANK_POINTS} are supported"),
+            ));
+        }
+        for (i, p) in self.points.iter().enumerate() {
+            if !p
+                .xy
+                .iter()
+                .all(|v| v.is_finite() && (0.0..=1.0).contains(v))
+            {
+                return Err(PresetError::invalid(
+                    format!("points[{i}].xy"),
+                    format!("drawing coordinates must be in [0, 1], found {:?}", p.xy),
+                ));
+            }
+            if !p.position_m.iter().all(|v| v.is_finite()) {
+                return Err(PresetError::invalid(
+                    format!("points[{i}].position_m"),
+                    format!("must be finite metres, found {:?}", p.position_m),
+                ));
+            }
+        }
+
+        if self.gains.len() != n_points {
+            return Err(PresetError::invalid(
+                "gains",
+                format!(
+                    "must have one row per strike point: {n_points} points but {} rows",
+                    self.gains.len()
+                ),
+            ));
+        }
+        let mut max = 0.0f32;
+        for (p, row) in self.gains.iter().enumerate() {
+            if row.len() != n_modes {
+                return Err(PresetError::invalid(
+                    format!("gains[{p}]"),
+                    format!(
+                        "must have one gain per mode: {n_modes} modes but {} gains",
+                        row.len()
+                    ),
+                ));
+            }
+            for (m, &g) in row.iter().enumerate() {
+                if !g.is_finite() {
+                    return Err(PresetError::invalid(
+                        format!("gains[{p}][{m}]"),
+                        format!("must be finite, found {g}"),
+                    ));
+                }
+                if g.abs() > 1.0 + GAIN_TOLERANCE {
+                    return Err(PresetError::invalid(
+                        format!("gains[{p}][{m}]"),
+                        format!("|gain| must be <= 1 (gains are normalised so the largest is 1), found {g}"),
+                    ));
+                }
+                max = max.max(g.abs());
+            }
+        }
+        if max == 0.0 {
+            return Err(PresetError::invalid(
+                "gains",
+                "all gains are zero: the bank would be silent",
+            ));
+        }
+
+        if !self.mode_labels.is_empty() && self.mode_labels.len() != n_modes {
+            return Err(PresetError::invalid(
+                "mode_labels",
+                format!(
+                    "must be empty or have one label per mode: {n_modes} modes but {} labels",
+                    self.mode_labels.len()
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    fn validate_reference(&self) -> Result<(), PresetError> {
+        let r = &self.reference;
+        let positive = |field: &str, v: f64, unit: &str| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(PresetError::invalid(
+                    format!("reference.{field}"),
+                    format!("must be finite and > 0 ({unit}), found {v}"),
+                ))
+            }
+        };
+        positive("specific_modulus", r.specific_modulus, "E/rho in m^2/s^2")?;
+        positive("density", r.density, "kg/m^3")?;
+        positive("size_m", r.size_m, "m")?;
+        if !(r.poisson.is_finite() && r.poisson > -1.0 && r.poisson < 0.5) {
+            return Err(PresetError::invalid(
+                "reference.poisson",
+                format!("Poisson's ratio must be in (-1, 0.5), found {}", r.poisson),
+            ));
+        }
+        for (i, &d) in r.dimensions_m.iter().enumerate() {
+            positive(&format!("dimensions_m[{i}]"), d, "m")?;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,74 @@
+//! The error type of every fallible function in this crate.
+
+use std::path::PathBuf;
+
+/// Why a material or bank could not be read, written or accepted.
+///
+/// Every variant carries the data needed to fix the problem, and its message says what to do.
+#[derive(Debug, thiserror::Error)]
+pub enum PresetError {
+    /// Reading or writing a file failed.
+    #[error("could not access preset file `{}`: {source}. Check that the path exists and that Struck may read and write it", path.display())]
+    Io {
+        /// The file that was being read or written.
+        path: PathBuf,
+        /// The underlying I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+
+    /// The text is not valid JSON, or does not have the shape of a material or bank.
+    #[error("{what} is not a valid preset: {message} (line {line}, column {column}). Fix the JSON there, or re-export the preset from Struck")]
+    Json {
+        /// What was being parsed: "material", "bank", or a file path.
+        what: String,
+        /// 1-based line of the error (0 if unknown).
+        line: usize,
+        /// 1-based column of the error (0 if unknown).
+        column: usize,
+        /// serde_json's description of the problem, without the position.
+        message: String,
+    },
+
+    /// The file was written for another version of the preset format.
+    #[error("preset schema_version {found} is not supported: this build of Struck reads schema_version {supported}. Use a Struck version that matches the file, or re-export the preset")]
+    SchemaVersion {
+        /// The `schema_version` found in the file.
+        found: u32,
+        /// The version this build reads ([`crate::SCHEMA_VERSION`]).
+        supported: u32,
+    },
+
+    /// The JSON parsed, but a value is out of range or inconsistent.
+    #[error("invalid `{field}`: {reason}")]
+    Invalid {
+        /// Path of the offending field, e.g. `lambdas[3]` or `damping.params[2]`.
+        field: String,
+        /// What is wrong and what is expected.
+        reason: String,
+    },
+}
+
+impl PresetError {
+    /// Shorthand for [`PresetError::Invalid`].
+    pub(crate) fn invalid(field: impl Into<String>, reason: impl Into<String>) -> Self {
+        PresetError::Invalid {
+            field: field.into(),
+            reason: reason.into(),
+        }
+    }
+
+    /// A [`PresetError::Json`] from a serde_json error, with the position split out.
+    pub(crate) fn json(what: &str, e: &serde_json::Error) -> Self {
+        let full = e.to_string();
+        // serde_json appends " at line L column C"; the position has its own fields.
+        let suffix = format!(" at line {} column {}", e.line(), e.column());
+        let message = full.strip_suffix(&suffix).unwrap_or(&full).to_string();
+        PresetError::Json {
+            what: what.to_string(),
+            line: e.line(),
+            column: e.column(),
+            message,
+        }
+    }
+}

@@ -1,0 +1,143 @@
+//! Shared JSON plumbing: version check before typed parsing, file I/O with paths in errors.
+
+use std::path::Path;
+
+use serde::de::DeserializeOwned;
+use serde::Serialize;
+
+use crate::{PresetError, SCHEMA_VERSION};
+
+/// Parses `s` as a `T`, checking `schema_version` first so that a file from another
+/// format version reports [`PresetError::SchemaVersion`] rather than a confusing field error.
+pub(crate) fn parse<T: DeserializeOwned>(s: &str, what: &str) -> Result<T, PresetError> {
+    let value: serde_json::Value =
+        serde_json::from_str(s).map_err(|e| PresetError::json(what, &e))?;
+    let Some(object) = value.as_object() else {
+        return Err(PresetError::Json {
+            what: what.to_string(),
+            line: 1,
+            column: 1,
+            message: "expected a JSON object `{ ... }` at the top level".to_string(),
+        });
+    };
+    match object.get("schema_version") {
+        None => {
+            return Err(PresetError::invalid(
+                "schema_version",
+                format!("missing; add \"schema_version\": {SCHEMA_VERSION}"),
+            ))
+        }
+        Some(v) => match v.as_u64() {
+            Some(found) if found == u64::from(SCHEMA_VERSION) => {}
+            Some(found) => {
+                let found = u32::try_from(found).map_err(|_| {
+                    PresetError::invalid(
+                        "schema_version",
+                        format!("{found} is not a valid version number"),
+                    )
+                })?;
+                return Err(PresetError::SchemaVersion {
+                    found,
+                    supported: SCHEMA_VERSION,
+                });
+            }
+            None => {
+                return Err(PresetError::invalid(
+                    "schema_version",
+                    format!("must be a whole number, found {v}; use {SCHEMA_VERSION}"),
+                ))
+            }
+        },
+    }
+    // Parse again from the text (not from `value`) so that errors keep their line and column.
+    serde_json::from_str(s).map_err(|e| PresetError::json(what, &e))
+}
+
+/// Pretty JSON with a trailing newline.
+pub(crate) fn to_pretty<T: Serialize>(value: &T) -> String {
+    // PANIC: our types have only string map keys and no fallible Serialize impls, so
+    // serde_json cannot fail here (non-finite floats serialise as `null`).
+    let mut s = serde_json::to_string_pretty(value).expect("preset types always serialise");
+    s.push('\n');
+    s
+}
+
+/// Reads a whole file, mapping failure to [`PresetError::Io`] with the path.
+pub(crate) fn read(path: &Path) -> Result<String, PresetError> {
+    std::fs::read_to_string(path).map_err(|source| PresetError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// Writes `text` to `path` through a temporary sibling file and a rename, so that a crash
+/// mid-write never leaves a half-written preset behind.
+pub(crate) fn write(path: &Path, text: &str) -> Result<(), PresetError> {
+    let io = |source| PresetError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let mut tmp_name = path
+        .file_name()
+        .map(|n| n.to_os_string())
+        .unwrap_or_default();
+    tmp_name.push(".tmp");
+    let tmp = path.with_file_name(tmp_name);
+    std::fs::write(&tmp, text).map_err(io)?;
+    std::fs::rename(&tmp, path).map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        io(e)
+    })
+}
+
+/// Checks that `id` is non-empty kebab-case: `a-z`, `0-9` and single inner hyphens.
+pub(crate) fn check_id(id: &str) -> Result<(), PresetError> {
+    let bad = |reason: &str| {
+        PresetError::invalid(
+            "id",
+            format!("{reason} (found {id:?}); use kebab-case like \"glass-ren2013\""),
+        )
+    };
+    if id.is_empty() {
+        return Err(bad("must not be empty"));
+    }
+    if id.len() > 64 {
+        return Err(bad("must be at most 64 characters"));
+    }
+    if !id
+        .bytes()
+        .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'-')
+    {
+        return Err(bad(
+            "may contain only lowercase letters a-z, digits and '-'",
+        ));
+    }
+    if id.starts_with('-') || id.ends_with('-') || id.contains("--") {
+        return Err(bad("hyphens must separate words"));
+    }
+    Ok(())
+}
+
+/// Checks `schema_version` of an already-parsed value.
+pub(crate) fn check_version(found: u32) -> Result<(), PresetError> {
+    if found == SCHEMA_VERSION {
+        Ok(())
+    } else {
+        Err(PresetError::SchemaVersion {
+            found,
+            supported: SCHEMA_VERSION,
+        })
+    }
+}
+
+/// Checks that `name` is not blank.
+pub(crate) fn check_name(name: &str) -> Result<(), PresetError> {
+    if name.trim().is_empty() {
+        Err(PresetError::invalid(
+            "name",
+            "must not be empty; give a display name like \"Glass (Ren 2013)\"",
+        ))
+    } else {
+        Ok(())
+    }
+}

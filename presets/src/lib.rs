@@ -1,0 +1,39 @@
+//! Struck's presets: materials (damping laws), object banks (modes at strike points), their
+//! JSON formats with validation on load, and the factory content.
+//!
+//! # Conventions
+//! - λ = ωₙ² in rad²/s² (undamped angular frequency squared); frequencies in Hz only where a
+//!   name says `hz`.
+//! - Damping c(λ) in s⁻¹; a mode's amplitude decays as e^(−d t) with d = c/2; T60 = 6.91/d.
+//! - Specific modulus γ = E/ρ in m²/s². A bank's λ⁰ were computed for its reference γ₀ and
+//!   size; another material and size s give λ = (γ/γ₀) λ⁰ / s² (Ren 2013 eq. 10).
+//! - Gains: surface-normal, mass-normalised mode shapes at strike points, scaled by one
+//!   factor per bank so that max |gain| = 1. `gains[point][mode]`.
+//! - Every JSON file carries `schema_version` ([`SCHEMA_VERSION`]); parsing checks it first,
+//!   then the shape, then the values ([`Material::validate`], [`Bank::validate`]).
+//!
+//! # Sources
+//! Materials: Ren, Yeh, Lin 2013 Table I; Sterling 2019 (PhD thesis) Tables 3.1 and 4.1.
+//! Banks: analytic beam and plate solutions (Blevins 1979, Leissa 1969); see each bank's
+//! `provenance`.
+
+mod bank;
+mod damping;
+mod error;
+pub mod factory;
+mod json;
+mod material;
+
+pub use bank::{Bank, BankReference, StrikePoint, MAX_BANK_MODES, MAX_BANK_POINTS};
+pub use damping::{
+    DampingModel, DampingSpec, AUDIBLE_LAMBDA_MAX, AUDIBLE_LAMBDA_MIN, MAX_EXPONENT,
+};
+pub use error::PresetError;
+pub use factory::{
+    factory_bank, factory_banks, factory_material, factory_materials, FACTORY_BANK_IDS,
+    FACTORY_MATERIAL_IDS,
+};
+pub use material::Material;
+
+/// Version of the JSON formats this build reads and writes.
+pub const SCHEMA_VERSION: u32 = 1;

@@ -1,0 +1,118 @@
+//! Materials: a damping law plus, when known, the specific modulus γ = E/ρ.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::json;
+use crate::{DampingSpec, PresetError};
+
+/// A material preset: how modes decay (`damping`) and, when known, how stiff it is for its
+/// weight (`specific_modulus`, which moves a bank's pitch by sqrt(γ/γ₀), Ren 2013 eq. 10).
+///
+/// JSON example (`factory/materials/glass-ren2013.json`):
+/// ```json
+/// { "schema_version": 1, "id": "glass-ren2013", "name": "Glass (Ren 2013)",
+///   "provenance": "Ren, Yeh, Lin 2013, Table I, row Glass ...", "specific_modulus": null,
+///   "damping": { "model": "rayleigh", "params": [18.301, 1.4342e-7] }, "notes": "..." }
+/// ```
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+pub struct Material {
+    /// Format version; must equal [`crate::SCHEMA_VERSION`].
+    pub schema_version: u32,
+    /// Stable kebab-case identifier, e.g. `"glass-ren2013"`.
+    pub id: String,
+    /// Display name, e.g. `"Glass (Ren 2013)"`.
+    pub name: String,
+    /// Where the numbers come from (paper, table, row) and any unit conversion done.
+    pub provenance: String,
+    /// γ = E/ρ in m²/s², when known in SI; `None` when the source gives no usable value.
+    pub specific_modulus: Option<f64>,
+    /// The damping law c(λ), SI.
+    pub damping: DampingSpec,
+    /// Free text: caveats, unit reasoning, decay times.
+    #[serde(default)]
+    pub notes: String,
+}
+
+impl Material {
+    /// Parses a material from JSON and validates it.
+    ///
+    /// # Errors
+    /// [`PresetError::Json`] for malformed JSON or missing/mistyped fields,
+    /// [`PresetError::SchemaVersion`] for another format version, and
+    /// [`PresetError::Invalid`] for values [`Material::validate`] rejects.
+    pub fn from_json(s: &str) -> Result<Material, PresetError> {
+        Self::parse(s, "material")
+    }
+
+    fn parse(s: &str, what: &str) -> Result<Material, PresetError> {
+        let m: Material = json::parse(s, what)?;
+        m.validate()?;
+        Ok(m)
+    }
+
+    /// Pretty-printed JSON (with a trailing newline). Does not validate.
+    pub fn to_json(&self) -> String {
+        json::to_pretty(self)
+    }
+
+    /// Reads and validates a material file.
+    ///
+    /// # Errors
+    /// [`PresetError::Io`] naming `path` if it cannot be read; otherwise as
+    /// [`Material::from_json`], with the path in [`PresetError::Json`]'s `what`.
+    pub fn load(path: &Path) -> Result<Material, PresetError> {
+        let text = json::read(path)?;
+        Self::parse(&text, &path.display().to_string())
+    }
+
+    /// Validates, then writes pretty JSON to `path` (through a temporary file and a rename).
+    ///
+    /// # Errors
+    /// [`PresetError::Invalid`] / [`PresetError::SchemaVersion`] if the material is invalid
+    /// (nothing is written), [`PresetError::Io`] naming `path` if writing fails.
+    pub fn save(&self, path: &Path) -> Result<(), PresetError> {
+        self.validate()?;
+        json::write(path, &self.to_json())
+    }
+
+    /// Checks every field.
+    ///
+    /// # Errors
+    /// [`PresetError::SchemaVersion`] if `schema_version` is not [`crate::SCHEMA_VERSION`];
+    /// [`PresetError::Invalid`] naming the field for: an id that is not kebab-case, a blank
+    /// name, a `specific_modulus` that is not finite and > 0, or a damping law that
+    /// [`DampingSpec::to_damping`] rejects.
+    pub fn validate(&self) -> Result<(), PresetError> {
+        json::check_version(self.schema_version)?;
+        json::check_id(&self.id)?;
+        json::check_name(&self.name)?;
+        if let Some(g) = self.specific_modulus {
+            if !(g.is_finite() && g > 0.0) {
+                return Err(PresetError::invalid(
+                    "specific_modulus",
+                    format!("must be finite and > 0 (E/rho in m^2/s^2, e.g. 2.6e7 for steel), or null if unknown; found {g}"),
+                ));
+            }
+        }
+        self.damping.to_damping()?;
+        Ok(())
+    }
+
+    /// The engine damping law.
+    ///
+    /// # Errors
+    /// As [`DampingSpec::to_damping`].
+    pub fn to_damping(&self) -> Result<dsp::Damping, PresetError> {
+        self.damping.to_damping()
+    }
+
+    /// Reverberation time T60 = ln(1000)/d in s of a mode at `freq_hz` (d = c/2, λ ≈ ω²).
+    /// Infinite when c = 0. Returns `None` if the damping law is invalid.
+    pub fn t60_s(&self, freq_hz: f64) -> Option<f64> {
+        let d = self.damping.to_damping().ok()?;
+        let omega = 2.0 * std::f64::consts::PI * freq_hz;
+        Some(1000f64.ln() / (0.5 * d.c(omega * omega)))
+    }
+}

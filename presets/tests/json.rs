@@ -1,0 +1,264 @@
+//! JSON round trips, file I/O and rejection of broken input with the right error variant.
+
+use std::path::PathBuf;
+
+use presets::{
+    factory_bank, factory_material, Bank, DampingModel, DampingSpec, Material, PresetError,
+    SCHEMA_VERSION,
+};
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("struck-presets-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+fn small_bank() -> Bank {
+    let mut b = factory_bank("bar").unwrap();
+    b.lambdas.truncate(3);
+    b.points.truncate(2);
+    b.gains.truncate(2);
+    for row in &mut b.gains {
+        row.truncate(3);
+    }
+    b.mode_labels.truncate(3);
+    b.normalize_gains();
+    b
+}
+
+fn invalid_field<T: std::fmt::Debug>(r: Result<T, PresetError>) -> String {
+    match r {
+        Err(PresetError::Invalid { field, reason }) => {
+            assert!(!reason.is_empty());
+            field
+        }
+        other => panic!("expected Invalid, got {other:?}"),
+    }
+}
+
+#[test]
+fn bank_and_material_round_trip() {
+    for id in ["bar", "circular-plate", "rect-plate"] {
+        let bank = factory_bank(id).unwrap();
+        assert_eq!(Bank::from_json(&bank.to_json()).unwrap(), bank);
+    }
+    let m = factory_material("steel-sterling-hybrid").unwrap();
+    assert_eq!(Material::from_json(&m.to_json()).unwrap(), m);
+    let mut odd = factory_material("glass-ren2013").unwrap();
+    odd.specific_modulus = Some(2.8e7 + 1.0 / 3.0);
+    odd.damping = DampingSpec {
+        model: DampingModel::Caughey,
+        params: vec![0.1 + 0.2, 1e-7 / 3.0, 1e-17, 1e-25],
+    };
+    assert_eq!(Material::from_json(&odd.to_json()).unwrap(), odd);
+}
+
+#[test]
+fn save_and_load_files() {
+    let path = scratch("bank.json");
+    let bank = small_bank();
+    bank.save(&path).unwrap();
+    assert_eq!(Bank::load(&path).unwrap(), bank);
+    let mpath = scratch("material.json");
+    let m = factory_material("wood-sterling31-caughey").unwrap();
+    m.save(&mpath).unwrap();
+    assert_eq!(Material::load(&mpath).unwrap(), m);
+    // An invalid material is not written.
+    let mut bad = m.clone();
+    bad.id = String::new();
+    let bad_path = scratch("bad.json");
+    assert!(bad.save(&bad_path).is_err());
+    assert!(!bad_path.exists());
+}
+
+#[test]
+fn missing_file_is_an_io_error_naming_the_path() {
+    let path = scratch("does-not-exist/nowhere.json");
+    for err in [
+        Material::load(&path).unwrap_err(),
+        Bank::load(&path).unwrap_err(),
+    ] {
+        match &err {
+            PresetError::Io { path: p, source } => {
+                assert_eq!(p, &path);
+                assert_eq!(source.kind(), std::io::ErrorKind::NotFound);
+            }
+            other => panic!("expected Io, got {other:?}"),
+        }
+        assert!(err.to_string().contains("nowhere.json"), "{err}");
+    }
+}
+
+#[test]
+fn broken_json_is_a_json_error_with_position() {
+    let m = factory_material("glass-ren2013").unwrap().to_json();
+    let truncated = &m[..m.len() / 2];
+    match Material::from_json(truncated) {
+        Err(PresetError::Json {
+            line, column, what, ..
+        }) => {
+            assert!(line > 1 && column > 0);
+            assert_eq!(what, "material");
+        }
+        other => panic!("expected Json, got {other:?}"),
+    }
+    // Wrong type for a field.
+    let wrong = m.replace("\"rayleigh\"", "42");
+    assert!(matches!(
+        Material::from_json(&wrong),
+        Err(PresetError::Json { .. })
+    ));
+    // Unknown model name.
+    let unknown = m.replace("\"rayleigh\"", "\"viscous\"");
+    assert!(matches!(
+        Material::from_json(&unknown),
+        Err(PresetError::Json { .. })
+    ));
+    // Not an object.
+    assert!(matches!(
+        Bank::from_json("[1, 2]"),
+        Err(PresetError::Json { .. })
+    ));
+    // Loading a broken file names the file.
+    let path = scratch("broken.json");
+    std::fs::write(&path, truncated).unwrap();
+    match Material::load(&path) {
+        Err(PresetError::Json { what, .. }) => assert!(what.contains("broken.json")),
+        other => panic!("expected Json, got {other:?}"),
+    }
+}
+
+#[test]
+fn wrong_schema_version_is_reported_as_such() {
+    let m = factory_material("glass-ren2013").unwrap();
+    let future = m
+        .to_json()
+        .replace("\"schema_version\": 1", "\"schema_version\": 2");
+    match Material::from_json(&future) {
+        Err(PresetError::SchemaVersion { found, supported }) => {
+            assert_eq!((found, supported), (2, SCHEMA_VERSION))
+        }
+        other => panic!("expected SchemaVersion, got {other:?}"),
+    }
+    let mut b = small_bank();
+    b.schema_version = 7;
+    assert!(matches!(
+        b.validate(),
+        Err(PresetError::SchemaVersion { found: 7, .. })
+    ));
+    assert!(matches!(
+        Bank::from_json(&b.to_json()),
+        Err(PresetError::SchemaVersion { found: 7, .. })
+    ));
+    let missing = m.to_json().replace("\"schema_version\": 1,", "");
+    assert_eq!(
+        invalid_field(Material::from_json(&missing)),
+        "schema_version"
+    );
+}
+
+#[test]
+fn invalid_materials_name_the_field() {
+    let good = factory_material("glass-ren2013").unwrap();
+    let check = |f: &dyn Fn(&mut Material), field: &str| {
+        let mut m = good.clone();
+        f(&mut m);
+        assert_eq!(invalid_field(m.validate()), field);
+        // Also through JSON (NaN is written as null, which is a JSON type error instead).
+        if let Err(e) = Material::from_json(&m.to_json()) {
+            assert!(matches!(
+                e,
+                PresetError::Invalid { .. } | PresetError::Json { .. }
+            ));
+        } else {
+            panic!("{field}: invalid material parsed");
+        }
+    };
+    check(&|m| m.id.clear(), "id");
+    check(&|m| m.id = "Glass Ren".into(), "id");
+    check(&|m| m.name = "  ".into(), "name");
+    check(&|m| m.specific_modulus = Some(-1.0), "specific_modulus");
+    check(&|m| m.specific_modulus = Some(0.0), "specific_modulus");
+    check(&|m| m.damping.params = vec![1.0], "damping.params");
+    check(
+        &|m| m.damping.params = vec![-1.0, 1e-7],
+        "damping.params[0]",
+    );
+    check(
+        &|m| m.damping.params = vec![1.0, f64::NAN],
+        "damping.params[1]",
+    );
+    check(
+        &|m| {
+            m.damping = DampingSpec {
+                model: DampingModel::Power,
+                params: vec![1.0, 3.0],
+            }
+        },
+        "damping.params[1]",
+    );
+    check(
+        &|m| {
+            m.damping = DampingSpec {
+                model: DampingModel::Hybrid,
+                params: vec![1.0, 1e-7, 0.0],
+            }
+        },
+        "damping.params[2]",
+    );
+    check(
+        &|m| {
+            m.damping = DampingSpec {
+                model: DampingModel::Caughey,
+                params: vec![-5.0, 1e-7],
+            }
+        },
+        "damping.params",
+    );
+}
+
+#[test]
+fn invalid_banks_name_the_field() {
+    let good = small_bank();
+    good.validate().unwrap();
+    let check = |f: &dyn Fn(&mut Bank), field: &str| {
+        let mut b = good.clone();
+        f(&mut b);
+        assert_eq!(invalid_field(b.validate()), field);
+    };
+    check(&|b| b.id.clear(), "id");
+    check(&|b| b.lambdas[1] = f64::NAN, "lambdas[1]");
+    check(&|b| b.lambdas[2] = f64::INFINITY, "lambdas[2]");
+    check(&|b| b.lambdas[0] = -1.0, "lambdas[0]");
+    check(&|b| b.lambdas[0] = 0.0, "lambdas[0]");
+    check(&|b| b.lambdas.swap(0, 2), "lambdas[1]");
+    check(&|b| b.lambdas.clear(), "lambdas");
+    check(&|b| b.points.clear(), "points");
+    check(&|b| b.gains.pop().map(drop).unwrap_or(()), "gains");
+    check(&|b| b.gains[1].push(0.5), "gains[1]");
+    check(&|b| b.gains[0][1] = f32::NAN, "gains[0][1]");
+    check(&|b| b.gains[1][2] = 1.5, "gains[1][2]");
+    check(
+        &|b| b.gains.iter_mut().flatten().for_each(|g| *g = 0.0),
+        "gains",
+    );
+    check(
+        &|b| b.mode_labels.pop().map(drop).unwrap_or(()),
+        "mode_labels",
+    );
+    check(&|b| b.points[0].xy = [1.5, 0.0], "points[0].xy");
+    check(
+        &|b| b.reference.specific_modulus = 0.0,
+        "reference.specific_modulus",
+    );
+    check(&|b| b.reference.poisson = 0.7, "reference.poisson");
+    check(&|b| b.reference.size_m = f64::NAN, "reference.size_m");
+    // Empty mode labels are allowed.
+    let mut b = good.clone();
+    b.mode_labels.clear();
+    b.validate().unwrap();
+    // The JSON path rejects too.
+    let mut b = good.clone();
+    b.lambdas.swap(0, 1);
+    assert_eq!(invalid_field(Bank::from_json(&b.to_json())), "lambdas[1]");
+}

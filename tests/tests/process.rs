@@ -1,0 +1,190 @@
+//! The instrument measured through its own `process()` (offline host, allocation assertions
+//! on): frequencies, decays, block-size invariance, sample rates, velocity, nodal points,
+//! damping laws and a voice-stealing stress test.
+
+use struck::cli::{predicted_modes, NoteSpec, SoundOptions};
+use struck_tests::*;
+
+const SR: u32 = 48_000;
+
+fn opts(object: &str, material: &str, set: &[(&str, f32)]) -> SoundOptions {
+    SoundOptions { object: object.into(), material: material.into(), set: set.iter().map(|(k, v)| format!("{k}={v}")).collect(), ..SoundOptions::default() }
+}
+
+/// The strongest predicted modes that are isolated enough to measure: no other mode of
+/// more than −80 dB relative within `sep_hz`, below 0.45·fs and still loud at `t_end`.
+fn measurable(modes: &[(f64, f64, f32)], sr: f64, sep_hz: f64, t_end: f64, count: usize) -> Vec<(f64, f64, f32)> {
+    let peak = modes.iter().fold(0.0f32, |m, x| m.max(x.2.abs()));
+    let mut sorted: Vec<_> = modes.to_vec();
+    sorted.sort_by(|a, b| b.2.abs().total_cmp(&a.2.abs()));
+    sorted
+        .into_iter()
+        .filter(|&(f, d, a)| {
+            a.abs() > 0.01 * peak
+                && f < 0.45 * sr
+                && f > 40.0
+                && d * (t_end + (1.5 / d).clamp(0.05, 0.3)) < 8.0
+                && modes.iter().all(|&(g, _, b)| g == f || (g - f).abs() > sep_hz || b.abs() < 1e-4 * a.abs())
+        })
+        .take(count)
+        .collect()
+}
+
+#[test]
+fn strongest_modes_ring_within_a_cent_and_decay_within_a_percent() {
+    for object in ["bar", "circular-plate", "rect-plate"] {
+        let o = opts(object, "glass-ren2013", &[]);
+        let modes = predicted_modes(&o, 36, 100).unwrap();
+        let mut h = host(object, "glass-ren2013", SR, &[]);
+        let x = render(&mut h, &[note(36, 100, None)], 1.2, 512);
+        let sr = f64::from(SR);
+        let (start, len) = (960, 9600); // 20 ms in; 0.2 s windows (BH 4 bins = 20 Hz)
+        let chosen = measurable(&modes, sr, 30.0, 0.22, 10);
+        assert!(chosen.len() >= 10, "{object}: only {} measurable modes", chosen.len());
+        for (f, d, _) in chosen {
+            let gap = ((1.5 / d).clamp(0.05, 0.3) * sr) as usize;
+            let (fm, dm) = measure_mode(&x, sr, f, start, len, gap);
+            assert!(cents(fm, f).abs() < 1.0, "{object}: mode {f:.2} Hz measured {fm:.3} Hz ({:.3} cents)", cents(fm, f));
+            assert!((dm / d - 1.0).abs() < 0.01, "{object}: mode {f:.1} Hz decay {dm:.4} vs {d:.4}");
+        }
+    }
+}
+
+#[test]
+fn block_sizes_do_not_change_the_output() {
+    let notes = [
+        NoteSpec { key: 60, velocity: 100, position: Some(0.2), start_s: 0.0 },
+        NoteSpec { key: 67, velocity: 70, position: Some(0.7), start_s: 0.1013 },
+        // A retrigger of the first note while it rings.
+        NoteSpec { key: 60, velocity: 127, position: Some(0.5), start_s: 0.3331 },
+    ];
+    let set = [("noise", 0.4), ("release", 20.0)];
+    let reference = render(&mut host("circular-plate", "steel-sterling-hybrid", SR, &set), &notes, 0.8, 512);
+    assert!(rms(&reference) > 1e-3);
+    for block in [1, 17, 64, 4096] {
+        let y = render(&mut host("circular-plate", "steel-sterling-hybrid", SR, &set), &notes, 0.8, block);
+        let worst = reference.iter().zip(&y).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+        assert!(worst <= 1e-6, "block {block}: max difference {worst}");
+    }
+}
+
+#[test]
+fn every_common_sample_rate_plays_in_tune() {
+    for sr in [44_100u32, 48_000, 96_000, 192_000] {
+        let o = SoundOptions { sample_rate: sr, ..opts("bar", "steel-sterling-rayleigh", &[]) };
+        let modes = predicted_modes(&o, 57, 100).unwrap();
+        let mut h = host("bar", "steel-sterling-rayleigh", sr, &[]);
+        let x = render(&mut h, &[note(57, 100, None)], 0.8, 333);
+        let srf = f64::from(sr);
+        let len = (0.2 * srf) as usize;
+        let chosen = measurable(&modes, srf, 30.0, 0.22, 3);
+        assert_eq!(chosen.len(), 3, "{sr} Hz");
+        for (f, d, _) in chosen {
+            let (fm, dm) = measure_mode(&x, srf, f, len / 10, len, len);
+            assert!(cents(fm, f).abs() < 1.0, "{sr} Hz: {f} vs {fm}");
+            assert!((dm / d - 1.0).abs() < 0.01, "{sr} Hz: decay {dm} vs {d}");
+        }
+        // The lowest mode sits at the key's pitch (A3 = 220 Hz) at every rate.
+        assert!(cents(modes[0].0, 220.0).abs() < 1.0, "{sr}: lowest mode {}", modes[0].0);
+    }
+}
+
+#[test]
+fn louder_strikes_are_louder_and_brighter() {
+    let mut last = (0.0, 0.0);
+    for vel in [20u8, 60, 120] {
+        let mut h = host("rect-plate", "metal-ren2013", SR, &[("hard", 0.5)]);
+        let x = render(&mut h, &[note(48, vel, Some(0.4))], 0.4, 512);
+        let (l, c) = (rms(&x), spectral_centroid(&x, f64::from(SR)));
+        assert!(l > last.0 * 1.5 && c > last.1 * 1.02, "velocity {vel}: rms {l} centroid {c} after {last:?}");
+        last = (l, c);
+    }
+}
+
+#[test]
+fn a_strike_on_a_node_leaves_that_mode_silent() {
+    let bank = presets::factory_bank("bar").unwrap();
+    let p = bank.num_points();
+    let o = opts("bar", "glass-sterling-rayleigh", &[]);
+    let all = predicted_modes(&o, 60, 100).unwrap();
+    // Find a low bending mode with a sign change between two neighbouring strike points.
+    let mut found = None;
+    'outer: for m in 0..12 {
+        let f = (bank.lambdas[m] * (all[0].0 / bank.frequencies_hz()[0]).powi(2)).sqrt() / (2.0 * std::f64::consts::PI);
+        if !measurable(&all, f64::from(SR), 30.0, 0.22, 60).iter().any(|x| (x.0 / f - 1.0).abs() < 1e-3) {
+            continue;
+        }
+        for q in 0..p - 1 {
+            let (a, b) = (bank.gains[q][m], bank.gains[q + 1][m]);
+            if a * b < 0.0 && a.abs().min(b.abs()) > 0.05 {
+                let node = (q as f32 + a / (a - b)) / (p - 1) as f32;
+                let anti = (0..p).max_by(|&i, &j| bank.gains[i][m].abs().total_cmp(&bank.gains[j][m].abs())).unwrap() as f32 / (p - 1) as f32;
+                found = Some((m, node, anti));
+                break 'outer;
+            }
+        }
+    }
+    let (m, node, anti) = found.expect("a bending mode with a node between strike points");
+    let level = |pos: f32| {
+        let mut h = host("bar", "glass-sterling-rayleigh", SR, &[]);
+        let x = render(&mut h, &[note(60, 100, Some(pos))], 0.5, 512);
+        let modes = predicted_modes(&SoundOptions { position: Some(anti), ..o.clone() }, 60, 100).unwrap();
+        let f = (bank.lambdas[m] * (modes[0].0 / bank.frequencies_hz()[0]).powi(2)).sqrt() / (2.0 * std::f64::consts::PI);
+        amplitude(&x, f64::from(SR), f, 480, 9600)
+    };
+    let (at_node, at_anti) = (level(node), level(anti));
+    assert!(at_anti > 1e-4, "mode {m} too quiet at its antinode: {at_anti}");
+    assert!(at_node < 1e-3 * at_anti, "mode {m}: {at_node} at the node vs {at_anti} at the antinode");
+}
+
+#[test]
+fn rayleigh_without_stiffness_term_decays_every_mode_alike() {
+    let lib = struck::library::Library::factory();
+    let custom = lib.custom_material_index() as f32;
+    let set = [("material", custom), ("dmodel", 0.0), ("alpha1", 6.0), ("c1k", 0.0)];
+    let mut h = host("circular-plate", "0", SR, &set);
+    let o = opts("circular-plate", "0", &set);
+    let modes = predicted_modes(&o, 60, 100).unwrap();
+    let x = render(&mut h, &[note(60, 100, Some(0.35))], 1.0, 256);
+    let chosen = measurable(&modes, f64::from(SR), 30.0, 0.32, 10);
+    assert!(chosen.len() >= 10);
+    for (f, d, _) in chosen {
+        assert!((d - 3.0).abs() < 1e-9, "predicted d {d}");
+        let (_, dm) = measure_mode(&x, f64::from(SR), f, 960, 9600, 14_400);
+        assert!((dm / 3.0 - 1.0).abs() < 0.01, "mode {f:.1} Hz decays at {dm}");
+    }
+}
+
+#[test]
+fn sixty_four_overlapping_notes_with_fast_retriggers_stay_finite_and_bounded() {
+    let mut notes = Vec::new();
+    let mut seed = 12345u32;
+    for i in 0..200 {
+        seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        notes.push(NoteSpec {
+            key: 36 + ((i * 7) % 48) as u8,
+            velocity: 1 + (seed >> 25) as u8,
+            position: Some((seed >> 8) as f32 / 16_777_216.0),
+            start_s: i as f64 * 0.004,
+        });
+    }
+    let mut h = host("rect-plate", "porcelain-ren2013", SR, &[("noise", 0.5), ("hard", 1.0)]);
+    let x = render(&mut h, &notes, 1.5, 256);
+    let peak = x.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+    assert!(peak > 0.01 && peak < 8.0, "peak {peak}");
+    let e = h.plugin().engine().unwrap();
+    assert!(e.active_voices() <= struck::MAX_VOICES);
+}
+
+#[test]
+fn silent_voices_end_and_tell_the_host() {
+    let mut h = host("bar", "wood-ren2013", SR, &[]);
+    let events = struck::cli::note_events(&[note(72, 100, None)], f64::from(SR));
+    let (out, sent) = h.render(&events, 3 * SR as usize, 512);
+    assert!(out[0].iter().all(|v| v.is_finite()));
+    assert_eq!(h.plugin().engine().unwrap().active_voices(), 0);
+    assert!(sent.iter().any(|(_, e)| matches!(e, nice_plug::prelude::NoteEvent::VoiceTerminated { .. })), "{sent:?}");
+    // After the voice ended, the output is exactly silent.
+    let end = sent[0].0 as usize;
+    assert!(out[0][end..].iter().all(|&v| v == 0.0));
+}
