@@ -69,6 +69,8 @@ impl Feature {
 pub struct ExtractOptions {
     /// Features decaying slower than this are treated as hum and dropped, s⁻¹.
     pub min_decay_per_s: f64,
+    /// Features decaying faster than this are clicks, not modes, and are dropped, s⁻¹.
+    pub max_decay_per_s: f64,
     /// Features weaker than this, relative to the strongest in the impact, are dropped, dB.
     pub min_rel_amplitude_db: f64,
     /// Features below this frequency are dropped (DC drift, rumble), Hz.
@@ -89,6 +91,7 @@ impl Default for ExtractOptions {
     fn default() -> Self {
         Self {
             min_decay_per_s: 0.05,
+            max_decay_per_s: 3000.0,
             min_rel_amplitude_db: -60.0,
             min_freq_hz: 15.0,
             peak_snr_min: 40.0,
@@ -133,6 +136,9 @@ struct Mode {
 struct Level {
     w: usize,
     m: usize,
+    /// e^(−iω_k) and e^(−iω_k W) per bin, ω_k = 2πk/M.
+    ek: Vec<C64>,
+    ekw: Vec<C64>,
     /// Σ window², for the noise power per bin.
     sw2: f64,
     window: Vec<f64>,
@@ -154,7 +160,11 @@ impl Spectra {
             let window: Vec<f64> =
                 (0..w).map(|i| 0.5 + 0.5 * (std::f64::consts::PI * i as f64 / w as f64).cos()).collect();
             let sw2 = window.iter().map(|v| v * v).sum();
-            levels.push(Level { w, m, sw2, window, spec: vec![C64::new(0.0, 0.0); m / 2 + 1] });
+            let theta = |k: usize| -std::f64::consts::TAU * k as f64 / m as f64;
+            let ek = (0..=m / 2).map(|k| C64::from_polar(1.0, theta(k))).collect();
+            // kW mod M keeps the angle small and exact.
+            let ekw = (0..=m / 2).map(|k| C64::from_polar(1.0, theta((k * w) % m))).collect();
+            levels.push(Level { w, m, ek, ekw, sw2, window, spec: vec![C64::new(0.0, 0.0); m / 2 + 1] });
             if w / 2 < MIN_LEVEL {
                 break;
             }
@@ -176,35 +186,46 @@ impl Spectra {
 
 /// Closed-form windowed DFT of one complex exponential and its derivative w.r.t. z.
 /// Window: half Hann = 0.5 + 0.25 e^(iπn/W) + 0.25 e^(−iπn/W).
-struct ModelEval {
+struct ModelEval<'a> {
     w: usize,
-    m: usize,
     fs: f64,
+    ek: &'a [C64],
+    ekw: &'a [C64],
+    /// (cⱼ, uⱼ, uⱼ^W) of the three window terms.
+    us: [(f64, C64, f64); 3],
 }
 
-impl ModelEval {
-    /// Returns (G(z, ω_k), dG/dz) with G = Σ_n w[n] zⁿ e^(−iω_k n), ω_k = 2πk/M.
+impl<'a> ModelEval<'a> {
+    fn new(lev: &'a Level, fs: f64) -> Self {
+        let half = std::f64::consts::PI / lev.w as f64;
+        Self {
+            w: lev.w,
+            fs,
+            ek: &lev.ek,
+            ekw: &lev.ekw,
+            us: [(0.5, C64::new(1.0, 0.0), 1.0), (0.25, C64::from_polar(1.0, half), -1.0), (0.25, C64::from_polar(1.0, -half), -1.0)],
+        }
+    }
+
+    /// Returns (G(z, ω_k), dG/dz) with G = Σ_n w[n] zⁿ e^(−iω_k n); `zw` = z^W.
     #[inline]
     fn g(&self, z: C64, zw: C64, k: usize) -> (C64, C64) {
         let wf = self.w as f64;
-        let theta = -std::f64::consts::TAU * k as f64 / self.m as f64;
-        let ek = C64::from_polar(1.0, theta);
-        let ekw = C64::from_polar(1.0, theta * wf);
-        let half = std::f64::consts::PI / wf;
-        let us = [(0.5, C64::new(1.0, 0.0), 1.0), (0.25, C64::from_polar(1.0, half), -1.0), (0.25, C64::from_polar(1.0, -half), -1.0)];
+        let (ek, ekw) = (self.ek[k], self.ekw[k]);
         let mut g = C64::new(0.0, 0.0);
         let mut dg = C64::new(0.0, 0.0);
-        for (c, u, uw) in us {
+        for (c, u, uw) in self.us {
             let v = u * ek;
             let q = z * v;
             let qw = zw * ekw * uw;
             let one_m_q = C64::new(1.0, 0.0) - q;
-            let (f, df) = if one_m_q.norm() < 1e-9 {
+            let (f, df) = if one_m_q.norm_sqr() < 1e-18 {
                 // q → 1: F → W, F' → W(W−1)/2.
                 (C64::new(wf, 0.0), C64::new(wf * (wf - 1.0) / 2.0, 0.0))
             } else {
-                let f = (C64::new(1.0, 0.0) - qw) / one_m_q;
-                let df = (f - wf * qw / q) / one_m_q;
+                let inv = one_m_q.inv();
+                let f = (C64::new(1.0, 0.0) - qw) * inv;
+                let df = (f - wf * qw / q) * inv;
                 (f, df)
             };
             g += c * f;
@@ -214,21 +235,36 @@ impl ModelEval {
     }
 }
 
-/// Model spectrum of a real mode and its Jacobian over a band of bins.
-fn mode_spectrum(ev: &ModelEval, omega: f64, d: f64, b: C64, k: usize) -> (C64, [C64; 4]) {
+/// z = e^((−d + iω)/fs) and its powers for one mode.
+#[derive(Clone, Copy)]
+struct ZPow {
+    z: C64,
+    zw: C64,
+    d: f64,
+}
+
+fn zpow(ev: &ModelEval, omega: f64, d: f64) -> ZPow {
     let z = C64::from_polar((-d / ev.fs).exp(), omega / ev.fs);
+    // z^W directly (exact) rather than by repeated multiplication.
+    let zw = C64::from_polar((-d * ev.w as f64 / ev.fs).exp(), (omega * ev.w as f64 / ev.fs) % std::f64::consts::TAU);
+    ZPow { z, zw, d }
+}
+
+/// Model spectrum of a real mode at bin k and its Jacobian w.r.t. (ω, ln d, Re B, Im B).
+#[inline]
+fn mode_spectrum(ev: &ModelEval, zp: &ZPow, b: C64, k: usize) -> (C64, [C64; 4]) {
+    let (z, zw) = (zp.z, zp.zw);
     let zc = z.conj();
-    let zw = z.powu(ev.w as u32);
-    let zcw = zw.conj();
     let (g1, dg1) = ev.g(z, zw, k);
-    let (g2, dg2) = ev.g(zc, zcw, k);
+    let (g2, dg2) = ev.g(zc, zw.conj(), k);
     let bc = b.conj();
     let s = b * g1 + bc * g2;
     let i = C64::new(0.0, 1.0);
-    let d_omega = b * dg1 * (i * z / ev.fs) + bc * dg2 * (-i * zc / ev.fs);
-    let d_d = b * dg1 * (-z / ev.fs) + bc * dg2 * (-zc / ev.fs);
-    // Parameters: ω, ln d, Re B, Im B.
-    (s, [d_omega, d_d * d, g1 + g2, i * (g1 - g2)])
+    let t1 = b * dg1 * z / ev.fs;
+    let t2 = bc * dg2 * zc / ev.fs;
+    let d_omega = i * (t1 - t2);
+    let d_d = -(t1 + t2);
+    (s, [d_omega, d_d * zp.d, g1 + g2, i * (g1 - g2)])
 }
 
 /// Solves a small symmetric positive definite system by Gaussian elimination with pivoting.
@@ -272,9 +308,9 @@ fn project_amplitude(ev: &ModelEval, target: &[C64], k0: usize, omega: f64, d: f
     let mut ata = [0.0; 4];
     let mut atb = [0.0; 2];
     let mut tt = 0.0;
-    let mut cols = Vec::with_capacity(target.len());
+    let zp = zpow(ev, omega, d);
     for (j, t) in target.iter().enumerate() {
-        let (_, jac) = mode_spectrum(ev, omega, d, C64::new(0.0, 0.0), k0 + j);
+        let (_, jac) = mode_spectrum(ev, &zp, C64::new(0.0, 0.0), k0 + j);
         let (c1, c2) = (jac[2], jac[3]);
         ata[0] += c1.norm_sqr();
         ata[1] += c1.re * c2.re + c1.im * c2.im;
@@ -282,7 +318,6 @@ fn project_amplitude(ev: &ModelEval, target: &[C64], k0: usize, omega: f64, d: f
         atb[0] += c1.re * t.re + c1.im * t.im;
         atb[1] += c2.re * t.re + c2.im * t.im;
         tt += t.norm_sqr();
-        cols.push((c1, c2));
     }
     ata[2] = ata[1];
     let mut a = ata;
@@ -300,10 +335,17 @@ fn lm_fit_multi(ev: &ModelEval, target: &[C64], k0: usize, init: &[(f64, f64, C6
     let km = init.len();
     let np = 4 * km;
     let mut p: Vec<f64> = init.iter().flat_map(|&(w, d, b)| [w, d.max(1e-4).ln(), b.re, b.im]).collect();
-    let model_at = |p: &[f64], k: usize| -> C64 {
-        (0..km).map(|m| mode_spectrum(ev, p[4 * m], p[4 * m + 1].exp(), C64::new(p[4 * m + 2], p[4 * m + 3]), k).0).sum()
+    let cost_of = |p: &[f64]| -> f64 {
+        let zs: Vec<ZPow> = (0..km).map(|m| zpow(ev, p[4 * m], p[4 * m + 1].exp())).collect();
+        target
+            .iter()
+            .enumerate()
+            .map(|(j, t)| {
+                let s: C64 = (0..km).map(|m| mode_spectrum(ev, &zs[m], C64::new(p[4 * m + 2], p[4 * m + 3]), k0 + j).0).sum();
+                (t - s).norm_sqr()
+            })
+            .sum()
     };
-    let cost_of = |p: &[f64]| -> f64 { target.iter().enumerate().map(|(j, t)| (t - model_at(p, k0 + j)).norm_sqr()).sum() };
     let mut cost = cost_of(&p);
     let mut mu = 1e-3;
     let mut jtj = vec![0.0; np * np];
@@ -312,10 +354,11 @@ fn lm_fit_multi(ev: &ModelEval, target: &[C64], k0: usize, init: &[(f64, f64, C6
     for _ in 0..300 {
         jtj.iter_mut().for_each(|v| *v = 0.0);
         jtr.iter_mut().for_each(|v| *v = 0.0);
+        let zs: Vec<ZPow> = (0..km).map(|m| zpow(ev, p[4 * m], p[4 * m + 1].exp())).collect();
         for (j, t) in target.iter().enumerate() {
             let mut s = C64::new(0.0, 0.0);
             for m in 0..km {
-                let (sm, jm) = mode_spectrum(ev, p[4 * m], p[4 * m + 1].exp(), C64::new(p[4 * m + 2], p[4 * m + 3]), k0 + j);
+                let (sm, jm) = mode_spectrum(ev, &zs[m], C64::new(p[4 * m + 2], p[4 * m + 3]), k0 + j);
                 s += sm;
                 jac[4 * m..4 * m + 4].copy_from_slice(&jm);
             }
@@ -349,8 +392,9 @@ fn lm_fit_multi(ev: &ModelEval, target: &[C64], k0: usize, init: &[(f64, f64, C6
             }
             for m in 0..km {
                 // Keep ln d in a sane range and 0 ≤ ω ≤ π fs.
-                q[4 * m + 1] = q[4 * m + 1].clamp(-9.0, 12.0);
-                q[4 * m] = q[4 * m].abs().min(std::f64::consts::PI * ev.fs);
+                // (A mode at exactly Nyquist in sine phase is identically zero: keep away.)
+                q[4 * m + 1] = q[4 * m + 1].clamp(-9.0, (0.25 * ev.fs).ln());
+                q[4 * m] = q[4 * m].abs().min(0.995 * std::f64::consts::PI * ev.fs);
             }
             let c = cost_of(&q);
             if c.is_finite() && c <= cost {
@@ -418,8 +462,9 @@ pub fn extract_impact(
         for l in 0..nlev {
             spectra.compute(l, &r);
         }
-        // Ren §4 global search: local maxima along frequency over all levels.
-        let mut best: Option<(f64, usize, usize)> = None;
+        // Ren §4 global search: local maxima along frequency over all levels, by power over
+        // the level's noise power.
+        let mut cands: Vec<(f64, usize, usize)> = Vec::new();
         for (l, lev) in spectra.levels.iter().enumerate() {
             let noise = sigma2 * lev.sw2;
             let sp = &lev.spec;
@@ -427,49 +472,49 @@ pub fn extract_impact(
                 let p = sp[k].norm_sqr();
                 let left = if k > 0 { sp[k - 1].norm_sqr() } else { 0.0 };
                 let right = if k + 1 < sp.len() { sp[k + 1].norm_sqr() } else { 0.0 };
-                if p < left || p < right {
+                if p < left || p < right || p < opts.peak_snr_min * noise {
                     continue;
                 }
-                let snr = p / noise;
-                if best.is_none_or(|b| snr > b.0) {
-                    let f = k as f64 * fs / lev.m as f64;
-                    if excluded.iter().any(|&(a, b)| f >= a && f <= b) {
-                        continue;
-                    }
-                    best = Some((snr, l, k));
+                let f = k as f64 * fs / lev.m as f64;
+                if excluded.iter().any(|&(a, b)| f >= a && f <= b) {
+                    continue;
                 }
+                cands.push((p / noise, l, k));
             }
         }
-        let Some((snr, l, k)) = best else { break };
-        if snr < opts.peak_snr_min {
+        if cands.is_empty() {
+            break;
+        }
+        cands.sort_by(|a, b| b.0.total_cmp(&a.0));
+        // Batch: fit up to BATCH peaks per spectrum update when their bands are far apart
+        // and they are within 10 dB of the strongest (a speed-up of the one-peak greedy loop:
+        // the FFTs of all levels dominate the cost).
+        const BATCH: usize = 8;
+        let top = cands[0].0;
+        let mut batch: Vec<(usize, usize, f64, f64)> = Vec::new();
+        for &(snr, l, k) in &cands {
+            if batch.len() >= BATCH || snr < top * 0.1 {
+                break;
+            }
+            let lev = &spectra.levels[l];
+            let bin_hz = fs / lev.m as f64;
+            let (_, hw) = peak_shape(&lev.spec, k);
+            let f = k as f64 * bin_hz;
+            let span = (3.0 * hw).max(8.0) * bin_hz;
+            if batch.iter().all(|&(_, _, f2, s2)| (f - f2).abs() > 2.0 * (span + s2)) {
+                batch.push((l, k, f, span));
+            }
+        }
+        for &(l, k, _, _) in &batch {
+        if modes.len() >= opts.max_features {
             break;
         }
         let lev = &spectra.levels[l];
-        let ev = ModelEval { w: lev.w, m: lev.m, fs };
+        let ev = ModelEval::new(lev, fs);
         let sp = &lev.spec;
-        // Initial frequency: parabolic interpolation of log power.
+        let (kf, hw_bins) = peak_shape(sp, k);
         let pk = sp[k].norm_sqr().max(1e-300);
-        let kf = if k > 0 && k + 1 < sp.len() {
-            let (a, b, c) = (sp[k - 1].norm_sqr().max(1e-300).ln(), pk.ln(), sp[k + 1].norm_sqr().max(1e-300).ln());
-            let den = a - 2.0 * b + c;
-            if den < 0.0 {
-                k as f64 + (0.5 * (a - c) / den).clamp(-0.5, 0.5)
-            } else {
-                k as f64
-            }
-        } else {
-            k as f64
-        };
-        // Half-power half-width in bins.
-        let mut lo = k;
-        while lo > 0 && sp[lo].norm_sqr() > 0.5 * pk {
-            lo -= 1;
-        }
-        let mut hi = k;
-        while hi + 1 < sp.len() && sp[hi].norm_sqr() > 0.5 * pk {
-            hi += 1;
-        }
-        let hw_bins = ((hi - lo) as f64 / 2.0).max(1.0);
+        let _ = pk;
         let bin_hz = fs / lev.m as f64;
         let half = (3.0 * hw_bins).ceil().max(8.0).min(1500.0) as usize;
         let k0 = k.saturating_sub(half);
@@ -539,6 +584,7 @@ pub fn extract_impact(
             subtract(&mut r, &mode, fs, 1.0);
             spectra.compute(l, &r);
             let lev = &spectra.levels[l];
+            let ev = ModelEval::new(lev, fs);
             let kmin = near.iter().map(|&j| (modes[j].omega / std::f64::consts::TAU / bin_hz) as usize).min().unwrap_or(k0).min(k0);
             let kmax = near.iter().map(|&j| (modes[j].omega / std::f64::consts::TAU / bin_hz).ceil() as usize).max().unwrap_or(k1).max(k1);
             let a0 = kmin.saturating_sub(8);
@@ -569,6 +615,7 @@ pub fn extract_impact(
             continue;
         }
         modes.push(mode);
+        }
     }
     // Back-fitting: refit each mode against residual + itself (Gauss–Seidel on the joint fit).
     for _ in 0..opts.backfit_passes {
@@ -581,7 +628,7 @@ pub fn extract_impact(
             subtract(&mut r, &m, fs, 1.0);
             spectra.compute(m.level, &r);
             let lev = &spectra.levels[m.level];
-            let ev = ModelEval { w: lev.w, m: lev.m, fs };
+            let ev = ModelEval::new(lev, fs);
             let bin_hz = fs / lev.m as f64;
             let kc = (m.omega / std::f64::consts::TAU / bin_hz).round() as usize;
             let hw_bins = (m.d / std::f64::consts::TAU / bin_hz).max(1.0) + lev.m as f64 / lev.w as f64;
@@ -605,7 +652,12 @@ pub fn extract_impact(
     let mut features: Vec<Feature> = modes
         .iter()
         .map(|m| Feature { freq_hz: m.omega / std::f64::consts::TAU, decay_per_s: m.d, amplitude: 2.0 * m.b.norm() })
-        .filter(|f| f.freq_hz >= opts.min_freq_hz && f.freq_hz < 0.5 * fs && f.decay_per_s >= opts.min_decay_per_s)
+        .filter(|f| {
+            f.freq_hz >= opts.min_freq_hz
+                && f.freq_hz < 0.49 * fs
+                && f.decay_per_s >= opts.min_decay_per_s
+                && f.decay_per_s <= opts.max_decay_per_s
+        })
         .collect();
     let amax = features.iter().fold(0.0f64, |m, f| m.max(f.amplitude));
     let amin = amax * 10f64.powf(opts.min_rel_amplitude_db / 20.0);
@@ -618,6 +670,32 @@ pub fn extract_impact(
         fitted_modes: fitted,
         rejected_peaks: rejected,
     })
+}
+
+/// Peak position (parabolic interpolation of log power, in bins) and half-power half-width
+/// (bins, ≥ 1) of the spectral peak at bin `k`.
+fn peak_shape(sp: &[C64], k: usize) -> (f64, f64) {
+    let pk = sp[k].norm_sqr().max(1e-300);
+    let kf = if k > 0 && k + 1 < sp.len() {
+        let (a, b, c) = (sp[k - 1].norm_sqr().max(1e-300).ln(), pk.ln(), sp[k + 1].norm_sqr().max(1e-300).ln());
+        let den = a - 2.0 * b + c;
+        if den < 0.0 {
+            k as f64 + (0.5 * (a - c) / den).clamp(-0.5, 0.5)
+        } else {
+            k as f64
+        }
+    } else {
+        k as f64
+    };
+    let mut lo = k;
+    while lo > 0 && sp[lo].norm_sqr() > 0.5 * pk {
+        lo -= 1;
+    }
+    let mut hi = k;
+    while hi + 1 < sp.len() && sp[hi].norm_sqr() > 0.5 * pk {
+        hi += 1;
+    }
+    (kf, ((hi - lo) as f64 / 2.0).max(1.0))
 }
 
 /// Adds `sign` × the mode to `r` (x[n] = 2 Re(B zⁿ)) and returns Σ r².

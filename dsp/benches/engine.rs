@@ -1,0 +1,105 @@
+//! Speed of the resonator kernel and the engine (figures go in the README).
+//!
+//! `cargo bench -p struck-dsp`. Throughput is reported in mode-samples per second.
+
+use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
+use dsp::engine::{Engine, NoteId, ObjectModes, SoundParams, Strike};
+use dsp::resonator::{ModeCoeffs, ResonatorBank};
+use dsp::Damping;
+use std::f64::consts::PI;
+use std::hint::black_box;
+
+const SR: f64 = 48_000.0;
+
+/// An object with `n` modes spread from 50 Hz to 20 kHz and 8 strike points.
+fn object(n: usize) -> ObjectModes {
+    let lambdas: Vec<f64> = (0..n).map(|i| (2.0 * PI * 50.0 * (400.0f64).powf(i as f64 / n as f64)).powi(2)).collect();
+    let gains: Vec<Vec<f32>> = (0..8).map(|p| (0..n).map(|i| (((i * 7 + p * 13) % 17) as f32 / 17.0 - 0.4).max(0.05)).collect()).collect();
+    ObjectModes::new(lambdas, &gains)
+}
+
+fn quiet_params() -> SoundParams {
+    // Light damping and full quality so no mode is culled and nothing ends during the bench.
+    SoundParams { damping: Damping::Rayleigh { alpha1: 0.01, alpha2: 0.0 }, quality_db: 200.0, hardness: 1.0, ..SoundParams::default() }
+}
+
+fn kernel(c: &mut Criterion) {
+    let _ftz = dsp::ftz::DenormalGuard::new();
+    let mut g = c.benchmark_group("resonator");
+    for modes in [32usize, 256, 1000] {
+        let mut bank = ResonatorBank::new(modes);
+        for k in 0..modes {
+            // Undamped so the state never decays towards subnormals however long the bench runs.
+            let s = bank.push(ModeCoeffs::new(0.0, 2.0 * PI * (60.0 + 19.0 * k as f64), SR)).unwrap();
+            bank.excite(s, 0.01);
+        }
+        let mut out = [0.0f32; 64];
+        g.throughput(Throughput::Elements((modes * 64) as u64));
+        g.bench_function(format!("{modes} modes x 64 samples"), |b| {
+            b.iter(|| {
+                bank.process(black_box(&mut out));
+            })
+        });
+    }
+    g.finish();
+}
+
+fn engine_16_voices(c: &mut Criterion) {
+    let _ftz = dsp::ftz::DenormalGuard::new();
+    let mut g = c.benchmark_group("engine");
+    let mut e = Engine::new(vec![object(1000)], 32, SR);
+    e.set_params(quiet_params());
+    e.reset();
+    for v in 0..16u8 {
+        e.note_on(NoteId { voice_id: None, channel: 0, key: 40 + v }, Strike { velocity: 1.0, position: f32::from(v) / 16.0, lambda_factor: 1.0 });
+    }
+    let mut out = vec![0.0f32; 512];
+    e.render(&mut out);
+    assert_eq!(e.active_modes(), 16_000);
+    g.throughput(Throughput::Elements(16_000 * 512));
+    g.bench_function("16 voices x 1000 modes, 512-sample block", |b| {
+        b.iter(|| {
+            out.fill(0.0);
+            e.render(black_box(&mut out));
+        })
+    });
+
+    // Worst-case block: 32 note-ons in one 512-sample block, each striking 1000 modes.
+    g.throughput(Throughput::Elements(1));
+    g.bench_function("block with a burst of 32 note-ons (1000 modes each)", |b| {
+        b.iter_batched(
+            || {
+                let mut e = Engine::new(vec![object(1000)], 32, SR);
+                e.set_params(quiet_params());
+                e.reset();
+                e
+            },
+            |mut e| {
+                for v in 0..32u8 {
+                    e.note_on(NoteId { voice_id: None, channel: 0, key: 30 + v }, Strike { velocity: 0.8, position: 0.3, lambda_factor: 1.0 });
+                }
+                let mut out = [0.0f32; 512];
+                e.render(&mut out);
+                e
+            },
+            BatchSize::LargeInput,
+        )
+    });
+
+    // A parameter change: every sounding mode's pole is rebuilt at the next control tick.
+    let mut flip = false;
+    g.bench_function("coefficient rebuild: 16 voices x 1000 modes (64 samples incl.)", |b| {
+        b.iter(|| {
+            flip = !flip;
+            let mut p = quiet_params();
+            p.damping = Damping::Rayleigh { alpha1: if flip { 0.01 } else { 0.02 }, alpha2: 0.0 };
+            e.set_params(p);
+            let mut out = [0.0f32; 256];
+            e.render(&mut out);
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, kernel, engine_16_voices);
+criterion_main!(benches);
