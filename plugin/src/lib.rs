@@ -3,6 +3,7 @@
 //! Glue only: parameters live in [`params`], the objects and materials in [`library`], the
 //! synthesis in the `dsp` crate; [`offline`] hosts this plugin for the command line and tests.
 
+pub mod capture;
 pub mod cli;
 pub mod library;
 pub mod midi_file;

@@ -47,6 +47,42 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Extract the impacts and modal features of recordings (WAV).
+    Features {
+        /// WAV files.
+        #[arg(required = true)]
+        files: Vec<PathBuf>,
+        /// Analyse this channel only (default: mix to mono).
+        #[arg(long)]
+        channel: Option<usize>,
+        /// Machine-readable output ({"impacts": [...]}).
+        #[arg(long)]
+        json: bool,
+    },
+    /// Estimate a material (damping law) from recordings of a struck object.
+    Estimate {
+        /// WAV files.
+        #[arg(required = true)]
+        files: Vec<PathBuf>,
+        /// Damping model: rayleigh, hybrid, power, caughey.
+        #[arg(long, default_value = "rayleigh")]
+        model: String,
+        /// Fit method: emg (maximum likelihood), lsq, lb.
+        #[arg(long, default_value = "emg")]
+        method: String,
+        /// The object recorded (id, name or index): also fits γ/γ₀ (pitch).
+        #[arg(long)]
+        object: Option<String>,
+        /// Analyse this channel only (default: mix to mono).
+        #[arg(long)]
+        channel: Option<usize>,
+        /// Material JSON to write.
+        #[arg(long)]
+        out: PathBuf,
+        /// Report JSON to write (features, every fit, warnings).
+        #[arg(long)]
+        report: Option<PathBuf>,
+    },
     /// Render notes to a WAV file through the plugin's process().
     Render {
         #[command(flatten)]
@@ -111,6 +147,12 @@ fn run(cli: Cli) -> Result<(), String> {
         Command::Materials { json } => cli::print_materials(json),
         Command::Params { json } => cli::print_params(json),
         Command::Modes { sound, note, velocity, json } => cli::print_modes(&sound.options(), note, velocity, json),
+        Command::Features { files, channel, json } => struck::capture::features(&files, channel, json),
+        Command::Estimate { files, model, method, object, channel, out, report } => {
+            let summary = struck::capture::estimate(&struck::capture::EstimateArgs { files, model, method, object, channel, out, report })?;
+            eprintln!("{summary}");
+            Ok(())
+        }
         Command::Render { sound, notes, midi, seconds, block_size, out } => {
             let opts = RenderOptions { sound: sound.options(), notes, midi: midi.as_deref().map(Path::to_path_buf), seconds, block_size, out };
             let summary = cli::render(&opts)?;

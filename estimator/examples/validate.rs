@@ -1,0 +1,72 @@
+//! Prints the validation tables and timings for RESULTS.md:
+//! `cargo run --release -p struck-estimator --example validate`.
+
+use std::time::Instant;
+
+use estimator::features::{extract_impact, ExtractOptions};
+use estimator::synth::{add_noise, mixture_modes, mixture_stats, ren_test, render, validate_points, Rng};
+use estimator::{fit_damping, Method, ModelKind};
+
+fn main() {
+    println!("## Ren §4 single-sinusoid test (100 draws)");
+    for (label, snr, seed) in [("noiseless (f32)", None, 2013), ("60 dB SNR", Some(60.0), 2014), ("40 dB SNR", Some(40.0), 2015)] {
+        let (ef, ed, wf, wd, miss) = ren_test(100, seed, snr);
+        println!("{label:16} mean rel err f {:.2e} ({:.5} %), d {:.2e} ({:.4} %); worst f {wf:.1e} d {wd:.1e}; missing {miss}", ef, 100.0 * ef, ed, 100.0 * ed);
+    }
+
+    println!("\n## 30-mode mixtures, 1 s at 44.1 kHz (20 impacts each)");
+    for snr in [40.0, 20.0] {
+        let s = mixture_stats(snr, 20, 100 + snr as u64, 44_100.0);
+        println!(
+            "{snr} dB: precision {:.3} recall {:.3} | recovered: damping err mean {:.2} % median {:.2} %, freq err mean {:.4} % | {:.0} ms/impact",
+            s.precision, s.recall, 100.0 * s.decay_err_mean, 100.0 * s.decay_err_median, 100.0 * s.freq_err_mean, 1e3 * s.seconds_per_impact
+        );
+    }
+
+    println!("\n## Thesis §4.3.3 synthetic validation (Rayleigh, 30 draws per N): mean relative error");
+    println!("| N | EMG α1 | EMG α2 | EMG curve | LSQ α1 | LSQ α2 | LSQ curve | LB α1 | LB α2 | LB curve |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    for n in [1usize, 2, 5, 10, 20, 40] {
+        let [e, l, b] = validate_points(n, 30, 4330 + n as u64);
+        println!(
+            "| {n} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} |",
+            e.alpha1, e.alpha2, e.curve, l.alpha1, l.alpha2, l.curve, b.alpha1, b.alpha2, b.curve
+        );
+    }
+
+    println!("\n## Timings (this machine, release)");
+    for n in [1_000usize, 10_000] {
+        let mut rng = Rng::new(n as u64);
+        let truth = dsp::Damping::Rayleigh { alpha1: 8.0, alpha2: 5e-8 };
+        let pts: Vec<(f64, f64)> = (0..n)
+            .map(|_| {
+                let l = (std::f64::consts::TAU * rng.log_uniform(100.0, 10_000.0)).powi(2);
+                (l, truth.c(l) + 0.5 * rng.normal() + rng.exponential(6.0))
+            })
+            .collect();
+        for model in [ModelKind::Rayleigh, ModelKind::Hybrid] {
+            let reps = if n > 5000 { 10 } else { 50 };
+            let t = Instant::now();
+            let mut its = 0;
+            for _ in 0..reps {
+                its = fit_damping(&pts, model, Method::Emg).unwrap().iterations;
+            }
+            println!("EMG {model:?} fit of {n} points: {:.2} ms ({its} BFGS iterations over all starts)", 1e3 * t.elapsed().as_secs_f64() / reps as f64);
+        }
+    }
+    let fs = 48_000.0;
+    let mut rng = Rng::new(5);
+    let cancel = std::sync::atomic::AtomicBool::new(false);
+    let mut total = 0.0;
+    let reps = 10;
+    for _ in 0..reps {
+        let modes = mixture_modes(&mut rng);
+        let mut x = render(&modes, fs, 48_000);
+        let nv = add_noise(&mut x, 40.0, 48_000, &mut rng);
+        let xf: Vec<f32> = x.iter().map(|&v| v as f32).collect();
+        let t = Instant::now();
+        let _ = extract_impact(&xf, fs, nv, &ExtractOptions::default(), &cancel).unwrap();
+        total += t.elapsed().as_secs_f64();
+    }
+    println!("feature extraction, 1 s 30-mode impact at 48 kHz, 40 dB SNR: {:.0} ms per impact (mean of {reps})", 1e3 * total / reps as f64);
+}

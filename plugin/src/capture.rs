@@ -1,0 +1,148 @@
+//! `struck features` and `struck estimate`: the estimator on the command line (SCIENCE.md
+//! §3–5). Progress goes to stderr; results are JSON.
+
+use crate::library::Library;
+use presets::{DampingSpec, Material, SCHEMA_VERSION};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+
+/// Parses a lowercase serde name ("rayleigh", "emg", …) into an estimator enum.
+fn parse_name<T: serde::de::DeserializeOwned>(what: &str, s: &str, known: &str) -> Result<T, String> {
+    serde_json::from_value(serde_json::Value::String(s.to_lowercase())).map_err(|_| format!("unknown {what} '{s}' (known: {known})"))
+}
+
+fn progress_printer(label: &'static str) -> impl Fn(f32) {
+    let last = std::cell::Cell::new(-1i32);
+    move |p: f32| {
+        let pct = (p.clamp(0.0, 1.0) * 100.0) as i32;
+        if pct / 5 != last.get() / 5 {
+            last.set(pct);
+            eprint!("\r{label}: {pct:3}%");
+            if pct >= 100 {
+                eprintln!();
+            }
+        }
+    }
+}
+
+/// `struck features FILE... --json`.
+///
+/// # Errors
+/// The estimator's one-line reason (unreadable file, silent recording, …).
+pub fn features(files: &[PathBuf], channel: Option<usize>, json: bool) -> Result<(), String> {
+    if files.is_empty() {
+        return Err("give at least one WAV file".into());
+    }
+    let opts = estimator::Options { channel, ..estimator::Options::default() };
+    let cancel = AtomicBool::new(false);
+    let report = estimator::extract_features(files, &opts, &progress_printer("features"), &cancel).map_err(|e| e.to_string())?;
+    for w in &report.warnings {
+        eprintln!("warning: {w}");
+    }
+    for s in &report.skipped {
+        eprintln!("skipped impact in {} at {:.3} s: {}", s.file, s.onset_s, s.reason);
+    }
+    if json {
+        println!("{}", serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?);
+    } else {
+        for imp in &report.impacts {
+            println!("{} @ {:.3} s: {} features", imp.file, imp.onset_s, imp.features.len());
+            for f in &imp.features {
+                println!("  {:10.2} Hz  d {:9.3} 1/s  a {:.3e}", f.freq_hz, f.decay_per_s, f.amplitude);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// What `struck estimate` was asked.
+pub struct EstimateArgs {
+    /// Recordings.
+    pub files: Vec<PathBuf>,
+    /// Damping model name.
+    pub model: String,
+    /// Fit method name.
+    pub method: String,
+    /// Object the recordings were made of (id, name or index), if known.
+    pub object: Option<String>,
+    /// Channel to analyse (default: mix to mono).
+    pub channel: Option<usize>,
+    /// Material file to write.
+    pub out: PathBuf,
+    /// Report file to write.
+    pub report: Option<PathBuf>,
+}
+
+/// `struck estimate …`: fits the material and writes it (and the report).
+///
+/// # Errors
+/// Bad arguments, the estimator's reason, or unwritable outputs.
+pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
+    if args.files.is_empty() {
+        return Err("give at least one WAV file".into());
+    }
+    let model: estimator::ModelKind = parse_name("model", &args.model, "rayleigh, hybrid, power, caughey")?;
+    let method: estimator::Method = parse_name("method", &args.method, "emg, lsq, lb")?;
+    let lib = Library::factory();
+    let bank = match &args.object {
+        Some(o) => Some(&lib.banks[crate::cli::resolve_object(&lib, o)?]),
+        None => None,
+    };
+    let opts = estimator::Options {
+        model,
+        method,
+        channel: args.channel,
+        object_lambdas: bank.map(|b| b.lambdas.clone()),
+        ..estimator::Options::default()
+    };
+    let cancel = AtomicBool::new(false);
+    let report = estimator::estimate(&args.files, &opts, &progress_printer("estimate"), &cancel).map_err(|e| e.to_string())?;
+    for w in &report.warnings {
+        eprintln!("warning: {w}");
+    }
+    let damping = report.damping();
+    let stem = args.out.file_stem().and_then(|s| s.to_str()).unwrap_or("material");
+    let id: String = stem.to_lowercase().chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '-' }).collect::<String>();
+    let id = format!("captured-{}", id.trim_matches('-')).chars().take(64).collect::<String>();
+    let names: Vec<String> = args.files.iter().map(|f| f.display().to_string()).collect();
+    // With a known object the fitted γ/γ₀ gives the material's specific modulus, so
+    // "Material sets pitch" plays it at the recording's pitch on that object (Ren §5).
+    let specific_modulus = match (bank, &report.object) {
+        (Some(b), Some(m)) if m.gamma_ratio.is_finite() && m.gamma_ratio > 0.0 => Some(m.gamma_ratio * b.reference.specific_modulus),
+        _ => None,
+    };
+    let material = Material {
+        schema_version: SCHEMA_VERSION,
+        id,
+        name: format!("Captured: {stem}"),
+        provenance: format!(
+            "Struck estimator: {} fit ({:?}) of {} features from {} impacts in {}",
+            report.model,
+            report.method,
+            report.n_points,
+            report.impacts.len(),
+            names.join(", ")
+        ),
+        specific_modulus,
+        damping: DampingSpec::from_damping(&damping),
+        notes: report.warnings.join("; "),
+    };
+    material.save(&args.out).map_err(|e| e.to_string())?;
+    if let Some(path) = &args.report {
+        write_json(path, &report)?;
+    }
+    Ok(format!(
+        "wrote {}: {} {:?} params {:?} from {} features in {} impacts",
+        args.out.display(),
+        report.model,
+        report.method,
+        material.damping.params,
+        report.n_points,
+        report.impacts.len()
+    ))
+}
+
+fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<(), String> {
+    let text = serde_json::to_string_pretty(value).map_err(|e| e.to_string())?;
+    std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
+}
