@@ -535,12 +535,30 @@ pub fn extract_impact(
         if modes.len() >= opts.max_features {
             break;
         }
+        // Fit on the longest level where the peak is still narrow (≤ 12 bins half-width):
+        // detection picks the level matched to the decay (best SNR), but the fit wants the
+        // finest frequency resolution to separate close modes.
+        let (l, k) = {
+            let lev = &spectra.levels[l];
+            let (kf, hw) = peak_shape(&lev.spec, k);
+            let bin = fs / lev.m as f64;
+            let (f_est, hw_hz) = (kf * bin, hw * bin);
+            let lf = (0..=l).find(|&j| hw_hz * spectra.levels[j].m as f64 / fs <= 12.0).unwrap_or(l);
+            if lf == l {
+                (l, k)
+            } else {
+                let sp = &spectra.levels[lf].spec;
+                let kc = ((f_est * spectra.levels[lf].m as f64 / fs).round() as usize).min(sp.len() - 1);
+                let a = kc.saturating_sub(3);
+                let b = (kc + 3).min(sp.len() - 1);
+                let kb = (a..=b).max_by(|&x, &y| sp[x].norm_sqr().total_cmp(&sp[y].norm_sqr())).unwrap_or(kc);
+                (lf, kb)
+            }
+        };
         let lev = &spectra.levels[l];
         let ev = ModelEval::new(lev, fs);
         let sp = &lev.spec;
         let (kf, hw_bins) = peak_shape(sp, k);
-        let pk = sp[k].norm_sqr().max(1e-300);
-        let _ = pk;
         let bin_hz = fs / lev.m as f64;
         let half = (3.0 * hw_bins).ceil().max(8.0).min(1500.0) as usize;
         let k0 = k.saturating_sub(half);

@@ -249,7 +249,9 @@ pub fn mixture_stats(snr_db: f64, impacts: usize, seed: u64, fs: f64) -> Mixture
         nfeat += fit.features.len();
         ntrue += modes.len();
         for m in &modes {
-            if let Some(f) = fit.features.iter().find(|f| (f.freq_hz / m.0 - 1.0).abs() < 0.005) {
+            // The strongest feature within 0.5 % stands for the mode.
+            let near = fit.features.iter().filter(|f| (f.freq_hz / m.0 - 1.0).abs() < 0.005);
+            if let Some(f) = near.max_by(|a, b| a.amplitude.total_cmp(&b.amplitude)) {
                 tp += 1;
                 derr.push((f.decay_per_s / m.1 - 1.0).abs());
                 ferr += (f.freq_hz / m.0 - 1.0).abs();
