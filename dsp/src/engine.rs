@@ -58,7 +58,7 @@ impl ObjectModes {
             .map(|row| row.iter().map(|g| f64::from(*g).powi(2)).sum::<f64>().sqrt())
             .sum::<f64>()
             / gains.len() as f64;
-        let norm = if mean_rms > 0.0 { (0.25 / mean_rms) as f32 } else { 1.0 };
+        let norm = if mean_rms > 0.0 { (0.7 / mean_rms) as f32 } else { 1.0 };
         ObjectModes { lambdas, gains: flat, num_points: gains.len(), norm }
     }
 

@@ -216,6 +216,7 @@ mod portable {
 
     /// One group of `LANES` modes per pass over the block; the compiler vectorises the lane
     /// loops with whatever the baseline target offers.
+    #[allow(clippy::needless_range_loop)] // lane loops index several arrays in lockstep
     pub fn run(
         re: &mut [f32],
         im: &mut [f32],
@@ -300,7 +301,7 @@ mod avx2 {
     }
 
     #[target_feature(enable = "avx2,fma")]
-    #[allow(clippy::too_many_arguments)]
+    #[allow(clippy::too_many_arguments, clippy::needless_range_loop)]
     unsafe fn group<const V: usize>(
         re: &mut [f32],
         im: &mut [f32],

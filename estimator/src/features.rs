@@ -23,7 +23,9 @@
 //!    with an analytic Jacobian. Complex instead of power: phase carries information, and the
 //!    fit is exact for a noiseless mode, so its accuracy is set by noise, not by the method.
 //!    A fit is accepted if its relative error in the band is below `max_fit_error` or at the
-//!    noise level (Ren's acceptance threshold); otherwise the peak is excluded.
+//!    noise level (Ren's acceptance threshold); otherwise the peak is excluded at that level
+//!    ("this level of power spectrogram is not sufficient"), and other levels may still
+//!    resolve it (e.g. two close modes that merge into one broad peak at short levels).
 //! 4. *Subtract and repeat* (Ren §4): the accepted mode is subtracted from the time-domain
 //!    residual; stop when the explained power fraction reaches its target, the strongest peak
 //!    is below `peak_snr_min` × noise, or `max_features` are found. Added step: back-fitting
@@ -69,6 +71,9 @@ impl Feature {
 pub struct ExtractOptions {
     /// Features decaying slower than this are treated as hum and dropped, s⁻¹.
     pub min_decay_per_s: f64,
+    /// Features whose energy a²/(4d)·fs over the noise power per sample (a matched-filter
+    /// SNR) is below this are dropped, dB. Needs a noise estimate (ignored when it is 0).
+    pub min_feature_snr_db: f64,
     /// Features decaying faster than this are clicks, not modes, and are dropped, s⁻¹.
     pub max_decay_per_s: f64,
     /// Features weaker than this, relative to the strongest in the impact, are dropped, dB.
@@ -92,6 +97,7 @@ impl Default for ExtractOptions {
         Self {
             min_decay_per_s: 0.05,
             max_decay_per_s: 3000.0,
+            min_feature_snr_db: 20.0,
             min_rel_amplitude_db: -60.0,
             min_freq_hz: 15.0,
             peak_snr_min: 40.0,
@@ -157,30 +163,49 @@ impl Spectra {
         let mut w = n;
         while w >= MIN_LEVEL.min(n) && w > 0 {
             let m = (2 * w).next_power_of_two();
-            let window: Vec<f64> =
-                (0..w).map(|i| 0.5 + 0.5 * (std::f64::consts::PI * i as f64 / w as f64).cos()).collect();
+            let window: Vec<f64> = (0..w)
+                .map(|i| 0.5 + 0.5 * (std::f64::consts::PI * i as f64 / w as f64).cos())
+                .collect();
             let sw2 = window.iter().map(|v| v * v).sum();
             let theta = |k: usize| -std::f64::consts::TAU * k as f64 / m as f64;
-            let ek = (0..=m / 2).map(|k| C64::from_polar(1.0, theta(k))).collect();
+            let ek = (0..=m / 2)
+                .map(|k| C64::from_polar(1.0, theta(k)))
+                .collect();
             // kW mod M keeps the angle small and exact.
-            let ekw = (0..=m / 2).map(|k| C64::from_polar(1.0, theta((k * w) % m))).collect();
-            levels.push(Level { w, m, ek, ekw, sw2, window, spec: vec![C64::new(0.0, 0.0); m / 2 + 1] });
+            let ekw = (0..=m / 2)
+                .map(|k| C64::from_polar(1.0, theta((k * w) % m)))
+                .collect();
+            levels.push(Level {
+                w,
+                m,
+                ek,
+                ekw,
+                sw2,
+                window,
+                spec: vec![C64::new(0.0, 0.0); m / 2 + 1],
+            });
             if w / 2 < MIN_LEVEL {
                 break;
             }
             w /= 2;
         }
-        Self { planner: RealFftPlanner::new(), levels, scratch_in: Vec::new() }
+        Self {
+            planner: RealFftPlanner::new(),
+            levels,
+            scratch_in: Vec::new(),
+        }
     }
 
     fn compute(&mut self, l: usize, r: &[f64]) {
         let lev = &mut self.levels[l];
         let fft = self.planner.plan_fft_forward(lev.m);
         self.scratch_in.clear();
-        self.scratch_in.extend(r[..lev.w].iter().zip(&lev.window).map(|(a, b)| a * b));
+        self.scratch_in
+            .extend(r[..lev.w].iter().zip(&lev.window).map(|(a, b)| a * b));
         self.scratch_in.resize(lev.m, 0.0);
         // PANIC: buffer lengths match the plan by construction.
-        fft.process(&mut self.scratch_in, &mut lev.spec).expect("fft sizes");
+        fft.process(&mut self.scratch_in, &mut lev.spec)
+            .expect("fft sizes");
     }
 }
 
@@ -203,7 +228,11 @@ impl<'a> ModelEval<'a> {
             fs,
             ek: &lev.ek,
             ekw: &lev.ekw,
-            us: [(0.5, C64::new(1.0, 0.0), 1.0), (0.25, C64::from_polar(1.0, half), -1.0), (0.25, C64::from_polar(1.0, -half), -1.0)],
+            us: [
+                (0.5, C64::new(1.0, 0.0), 1.0),
+                (0.25, C64::from_polar(1.0, half), -1.0),
+                (0.25, C64::from_polar(1.0, -half), -1.0),
+            ],
         }
     }
 
@@ -216,7 +245,11 @@ impl<'a> ModelEval<'a> {
         for (c, u, uw) in self.us {
             let q = z * u * ek;
             let one_m_q = C64::new(1.0, 0.0) - q;
-            g += if one_m_q.norm_sqr() < 1e-18 { C64::new(c * wf, 0.0) } else { c * (C64::new(1.0, 0.0) - zw * ekw * uw) / one_m_q };
+            g += if one_m_q.norm_sqr() < 1e-18 {
+                C64::new(c * wf, 0.0)
+            } else {
+                c * (C64::new(1.0, 0.0) - zw * ekw * uw) / one_m_q
+            };
         }
         g
     }
@@ -260,7 +293,10 @@ struct ZPow {
 fn zpow(ev: &ModelEval, omega: f64, d: f64) -> ZPow {
     let z = C64::from_polar((-d / ev.fs).exp(), omega / ev.fs);
     // z^W directly (exact) rather than by repeated multiplication.
-    let zw = C64::from_polar((-d * ev.w as f64 / ev.fs).exp(), (omega * ev.w as f64 / ev.fs) % std::f64::consts::TAU);
+    let zw = C64::from_polar(
+        (-d * ev.w as f64 / ev.fs).exp(),
+        (omega * ev.w as f64 / ev.fs) % std::f64::consts::TAU,
+    );
     ZPow { z, zw, d }
 }
 
@@ -352,17 +388,32 @@ fn project_amplitude(ev: &ModelEval, target: &[C64], k0: usize, omega: f64, d: f
 
 /// Levenberg–Marquardt on (ω, ln d, Re B, Im B) of one or more modes jointly against
 /// `target` (bins k0..). Returns the fitted modes and the final cost Σ|target − model|².
-fn lm_fit_multi(ev: &ModelEval, target: &[C64], k0: usize, init: &[(f64, f64, C64)]) -> (Vec<(f64, f64, C64)>, f64) {
+/// `max_it` bounds the iterations; it stops after three accepted steps gaining < `rtol`.
+fn lm_fit_multi(
+    ev: &ModelEval,
+    target: &[C64],
+    k0: usize,
+    init: &[(f64, f64, C64)],
+    max_it: usize,
+    rtol: f64,
+) -> (Vec<(f64, f64, C64)>, f64) {
     let km = init.len();
     let np = 4 * km;
-    let mut p: Vec<f64> = init.iter().flat_map(|&(w, d, b)| [w, d.max(1e-4).ln(), b.re, b.im]).collect();
+    let mut p: Vec<f64> = init
+        .iter()
+        .flat_map(|&(w, d, b)| [w, d.max(1e-4).ln(), b.re, b.im])
+        .collect();
     let cost_of = |p: &[f64]| -> f64 {
-        let zs: Vec<ZPow> = (0..km).map(|m| zpow(ev, p[4 * m], p[4 * m + 1].exp())).collect();
+        let zs: Vec<ZPow> = (0..km)
+            .map(|m| zpow(ev, p[4 * m], p[4 * m + 1].exp()))
+            .collect();
         target
             .iter()
             .enumerate()
             .map(|(j, t)| {
-                let s: C64 = (0..km).map(|m| mode_value(ev, &zs[m], C64::new(p[4 * m + 2], p[4 * m + 3]), k0 + j)).sum();
+                let s: C64 = (0..km)
+                    .map(|m| mode_value(ev, &zs[m], C64::new(p[4 * m + 2], p[4 * m + 3]), k0 + j))
+                    .sum();
                 (t - s).norm_sqr()
             })
             .sum()
@@ -373,15 +424,17 @@ fn lm_fit_multi(ev: &ModelEval, target: &[C64], k0: usize, init: &[(f64, f64, C6
     let mut jtr = vec![0.0; np];
     let mut jac = vec![C64::new(0.0, 0.0); np];
     let mut small = 0;
-    let max_it = if km == 1 { 200 } else { 60 };
     for _ in 0..max_it {
         jtj.iter_mut().for_each(|v| *v = 0.0);
         jtr.iter_mut().for_each(|v| *v = 0.0);
-        let zs: Vec<ZPow> = (0..km).map(|m| zpow(ev, p[4 * m], p[4 * m + 1].exp())).collect();
+        let zs: Vec<ZPow> = (0..km)
+            .map(|m| zpow(ev, p[4 * m], p[4 * m + 1].exp()))
+            .collect();
         for (j, t) in target.iter().enumerate() {
             let mut s = C64::new(0.0, 0.0);
             for m in 0..km {
-                let (sm, jm) = mode_spectrum(ev, &zs[m], C64::new(p[4 * m + 2], p[4 * m + 3]), k0 + j);
+                let (sm, jm) =
+                    mode_spectrum(ev, &zs[m], C64::new(p[4 * m + 2], p[4 * m + 3]), k0 + j);
                 s += sm;
                 jac[4 * m..4 * m + 4].copy_from_slice(&jm);
             }
@@ -427,7 +480,7 @@ fn lm_fit_multi(ev: &ModelEval, target: &[C64], k0: usize, init: &[(f64, f64, C6
                 mu = (mu * 0.3).max(1e-12);
                 // Stop after three accepted steps that gain < 1e-13 (narrow valleys of
                 // heavily damped low modes need many small steps, so not after the first).
-                small = if rel < 1e-13 { small + 1 } else { 0 };
+                small = if rel < rtol { small + 1 } else { 0 };
                 improved = small < 3;
                 break;
             }
@@ -437,12 +490,30 @@ fn lm_fit_multi(ev: &ModelEval, target: &[C64], k0: usize, init: &[(f64, f64, C6
             break;
         }
     }
-    ((0..km).map(|m| (p[4 * m], p[4 * m + 1].exp(), C64::new(p[4 * m + 2], p[4 * m + 3]))).collect(), cost)
+    (
+        (0..km)
+            .map(|m| {
+                (
+                    p[4 * m],
+                    p[4 * m + 1].exp(),
+                    C64::new(p[4 * m + 2], p[4 * m + 3]),
+                )
+            })
+            .collect(),
+        cost,
+    )
 }
 
 /// Single-mode [`lm_fit_multi`].
-fn lm_fit(ev: &ModelEval, target: &[C64], k0: usize, omega0: f64, d0: f64, b0: C64) -> (f64, f64, C64, f64) {
-    let (m, c) = lm_fit_multi(ev, target, k0, &[(omega0, d0, b0)]);
+fn lm_fit(
+    ev: &ModelEval,
+    target: &[C64],
+    k0: usize,
+    omega0: f64,
+    d0: f64,
+    b0: C64,
+) -> (f64, f64, C64, f64) {
+    let (m, c) = lm_fit_multi(ev, target, k0, &[(omega0, d0, b0)], 200, 1e-13);
     (m[0].0, m[0].1, m[0].2, c)
 }
 
@@ -474,7 +545,7 @@ pub fn extract_impact(
     let nlev = spectra.levels.len();
     let mut modes: Vec<Mode> = Vec::new();
     // Frequency intervals (Hz) whose peaks were rejected.
-    let mut excluded: Vec<(f64, f64)> = Vec::new();
+    let mut excluded: Vec<(usize, f64, f64)> = Vec::new();
     let mut rejected = 0usize;
     let mut residual: f64 = total;
     let max_iter = opts.max_features * 3 + 10;
@@ -497,12 +568,19 @@ pub fn extract_impact(
             for k in 0..sp.len() {
                 let p = sp[k].norm_sqr();
                 let left = if k > 0 { sp[k - 1].norm_sqr() } else { 0.0 };
-                let right = if k + 1 < sp.len() { sp[k + 1].norm_sqr() } else { 0.0 };
+                let right = if k + 1 < sp.len() {
+                    sp[k + 1].norm_sqr()
+                } else {
+                    0.0
+                };
                 if p < left || p < right || p < opts.peak_snr_min * noise {
                     continue;
                 }
                 let f = k as f64 * fs / lev.m as f64;
-                if excluded.iter().any(|&(a, b)| f >= a && f <= b) {
+                if excluded
+                    .iter()
+                    .any(|&(el, a, b)| el == l && f >= a && f <= b)
+                {
                     continue;
                 }
                 cands.push((p / noise, l, k));
@@ -527,180 +605,348 @@ pub fn extract_impact(
             let (_, hw) = peak_shape(&lev.spec, k);
             let f = k as f64 * bin_hz;
             let span = (3.0 * hw).max(8.0) * bin_hz;
-            if batch.iter().all(|&(_, _, f2, s2)| (f - f2).abs() > 2.0 * (span + s2)) {
+            if batch
+                .iter()
+                .all(|&(_, _, f2, s2)| (f - f2).abs() > 2.0 * (span + s2))
+            {
                 batch.push((l, k, f, span));
             }
         }
-        for &(l, k, _, _) in &batch {
-        if modes.len() >= opts.max_features {
-            break;
-        }
-        // Fit on the longest level where the peak is still narrow (≤ 12 bins half-width):
-        // detection picks the level matched to the decay (best SNR), but the fit wants the
-        // finest frequency resolution to separate close modes.
-        let (l, k) = {
-            let lev = &spectra.levels[l];
-            let (kf, hw) = peak_shape(&lev.spec, k);
-            let bin = fs / lev.m as f64;
-            let (f_est, hw_hz) = (kf * bin, hw * bin);
-            let lf = (0..=l).find(|&j| hw_hz * spectra.levels[j].m as f64 / fs <= 12.0).unwrap_or(l);
-            if lf == l {
-                (l, k)
-            } else {
-                let sp = &spectra.levels[lf].spec;
-                let kc = ((f_est * spectra.levels[lf].m as f64 / fs).round() as usize).min(sp.len() - 1);
-                let a = kc.saturating_sub(3);
-                let b = (kc + 3).min(sp.len() - 1);
-                let kb = (a..=b).max_by(|&x, &y| sp[x].norm_sqr().total_cmp(&sp[y].norm_sqr())).unwrap_or(kc);
-                (lf, kb)
+        for &(l, k, f_det, span_det) in &batch {
+            // Rejected peaks are excluded over at least the detection peak's span (in Hz), so the
+            // same peak is not picked again from its detection level.
+            let excl_hw = span_det / 3.0;
+            let l_det = l;
+            if modes.len() >= opts.max_features {
+                break;
             }
-        };
-        let lev = &spectra.levels[l];
-        let ev = ModelEval::new(lev, fs);
-        let sp = &lev.spec;
-        let (kf, hw_bins) = peak_shape(sp, k);
-        let bin_hz = fs / lev.m as f64;
-        let half = (3.0 * hw_bins).ceil().max(8.0).min(1500.0) as usize;
-        let k0 = k.saturating_sub(half);
-        let k1 = (k + half).min(sp.len() - 1);
-        let target: Vec<C64> = sp[k0..=k1].to_vec();
-        let omega0 = std::f64::consts::TAU * kf * bin_hz;
-        // Coarse search of d by variable projection, then LM (Ren's continuous optimiser).
-        let d_hi = (std::f64::consts::TAU * hw_bins * bin_hz * 2.0).max(1.0);
-        let d_lo = (0.05 * fs / lev.w as f64).min(d_hi / 4.0).max(1e-3);
-        // A peak wider than its frequency (heavily damped low mode, or its peak at DC): the
-        // maximum of |X| is no longer at ω_d, so search ω too.
-        let hw_rad = std::f64::consts::TAU * hw_bins * bin_hz;
-        let omegas: Vec<f64> = if hw_rad > 0.3 * omega0 {
-            let lo = std::f64::consts::TAU * 2.0;
-            let hi = omega0 + 3.0 * hw_rad;
-            (0..=16).map(|i| lo * (hi / lo).powf(i as f64 / 16.0)).collect()
-        } else {
-            vec![omega0]
-        };
-        let mut best_d = (omega0, d_lo, C64::new(0.0, 0.0), f64::INFINITY);
-        let steps = 16;
-        for &om in &omegas {
-            for s in 0..=steps {
-                let d = d_lo * (d_hi / d_lo).powf(s as f64 / steps as f64);
-                let (b, c) = project_amplitude(&ev, &target, k0, om, d);
-                if c < best_d.3 {
-                    best_d = (om, d, b, c);
+            // Fit on the longest level where the peak is still narrow (≤ 12 bins half-width):
+            // detection picks the level matched to the decay (best SNR), but the fit wants the
+            // finest frequency resolution to separate close modes.
+            let (l, k) = {
+                let lev = &spectra.levels[l];
+                let (kf, hw) = peak_shape(&lev.spec, k);
+                let bin = fs / lev.m as f64;
+                let (f_est, hw_hz) = (kf * bin, hw * bin);
+                let lf = (0..=l)
+                    .find(|&j| hw_hz * spectra.levels[j].m as f64 / fs <= 12.0)
+                    .unwrap_or(l);
+                if lf == l {
+                    (l, k)
+                } else {
+                    let sp = &spectra.levels[lf].spec;
+                    let kc = ((f_est * spectra.levels[lf].m as f64 / fs).round() as usize)
+                        .min(sp.len() - 1);
+                    let a = kc.saturating_sub(3);
+                    let b = (kc + 3).min(sp.len() - 1);
+                    let kb = (a..=b)
+                        .max_by(|&x, &y| sp[x].norm_sqr().total_cmp(&sp[y].norm_sqr()))
+                        .unwrap_or(kc);
+                    (lf, kb)
                 }
-            }
-        }
-        let (omega, d, b, cost) = lm_fit(&ev, &target, k0, best_d.0, best_d.1, best_d.2);
-        let band: f64 = target.iter().map(|t| t.norm_sqr()).sum();
-        let band_noise = sigma2 * lev.sw2 * target.len() as f64 * (2.0 * lev.w as f64 / lev.m as f64).min(1.0);
-        let ok = omega.is_finite() && d.is_finite() && (cost < opts.max_fit_error * band || cost < 3.0 * band_noise);
-        let dist_hz = omega / std::f64::consts::TAU;
-        if !ok || dist_hz > 0.5 * fs {
-            rejected += 1;
-            let f0 = kf * bin_hz;
-            excluded.push((f0 - hw_bins * bin_hz, f0 + hw_bins * bin_hz));
-            continue;
-        }
-        let mode = Mode { omega, d, b, level: l };
-        let before = residual;
-        residual = subtract(&mut r, &mode, fs, -1.0);
-        if residual >= before {
-            // Fitting made things worse (should not happen); undo and exclude the peak.
-            residual = subtract(&mut r, &mode, fs, 1.0);
-            rejected += 1;
-            let f0 = kf * bin_hz;
-            excluded.push((f0 - hw_bins * bin_hz, f0 + hw_bins * bin_hz));
-            continue;
-        }
-        // Joint refit with already-found modes whose spectra overlap this band (Ren §4:
-        // the trial mode is added to all modes collected so far before comparing).
-        let band_lo = (k0 as f64 * bin_hz - 0.0) * std::f64::consts::TAU;
-        let band_hi = (k1 as f64 * bin_hz) * std::f64::consts::TAU;
-        let mut near: Vec<usize> = (0..modes.len())
-            .filter(|&j| modes[j].omega > band_lo && modes[j].omega < band_hi)
-            .collect();
-        near.sort_by(|&a, &b| (modes[a].omega - omega).abs().total_cmp(&(modes[b].omega - omega).abs()));
-        near.truncate(3);
-        if !near.is_empty() {
-            let before = residual;
-            for &j in &near {
-                subtract(&mut r, &modes[j], fs, 1.0);
-            }
-            subtract(&mut r, &mode, fs, 1.0);
-            spectra.compute(l, &r);
+            };
             let lev = &spectra.levels[l];
             let ev = ModelEval::new(lev, fs);
-            let kmin = near.iter().map(|&j| (modes[j].omega / std::f64::consts::TAU / bin_hz) as usize).min().unwrap_or(k0).min(k0);
-            let kmax = near.iter().map(|&j| (modes[j].omega / std::f64::consts::TAU / bin_hz).ceil() as usize).max().unwrap_or(k1).max(k1);
-            let a0 = kmin.saturating_sub(8).max(k0.saturating_sub(8));
-            let a1 = (kmax + 8).min(k1 + 8).min(lev.spec.len() - 1);
-            let target: Vec<C64> = lev.spec[a0..=a1].to_vec();
-            let mut init = vec![(mode.omega, mode.d, mode.b)];
-            init.extend(near.iter().map(|&j| (modes[j].omega, modes[j].d, modes[j].b)));
-            let (fitted, _) = lm_fit_multi(&ev, &target, a0, &init);
-            let new: Vec<Mode> = fitted.iter().map(|&(omega, d, b)| Mode { omega, d, b, level: l }).collect();
-            for m in &new {
-                residual = subtract(&mut r, m, fs, -1.0);
-            }
-            if residual <= before {
-                modes.push(new[0]);
-                for (i, &j) in near.iter().enumerate() {
-                    modes[j] = Mode { level: modes[j].level, ..new[i + 1] };
-                }
+            let sp = &lev.spec;
+            let (kf, hw_bins) = peak_shape(sp, k);
+            let bin_hz = fs / lev.m as f64;
+            let half = (3.0 * hw_bins).ceil().clamp(8.0, 1500.0) as usize;
+            let k0 = k.saturating_sub(half);
+            let k1 = (k + half).min(sp.len() - 1);
+            let target: Vec<C64> = sp[k0..=k1].to_vec();
+            let omega0 = std::f64::consts::TAU * kf * bin_hz;
+            // Coarse search of d by variable projection, then LM (Ren's continuous optimiser).
+            let d_hi = (std::f64::consts::TAU * hw_bins * bin_hz * 2.0).max(1.0);
+            let d_lo = (0.05 * fs / lev.w as f64).min(d_hi / 4.0).max(1e-3);
+            // A peak wider than its frequency (heavily damped low mode, or its peak at DC): the
+            // maximum of |X| is no longer at ω_d, so search ω too.
+            let hw_rad = std::f64::consts::TAU * hw_bins * bin_hz;
+            let omegas: Vec<f64> = if hw_rad > 0.3 * omega0 {
+                let lo = std::f64::consts::TAU * 2.0;
+                let hi = omega0 + 3.0 * hw_rad;
+                (0..=16)
+                    .map(|i| lo * (hi / lo).powf(i as f64 / 16.0))
+                    .collect()
             } else {
-                for m in &new {
-                    subtract(&mut r, m, fs, 1.0);
+                vec![omega0]
+            };
+            let mut best_d = (omega0, d_lo, C64::new(0.0, 0.0), f64::INFINITY);
+            let steps = 16;
+            for &om in &omegas {
+                for s in 0..=steps {
+                    let d = d_lo * (d_hi / d_lo).powf(s as f64 / steps as f64);
+                    let (b, c) = project_amplitude(&ev, &target, k0, om, d);
+                    if c < best_d.3 {
+                        best_d = (om, d, b, c);
+                    }
                 }
-                for &j in &near {
-                    subtract(&mut r, &modes[j], fs, -1.0);
-                }
-                residual = subtract(&mut r, &mode, fs, -1.0);
-                modes.push(mode);
             }
-            continue;
-        }
-        modes.push(mode);
+            let (omega, d, b, cost) = lm_fit(&ev, &target, k0, best_d.0, best_d.1, best_d.2);
+            let band: f64 = target.iter().map(|t| t.norm_sqr()).sum();
+            let band_noise = sigma2
+                * lev.sw2
+                * target.len() as f64
+                * (2.0 * lev.w as f64 / lev.m as f64).min(1.0);
+            let ok = omega.is_finite()
+                && d.is_finite()
+                && (cost < opts.max_fit_error * band || cost < 3.0 * band_noise);
+            let dist_hz = omega / std::f64::consts::TAU;
+            if !ok || dist_hz > 0.5 * fs {
+                rejected += 1;
+                let f0 = kf * bin_hz;
+                let hw_hz = (hw_bins * bin_hz).max(excl_hw);
+                excluded.push((
+                    l_det,
+                    (f0 - hw_hz).min(f_det - excl_hw),
+                    (f0 + hw_hz).max(f_det + excl_hw),
+                ));
+                continue;
+            }
+            let mode = Mode {
+                omega,
+                d,
+                b,
+                level: l,
+            };
+            let before = residual;
+            residual = subtract(&mut r, &mode, fs, -1.0);
+            if residual >= before {
+                // Fitting made things worse (should not happen); undo and exclude the peak.
+                residual = subtract(&mut r, &mode, fs, 1.0);
+                rejected += 1;
+                let f0 = kf * bin_hz;
+                let hw_hz = (hw_bins * bin_hz).max(excl_hw);
+                excluded.push((
+                    l_det,
+                    (f0 - hw_hz).min(f_det - excl_hw),
+                    (f0 + hw_hz).max(f_det + excl_hw),
+                ));
+                continue;
+            }
+            // Joint refit with already-found modes whose spectra overlap this band (Ren §4:
+            // the trial mode is added to all modes collected so far before comparing).
+            let band_lo = (k0 as f64 * bin_hz - 0.0) * std::f64::consts::TAU;
+            let band_hi = (k1 as f64 * bin_hz) * std::f64::consts::TAU;
+            let mut near: Vec<usize> = (0..modes.len())
+                .filter(|&j| modes[j].omega > band_lo && modes[j].omega < band_hi)
+                .collect();
+            near.sort_by(|&a, &b| {
+                (modes[a].omega - omega)
+                    .abs()
+                    .total_cmp(&(modes[b].omega - omega).abs())
+            });
+            near.truncate(3);
+            if !near.is_empty() {
+                let before = residual;
+                for &j in &near {
+                    subtract(&mut r, &modes[j], fs, 1.0);
+                }
+                subtract(&mut r, &mode, fs, 1.0);
+                spectra.compute(l, &r);
+                let lev = &spectra.levels[l];
+                let ev = ModelEval::new(lev, fs);
+                let kmin = near
+                    .iter()
+                    .map(|&j| (modes[j].omega / std::f64::consts::TAU / bin_hz) as usize)
+                    .min()
+                    .unwrap_or(k0)
+                    .min(k0);
+                let kmax = near
+                    .iter()
+                    .map(|&j| (modes[j].omega / std::f64::consts::TAU / bin_hz).ceil() as usize)
+                    .max()
+                    .unwrap_or(k1)
+                    .max(k1);
+                let a0 = kmin.saturating_sub(8).max(k0.saturating_sub(8));
+                let a1 = (kmax + 8).min(k1 + 8).min(lev.spec.len() - 1);
+                let target: Vec<C64> = lev.spec[a0..=a1].to_vec();
+                let mut init = vec![(mode.omega, mode.d, mode.b)];
+                init.extend(
+                    near.iter()
+                        .map(|&j| (modes[j].omega, modes[j].d, modes[j].b)),
+                );
+                let (fitted, _) = lm_fit_multi(&ev, &target, a0, &init, 60, 1e-13);
+                let new: Vec<Mode> = fitted
+                    .iter()
+                    .map(|&(omega, d, b)| Mode {
+                        omega,
+                        d,
+                        b,
+                        level: l,
+                    })
+                    .collect();
+                for m in &new {
+                    residual = subtract(&mut r, m, fs, -1.0);
+                }
+                if residual <= before {
+                    modes.push(new[0]);
+                    for (i, &j) in near.iter().enumerate() {
+                        modes[j] = Mode {
+                            level: modes[j].level,
+                            ..new[i + 1]
+                        };
+                    }
+                } else {
+                    for m in &new {
+                        subtract(&mut r, m, fs, 1.0);
+                    }
+                    for &j in &near {
+                        subtract(&mut r, &modes[j], fs, -1.0);
+                    }
+                    residual = subtract(&mut r, &mode, fs, -1.0);
+                    modes.push(mode);
+                }
+                continue;
+            }
+            modes.push(mode);
         }
     }
-    // Back-fitting: refit each mode against residual + itself (Gauss–Seidel on the joint fit).
+    // Back-fitting: refit each mode, jointly with the modes whose peaks lie in its band,
+    // against residual + themselves (block Gauss–Seidel on the joint least-squares fit).
+    // The level spectra are computed once per sweep; changes made during the sweep are
+    // applied to them in closed form (exact, and much cheaper than an FFT per mode), and
+    // the time-domain residual is rebuilt at the end of the sweep.
     for _ in 0..opts.backfit_passes {
+        if modes.is_empty() {
+            break;
+        }
+        let mut used = vec![false; nlev];
+        modes.iter().for_each(|m| used[m.level] = true);
+        for (l, &u) in used.iter().enumerate() {
+            if u {
+                spectra.compute(l, &r);
+            }
+        }
+        let base = modes.clone();
+        let mut changed = vec![false; modes.len()];
         for i in 0..modes.len() {
             if cancel.load(Ordering::Relaxed) {
                 return Err(EstimateError::Cancelled);
             }
             let m = modes[i];
-            let before = residual;
-            subtract(&mut r, &m, fs, 1.0);
-            spectra.compute(m.level, &r);
-            let lev = &spectra.levels[m.level];
+            let l = m.level;
+            let lev = &spectra.levels[l];
             let ev = ModelEval::new(lev, fs);
             let bin_hz = fs / lev.m as f64;
             let kc = (m.omega / std::f64::consts::TAU / bin_hz).round() as usize;
-            let hw_bins = (m.d / std::f64::consts::TAU / bin_hz).max(1.0) + lev.m as f64 / lev.w as f64;
-            let half = (3.0 * hw_bins).ceil().max(8.0).min(1500.0) as usize;
-            let k0 = kc.saturating_sub(half).min(lev.spec.len() - 1);
-            let k1 = (kc + half).min(lev.spec.len() - 1);
-            let target: Vec<C64> = lev.spec[k0..=k1].to_vec();
-            let (omega, d, b, _) = lm_fit(&ev, &target, k0, m.omega, m.d, m.b);
-            let new = Mode { omega, d, b, level: m.level };
-            let after = subtract(&mut r, &new, fs, -1.0);
+            let hw_bins =
+                (m.d / std::f64::consts::TAU / bin_hz).max(1.0) + lev.m as f64 / lev.w as f64;
+            let half = (3.0 * hw_bins).ceil().clamp(8.0, 1500.0) as usize;
+            let (lo_w, hi_w) = (
+                kc.saturating_sub(half) as f64 * bin_hz * std::f64::consts::TAU,
+                (kc + half) as f64 * bin_hz * std::f64::consts::TAU,
+            );
+            let mut near: Vec<usize> = (0..modes.len())
+                .filter(|&j| j != i && modes[j].omega > lo_w && modes[j].omega < hi_w)
+                .collect();
+            near.sort_by(|&a, &b| {
+                (modes[a].omega - m.omega)
+                    .abs()
+                    .total_cmp(&(modes[b].omega - m.omega).abs())
+            });
+            near.truncate(3);
+            let mut group = vec![i];
+            group.extend(&near);
+            let kj = |j: usize| (modes[j].omega / std::f64::consts::TAU / bin_hz).round() as usize;
+            let kmin = group.iter().map(|&j| kj(j)).min().unwrap_or(kc);
+            let kmax = group.iter().map(|&j| kj(j)).max().unwrap_or(kc);
+            let k0 = kc
+                .saturating_sub(half)
+                .min(kmin.saturating_sub(8))
+                .min(lev.spec.len() - 1);
+            let k1 = (kmax + 8).max(kc + half).min(lev.spec.len() - 1);
+            // Target: residual spectrum at sweep start, corrected for this sweep's changes,
+            // plus the group's own current models.
+            let mut target: Vec<C64> = lev.spec[k0..=k1].to_vec();
+            for j in 0..modes.len() {
+                let in_group = group.contains(&j);
+                if !changed[j] && !in_group {
+                    continue;
+                }
+                let zc = zpow(&ev, modes[j].omega, modes[j].d);
+                let zb = zpow(&ev, base[j].omega, base[j].d);
+                for (t, k) in target.iter_mut().zip(k0..) {
+                    if changed[j] {
+                        *t += mode_value(&ev, &zb, base[j].b, k)
+                            - mode_value(&ev, &zc, modes[j].b, k);
+                    }
+                    if in_group {
+                        *t += mode_value(&ev, &zc, modes[j].b, k);
+                    }
+                }
+            }
+            let init: Vec<(f64, f64, C64)> = group
+                .iter()
+                .map(|&j| (modes[j].omega, modes[j].d, modes[j].b))
+                .collect();
+            let (fitted, _) = lm_fit_multi(&ev, &target, k0, &init, 15, 1e-9);
+            // Accept only if the time-domain residual does not grow (a fit can trade a
+            // smaller band error for broadband junk outside the band).
+            let before = residual;
+            for &j in &group {
+                subtract(&mut r, &modes[j], fs, 1.0);
+            }
+            let mut after = before;
+            for (gi, &(omega, d, b)) in fitted.iter().enumerate() {
+                after = subtract(
+                    &mut r,
+                    &Mode {
+                        omega,
+                        d,
+                        b,
+                        level: modes[group[gi]].level,
+                    },
+                    fs,
+                    -1.0,
+                );
+            }
             if after.is_finite() && after <= before * (1.0 + 1e-12) {
-                modes[i] = new;
+                for (gi, &(omega, d, b)) in fitted.iter().enumerate() {
+                    modes[group[gi]] = Mode {
+                        omega,
+                        d,
+                        b,
+                        level: modes[group[gi]].level,
+                    };
+                    changed[group[gi]] = true;
+                }
                 residual = after;
             } else {
-                subtract(&mut r, &new, fs, 1.0);
-                residual = subtract(&mut r, &m, fs, -1.0);
+                for (gi, &(omega, d, b)) in fitted.iter().enumerate() {
+                    subtract(
+                        &mut r,
+                        &Mode {
+                            omega,
+                            d,
+                            b,
+                            level: modes[group[gi]].level,
+                        },
+                        fs,
+                        1.0,
+                    );
+                }
+                for &j in &group {
+                    residual = subtract(&mut r, &modes[j], fs, -1.0);
+                }
             }
         }
     }
     let fitted = modes.len();
     let mut features: Vec<Feature> = modes
         .iter()
-        .map(|m| Feature { freq_hz: m.omega / std::f64::consts::TAU, decay_per_s: m.d, amplitude: 2.0 * m.b.norm() })
+        .map(|m| Feature {
+            freq_hz: m.omega / std::f64::consts::TAU,
+            decay_per_s: m.d,
+            amplitude: 2.0 * m.b.norm(),
+        })
         .filter(|f| {
             f.freq_hz >= opts.min_freq_hz
                 && f.freq_hz < 0.49 * fs
                 && f.decay_per_s >= opts.min_decay_per_s
                 && f.decay_per_s <= opts.max_decay_per_s
+                && (noise_var <= 0.0
+                    || f.amplitude * f.amplitude * fs / (4.0 * f.decay_per_s * noise_var)
+                        >= 10f64.powf(opts.min_feature_snr_db / 10.0))
         })
         .collect();
     let amax = features.iter().fold(0.0f64, |m, f| m.max(f.amplitude));
@@ -721,7 +967,11 @@ pub fn extract_impact(
 fn peak_shape(sp: &[C64], k: usize) -> (f64, f64) {
     let pk = sp[k].norm_sqr().max(1e-300);
     let kf = if k > 0 && k + 1 < sp.len() {
-        let (a, b, c) = (sp[k - 1].norm_sqr().max(1e-300).ln(), pk.ln(), sp[k + 1].norm_sqr().max(1e-300).ln());
+        let (a, b, c) = (
+            sp[k - 1].norm_sqr().max(1e-300).ln(),
+            pk.ln(),
+            sp[k + 1].norm_sqr().max(1e-300).ln(),
+        );
         let den = a - 2.0 * b + c;
         if den < 0.0 {
             k as f64 + (0.5 * (a - c) / den).clamp(-0.5, 0.5)
@@ -752,7 +1002,11 @@ fn subtract(r: &mut [f64], m: &Mode, fs: f64, sign: f64) -> f64 {
     let mut e = 0.0;
     for (ci, chunk) in r.chunks_mut(1024).enumerate() {
         let n0 = (ci * 1024) as f64;
-        let p0 = b2 * C64::from_polar((-m.d * n0 / fs).exp(), (m.omega * n0 / fs) % std::f64::consts::TAU);
+        let p0 = b2
+            * C64::from_polar(
+                (-m.d * n0 / fs).exp(),
+                (m.omega * n0 / fs) % std::f64::consts::TAU,
+            );
         let mut p = [p0, p0 * z, p0 * z * z, p0 * z * z * z];
         let mut quads = chunk.chunks_exact_mut(4);
         for q in &mut quads {

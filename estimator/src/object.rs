@@ -32,15 +32,26 @@ const TOL: f64 = 0.01;
 
 /// Matches `features` to bank eigenvalues `lambdas0` (rad²/s²); `gains0` are optional
 /// per-mode gains for the amplitude scale. Returns `None` when either list is empty.
-pub fn match_object(features: &[Feature], lambdas0: &[f64], gains0: Option<&[f64]>) -> Option<ObjectMatch> {
-    let mut bank: Vec<(f64, usize)> =
-        lambdas0.iter().enumerate().filter(|(_, &l)| l > 0.0 && l.is_finite()).map(|(i, &l)| (0.5 * l.ln(), i)).collect();
+pub fn match_object(
+    features: &[Feature],
+    lambdas0: &[f64],
+    gains0: Option<&[f64]>,
+) -> Option<ObjectMatch> {
+    let mut bank: Vec<(f64, usize)> = lambdas0
+        .iter()
+        .enumerate()
+        .filter(|(_, &l)| l > 0.0 && l.is_finite())
+        .map(|(i, &l)| (0.5 * l.ln(), i))
+        .collect();
     if bank.is_empty() || features.is_empty() {
         return None;
     }
     bank.sort_by(|a, b| a.0.total_cmp(&b.0));
     // ln ω of each feature (ω² = λ); weight by amplitude.
-    let feats: Vec<(f64, f64)> = features.iter().map(|f| (0.5 * f.lambda().ln(), f.amplitude)).collect();
+    let feats: Vec<(f64, f64)> = features
+        .iter()
+        .map(|f| (0.5 * f.lambda().ln(), f.amplitude))
+        .collect();
     let wsum: f64 = feats.iter().map(|f| f.1).sum::<f64>().max(1e-300);
     let tol = (1.0 + TOL).ln();
     // Nearest bank mode (in ln ω) to `v`.
@@ -116,7 +127,11 @@ pub fn match_object(features: &[Feature], lambdas0: &[f64], gains0: Option<&[f64
         amplitude_scale: if gg > 0.0 { ag / gg } else { 0.0 },
         matched,
         features: feats.len(),
-        rms_cents: if wm > 0.0 { (ss / wm).sqrt() * 1200.0 / std::f64::consts::LN_2 } else { 0.0 },
+        rms_cents: if wm > 0.0 {
+            (ss / wm).sqrt() * 1200.0 / std::f64::consts::LN_2
+        } else {
+            0.0
+        },
     })
 }
 
@@ -126,13 +141,24 @@ mod tests {
 
     #[test]
     fn recovers_modulus_ratio() {
-        let l0: Vec<f64> = [1.0, 2.76, 5.40, 8.93, 13.3, 18.6].iter().map(|k| k * (std::f64::consts::TAU * 300.0f64).powi(2)).collect();
+        let l0: Vec<f64> = [1.0, 2.76, 5.40, 8.93, 13.3, 18.6]
+            .iter()
+            .map(|k| k * (std::f64::consts::TAU * 300.0f64).powi(2))
+            .collect();
         let r = 1.37;
         let feats: Vec<Feature> = l0
             .iter()
             .take(5)
-            .map(|l| Feature { freq_hz: (r * l).sqrt() / std::f64::consts::TAU * 1.001, decay_per_s: 3.0, amplitude: 0.1 })
-            .chain([Feature { freq_hz: 777.0, decay_per_s: 50.0, amplitude: 0.05 }])
+            .map(|l| Feature {
+                freq_hz: (r * l).sqrt() / std::f64::consts::TAU * 1.001,
+                decay_per_s: 3.0,
+                amplitude: 0.1,
+            })
+            .chain([Feature {
+                freq_hz: 777.0,
+                decay_per_s: 50.0,
+                amplitude: 0.05,
+            }])
             .collect();
         let m = match_object(&feats, &l0, None).unwrap();
         assert!((m.gamma_ratio / r - 1.0).abs() < 0.005, "{m:?}");

@@ -19,13 +19,23 @@ pub struct OptResult {
 
 /// Minimises `f` from `x0`; `f(x, g)` returns the value and writes the gradient into `g`.
 /// Stops when `‖g‖∞ ≤ gtol` or after `max_iter` iterations.
-pub fn bfgs<F: FnMut(&[f64], &mut [f64]) -> f64>(mut f: F, x0: &[f64], max_iter: usize, gtol: f64) -> OptResult {
+pub fn bfgs<F: FnMut(&[f64], &mut [f64]) -> f64>(
+    mut f: F,
+    x0: &[f64],
+    max_iter: usize,
+    gtol: f64,
+) -> OptResult {
     let n = x0.len();
     let mut x = x0.to_vec();
     let mut g = vec![0.0; n];
     let mut fx = f(&x, &mut g);
     if !fx.is_finite() {
-        return OptResult { x, f: fx, iterations: 0, converged: false };
+        return OptResult {
+            x,
+            f: fx,
+            iterations: 0,
+            converged: false,
+        };
     }
     let mut h = vec![0.0; n * n];
     for i in 0..n {
@@ -126,7 +136,8 @@ pub fn bfgs<F: FnMut(&[f64], &mut [f64]) -> f64>(mut f: F, x0: &[f64], max_iter:
             let yhy: f64 = y.iter().zip(&hy).map(|(a, b)| a * b).sum();
             for i in 0..n {
                 for j in 0..n {
-                    h[i * n + j] += -rho * (hy[i] * s[j] + s[i] * hy[j]) + (rho * rho * yhy + rho) * s[i] * s[j];
+                    h[i * n + j] += -rho * (hy[i] * s[j] + s[i] * hy[j])
+                        + (rho * rho * yhy + rho) * s[i] * s[j];
                 }
             }
         }
@@ -137,27 +148,11 @@ pub fn bfgs<F: FnMut(&[f64], &mut [f64]) -> f64>(mut f: F, x0: &[f64], max_iter:
             break;
         }
     }
-    OptResult { x, f: fx, iterations: it, converged }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn rosenbrock() {
-        let r = bfgs(
-            |x, g| {
-                let (a, b) = (x[0], x[1]);
-                g[0] = -2.0 * (1.0 - a) - 400.0 * a * (b - a * a);
-                g[1] = 200.0 * (b - a * a);
-                (1.0 - a).powi(2) + 100.0 * (b - a * a).powi(2)
-            },
-            &[-1.2, 1.0],
-            500,
-            1e-10,
-        );
-        assert!((r.x[0] - 1.0).abs() < 1e-6 && (r.x[1] - 1.0).abs() < 1e-6, "{r:?}");
+    OptResult {
+        x,
+        f: fx,
+        iterations: it,
+        converged,
     }
 }
 
@@ -168,7 +163,7 @@ fn cholesky(a: &mut [f64], n: usize) -> bool {
         for k in 0..j {
             d -= a[j * n + k] * a[j * n + k];
         }
-        if !(d > 0.0) || !d.is_finite() {
+        if d.is_nan() || d <= 0.0 || !d.is_finite() {
             return false;
         }
         let d = d.sqrt();
@@ -206,7 +201,12 @@ fn chol_solve(l: &[f64], b: &mut [f64], n: usize) {
 /// added (Levenberg–Marquardt style) until it is; steps use a backtracking Armijo search.
 /// Converges quadratically near the optimum, so EMG fits take ~10 iterations instead of
 /// BFGS's ~50.
-pub fn newton<F: FnMut(&[f64], &mut [f64], &mut [f64]) -> f64>(mut f: F, x0: &[f64], max_iter: usize, gtol: f64) -> OptResult {
+pub fn newton<F: FnMut(&[f64], &mut [f64], &mut [f64]) -> f64>(
+    mut f: F,
+    x0: &[f64],
+    max_iter: usize,
+    gtol: f64,
+) -> OptResult {
     let n = x0.len();
     let mut x = x0.to_vec();
     let mut g = vec![0.0; n];
@@ -215,7 +215,12 @@ pub fn newton<F: FnMut(&[f64], &mut [f64], &mut [f64]) -> f64>(mut f: F, x0: &[f
     let mut hn = vec![0.0; n * n];
     let mut fx = f(&x, &mut g, &mut h);
     if !fx.is_finite() {
-        return OptResult { x, f: fx, iterations: 0, converged: false };
+        return OptResult {
+            x,
+            f: fx,
+            iterations: 0,
+            converged: false,
+        };
     }
     let mut xn = vec![0.0; n];
     let mut it = 0;
@@ -227,7 +232,10 @@ pub fn newton<F: FnMut(&[f64], &mut [f64], &mut [f64]) -> f64>(mut f: F, x0: &[f
             converged = true;
             break;
         }
-        let scale = (0..n).map(|i| h[i * n + i].abs()).fold(0.0f64, f64::max).max(1e-12);
+        let scale = (0..n)
+            .map(|i| h[i * n + i].abs())
+            .fold(0.0f64, f64::max)
+            .max(1e-12);
         let mut shift = 0.0;
         let mut p = vec![0.0; n];
         for _ in 0..60 {
@@ -240,10 +248,14 @@ pub fn newton<F: FnMut(&[f64], &mut [f64], &mut [f64]) -> f64>(mut f: F, x0: &[f
                 chol_solve(&a, &mut p, n);
                 break;
             }
-            shift = if shift == 0.0 { 1e-8 * scale } else { shift * 10.0 };
+            shift = if shift == 0.0 {
+                1e-8 * scale
+            } else {
+                shift * 10.0
+            };
         }
         let slope: f64 = p.iter().zip(&g).map(|(a, b)| a * b).sum();
-        if !(slope < 0.0) {
+        if slope.is_nan() || slope >= 0.0 {
             break;
         }
         // Keep the first steps sane in the log-parameters.
@@ -277,5 +289,34 @@ pub fn newton<F: FnMut(&[f64], &mut [f64], &mut [f64]) -> f64>(mut f: F, x0: &[f
             break;
         }
     }
-    OptResult { x, f: fx, iterations: it, converged }
+    OptResult {
+        x,
+        f: fx,
+        iterations: it,
+        converged,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rosenbrock() {
+        let r = bfgs(
+            |x, g| {
+                let (a, b) = (x[0], x[1]);
+                g[0] = -2.0 * (1.0 - a) - 400.0 * a * (b - a * a);
+                g[1] = 200.0 * (b - a * a);
+                (1.0 - a).powi(2) + 100.0 * (b - a * a).powi(2)
+            },
+            &[-1.2, 1.0],
+            500,
+            1e-10,
+        );
+        assert!(
+            (r.x[0] - 1.0).abs() < 1e-6 && (r.x[1] - 1.0).abs() < 1e-6,
+            "{r:?}"
+        );
+    }
 }

@@ -1,6 +1,7 @@
 //! `struck features` and `struck estimate`: the estimator on the command line (SCIENCE.md
 //! §3–5). Progress goes to stderr; results are JSON.
 
+use crate::cli::outln;
 use crate::library::Library;
 use presets::{DampingSpec, Material, SCHEMA_VERSION};
 use std::path::{Path, PathBuf};
@@ -43,12 +44,12 @@ pub fn features(files: &[PathBuf], channel: Option<usize>, json: bool) -> Result
         eprintln!("skipped impact in {} at {:.3} s: {}", s.file, s.onset_s, s.reason);
     }
     if json {
-        println!("{}", serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?);
+        outln!("{}", serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?);
     } else {
         for imp in &report.impacts {
-            println!("{} @ {:.3} s: {} features", imp.file, imp.onset_s, imp.features.len());
+            outln!("{} @ {:.3} s: {} features", imp.file, imp.onset_s, imp.features.len());
             for f in &imp.features {
-                println!("  {:10.2} Hz  d {:9.3} 1/s  a {:.3e}", f.freq_hz, f.decay_per_s, f.amplitude);
+                outln!("  {:10.2} Hz  d {:9.3} 1/s  a {:.3e}", f.freq_hz, f.decay_per_s, f.amplitude);
             }
         }
     }

@@ -1,5 +1,14 @@
 //! The command line's work, as a library so tests and `xtask` use the same code.
 
+/// `println!` that ignores a closed pipe (`struck modes --json | head` must not panic).
+macro_rules! outln {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($t)*);
+    }};
+}
+pub(crate) use outln;
+
 use crate::library::Library;
 use crate::offline::{note_off, note_on, set_timing, OfflineHost, TimedEvent};
 use crate::params::{DampingModelParam, LAMBDA_10K, LAMBDA_1K};
@@ -377,11 +386,11 @@ pub fn print_objects(json: bool) -> Result<(), String> {
                 })
             })
             .collect();
-        println!("{}", serde_json::to_string_pretty(&v).map_err(|e| e.to_string())?);
+        outln!("{}", serde_json::to_string_pretty(&v).map_err(|e| e.to_string())?);
     } else {
         for (i, b) in lib.banks.iter().enumerate() {
             let f = b.frequencies_hz();
-            println!(
+            outln!(
                 "{i:2}  {:16} {:28} {:4} modes, {:3} points, {:.1}–{:.0} Hz",
                 b.id,
                 b.name,
@@ -408,13 +417,13 @@ pub fn print_materials(json: bool) -> Result<(), String> {
             .enumerate()
             .map(|(i, m)| serde_json::json!({"index": i, "id": m.id, "name": m.name, "provenance": m.provenance, "specific_modulus": m.specific_modulus, "damping": m.damping}))
             .collect();
-        println!("{}", serde_json::to_string_pretty(&v).map_err(|e| e.to_string())?);
+        outln!("{}", serde_json::to_string_pretty(&v).map_err(|e| e.to_string())?);
     } else {
         for (i, (m, d)) in lib.materials.iter().zip(&lib.dampings).enumerate() {
             let t60 = |f: f64| 6.91 / (0.5 * d.c((2.0 * std::f64::consts::PI * f).powi(2)));
-            println!("{i:2}  {:28} {:30} T60 {:6.2} s @200 Hz, {:6.3} s @1 kHz, {:6.3} s @5 kHz", m.id, m.name, t60(200.0), t60(1000.0), t60(5000.0));
+            outln!("{i:2}  {:28} {:30} T60 {:6.2} s @200 Hz, {:6.3} s @1 kHz, {:6.3} s @5 kHz", m.id, m.name, t60(200.0), t60(1000.0), t60(5000.0));
         }
-        println!("{:2}  custom                       (the damping knobs)", lib.custom_material_index());
+        outln!("{:2}  custom                       (the damping knobs)", lib.custom_material_index());
     }
     Ok(())
 }
@@ -442,10 +451,10 @@ pub fn print_params(json: bool) -> Result<(), String> {
     }
     if json {
         let v: Vec<_> = rows.iter().map(|(id, n, d, lo, hi, s)| serde_json::json!({"id": id, "name": n, "default": d, "min": lo, "max": hi, "default_text": s})).collect();
-        println!("{}", serde_json::to_string_pretty(&v).map_err(|e| e.to_string())?);
+        outln!("{}", serde_json::to_string_pretty(&v).map_err(|e| e.to_string())?);
     } else {
         for (id, n, d, lo, hi, s) in rows {
-            println!("{id:10} {n:24} default {d:<10} range {lo}..={hi}  ({s})");
+            outln!("{id:10} {n:24} default {d:<10} range {lo}..={hi}  ({s})");
         }
     }
     Ok(())
@@ -462,11 +471,11 @@ pub fn print_modes(opts: &SoundOptions, note: u8, velocity: u8, json: bool) -> R
             .iter()
             .map(|&(f, d, a)| serde_json::json!({"freq_hz": f, "decay_per_s": d, "gain": a, "t60_s": 6.91 / d}))
             .collect();
-        println!("{}", serde_json::to_string_pretty(&v).map_err(|e| e.to_string())?);
+        outln!("{}", serde_json::to_string_pretty(&v).map_err(|e| e.to_string())?);
     } else {
-        println!("{:>12} {:>12} {:>10} {:>12}", "freq_hz", "decay_per_s", "t60_s", "gain");
+        outln!("{:>12} {:>12} {:>10} {:>12}", "freq_hz", "decay_per_s", "t60_s", "gain");
         for (f, d, a) in modes {
-            println!("{f:12.3} {d:12.4} {:10.3} {a:12.6}", 6.91 / d);
+            outln!("{f:12.3} {d:12.4} {:10.3} {a:12.6}", 6.91 / d);
         }
     }
     Ok(())

@@ -13,8 +13,9 @@
 //!   extension: a second instance loading the saved state plays identically to the first, and
 //!   differently from a fresh instance.
 //!
-//! Which binary: `$STRUCK_CLAP` if set, else `target/bundled/Struck.clap`, else
-//! `target/debug/libstruck.so` (the test does not build it: run `cargo xtask bundle struck` or
+//! Which binary: `$STRUCK_CLAP` if set (`cargo xtask test` bundles the debug plugin and sets
+//! it to `target/bundled/Struck.clap`), else `target/debug/libstruck.so` (built by `cargo test`
+//! as the tests' dependency), else `target/bundled/Struck.clap` (the test does not build it: run `cargo xtask bundle struck` or
 //! `cargo build -p struck` first, or the test may exercise a stale binary).
 
 use std::ffi::CStr;
@@ -60,7 +61,7 @@ fn hash_param_id(id: &str) -> u32 {
     h & !(1 << 31)
 }
 
-/// `$STRUCK_CLAP`, else the bundle, else the debug cdylib.
+/// `$STRUCK_CLAP`, else the debug cdylib that `cargo test` just built, else the bundle.
 fn plugin_binary() -> PathBuf {
     if let Some(p) = std::env::var_os("STRUCK_CLAP") {
         let p = PathBuf::from(p);
@@ -68,7 +69,9 @@ fn plugin_binary() -> PathBuf {
         return p;
     }
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("workspace root");
-    let candidates = [root.join("target/bundled/Struck.clap"), root.join("target/debug/libstruck.so")];
+    // `cargo test` builds the plugin (cdylib included) into deps/ as this crate's dependency;
+    // only a direct `cargo build -p struck` updates the uplifted copy.
+    let candidates = [root.join("target/debug/deps/libstruck.so"), root.join("target/debug/libstruck.so"), root.join("target/bundled/Struck.clap")];
     candidates.iter().find(|p| p.exists()).cloned().unwrap_or_else(|| {
         panic!(
             "no Struck CLAP binary found (looked for $STRUCK_CLAP, {}): \

@@ -37,8 +37,10 @@ fn run() -> Result<(), String> {
         Some("test") => {
             // The CLAP host test loads the debug bundle built with allocation assertions.
             nice_plug_xtask::chdir_workspace_root().map_err(|e| e.to_string())?;
-            nice_plug_xtask::main_with_args("cargo xtask", ["bundle", "struck", "--features", "assert_process_allocs", "--target-dir", "target/host-test"].map(String::from))
+            nice_plug_xtask::main_with_args("cargo xtask", ["bundle", "struck", "--features", "assert_process_allocs"].map(String::from))
                 .map_err(|e| format!("bundling the test plugin failed: {e:#}"))?;
+            // SAFETY: single-threaded at this point; the variable is read by the child.
+            unsafe { std::env::set_var("STRUCK_CLAP", std::env::current_dir().map_err(|e| e.to_string())?.join("target/bundled/Struck.clap")) };
             let mut test = vec!["test", "--workspace"];
             test.extend(args[1..].iter().map(String::as_str));
             cargo(&test)
