@@ -188,3 +188,54 @@ fn silent_voices_end_and_tell_the_host() {
     let end = sent[0].0 as usize;
     assert!(out[0][end..].iter().all(|&v| v == 0.0));
 }
+
+#[test]
+fn release_and_pressure_add_their_decay_rate_to_every_mode() {
+    use nice_plug::midi::{Channel, Key, VoiceID};
+    use nice_plug::prelude::NoteEvent;
+    use struck::offline::{note_off, TimedEvent};
+    let sr = f64::from(SR);
+    let set = [("release", 30.0), ("pressdamp", 50.0)];
+    let o = opts("bar", "steel-sterling-rayleigh", &set);
+    let modes = predicted_modes(&o, 45, 100).unwrap();
+    let chosen = measurable(&modes, sr, 30.0, 0.22, 4);
+    assert_eq!(chosen.len(), 4);
+    // Note-off at 0.1 s: from then on every mode decays at d + 30 s⁻¹.
+    let mut h = host("bar", "steel-sterling-rayleigh", SR, &set);
+    let mut events = struck::cli::note_events(&[note(45, 100, None)], sr);
+    events.push(TimedEvent { sample: 4800, event: note_off(45) });
+    let (x, _) = h.render(&events, 48_000, 256);
+    for &(f, d, _) in &chosen {
+        let (_, dm) = measure_mode(&x[0], sr, f, 4800 + 960, 4800, 2400);
+        assert!((dm / (d + 30.0) - 1.0).abs() < 0.01, "release: mode {f:.1} Hz decays at {dm}, want {}", d + 30.0);
+    }
+    // Half pressure from 0.1 s: d + 0.5·50 s⁻¹.
+    let mut h = host("bar", "steel-sterling-rayleigh", SR, &set);
+    let mut events = struck::cli::note_events(&[note(45, 100, None)], sr);
+    events.push(TimedEvent {
+        sample: 4800,
+        event: NoteEvent::PolyPressure { timing: 0, voice_id: VoiceID::ID(0), channel: Channel::Number(0), key: Key::Number(45), pressure: 0.5 },
+    });
+    let (x, _) = h.render(&events, 48_000, 256);
+    for &(f, d, _) in &chosen {
+        let (_, dm) = measure_mode(&x[0], sr, f, 4800 + 960, 4800, 2400);
+        assert!((dm / (d + 25.0) - 1.0).abs() < 0.01, "pressure: mode {f:.1} Hz decays at {dm}, want {}", d + 25.0);
+    }
+}
+
+#[test]
+fn positions_mode_keys_pick_strike_points_at_one_pitch() {
+    let lib = struck::library::Library::factory();
+    let points = lib.banks[lib.bank_index("rect-plate").unwrap()].num_points();
+    // KeyMode::Positions is the enum's second value.
+    let set = [("keymode", 1.0), ("root", 48.0)];
+    let o = opts("rect-plate", "steel-sterling-rayleigh", &set);
+    let a = predicted_modes(&o, 48, 100).unwrap();
+    let b = predicted_modes(&o, 48 + 5, 100).unwrap();
+    let wrap = predicted_modes(&o, 48 + points as u8, 100).unwrap();
+    // Same pitch: the lowest modes agree in frequency; different point: gains differ.
+    assert!((a[0].0 - b[0].0).abs() < 1e-9);
+    assert!(a.iter().zip(&b).any(|(x, y)| (x.2 - y.2).abs() > 1e-3));
+    // Keys wrap around the strike points.
+    assert_eq!(a, wrap);
+}
