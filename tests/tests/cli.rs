@@ -1,0 +1,61 @@
+//! The command line's renderer: MIDI files, note timing and WAV output.
+
+use struck::cli::{render, RenderOptions, SoundOptions};
+
+/// A format-0 MIDI file (96 ppq, 120 bpm): a note-on after `delay_ticks`.
+fn midi_file(delay_ticks: u8, key: u8) -> Vec<u8> {
+    let trk = [0x00, 0xFF, 0x51, 0x03, 0x07, 0xA1, 0x20, delay_ticks, 0x90, key, 100, 0x60, 0x80, key, 0, 0x00, 0xFF, 0x2F, 0x00];
+    let mut f = b"MThd\x00\x00\x00\x06\x00\x00\x00\x01\x00\x60MTrk".to_vec();
+    f.extend((trk.len() as u32).to_be_bytes());
+    f.extend(trk);
+    f
+}
+
+#[test]
+fn a_midi_file_note_starts_at_its_time_in_the_wav() {
+    let dir = std::env::temp_dir();
+    let mid = dir.join(format!("struck-cli-{}.mid", std::process::id()));
+    let wav = dir.join(format!("struck-cli-{}.wav", std::process::id()));
+    // 48 ticks at 96 ppq and 120 bpm = 0.25 s.
+    std::fs::write(&mid, midi_file(48, 64)).unwrap();
+    let opts = RenderOptions {
+        sound: SoundOptions { sample_rate: 44_100, ..SoundOptions::default() },
+        notes: None,
+        midi: Some(mid.clone()),
+        seconds: Some(1.0),
+        block_size: 300,
+        out: wav.clone(),
+    };
+    render(&opts).unwrap();
+    let mut r = hound::WavReader::open(&wav).unwrap();
+    let spec = r.spec();
+    assert_eq!((spec.channels, spec.sample_rate, spec.bits_per_sample), (2, 44_100, 32));
+    let x: Vec<f32> = r.samples::<f32>().map(Result::unwrap).step_by(2).collect();
+    assert_eq!(x.len(), 44_100);
+    let first = x.iter().position(|v| *v != 0.0).unwrap();
+    // The strike lands on the note-on's sample (the sine starts one sample later).
+    assert!((11_025..=11_027).contains(&first), "first sound at sample {first}");
+    assert!(x[..11_025].iter().all(|v| *v == 0.0));
+    let _ = std::fs::remove_file(mid);
+    let _ = std::fs::remove_file(wav);
+}
+
+#[test]
+fn unwritable_output_and_bad_midi_are_one_line_errors() {
+    let opts = RenderOptions {
+        sound: SoundOptions::default(),
+        notes: Some("60:100".into()),
+        midi: None,
+        seconds: Some(0.1),
+        block_size: 64,
+        out: "/nonexistent-dir/x.wav".into(),
+    };
+    let e = render(&opts).unwrap_err();
+    assert!(e.starts_with("cannot write /nonexistent-dir/x.wav") && !e.contains('\n'), "{e}");
+    let bad = std::env::temp_dir().join(format!("struck-bad-{}.mid", std::process::id()));
+    std::fs::write(&bad, b"MThd garbage").unwrap();
+    let opts = RenderOptions { midi: Some(bad.clone()), notes: None, out: std::env::temp_dir().join("struck-never.wav"), ..opts };
+    let e = render(&opts).unwrap_err();
+    assert!(e.contains("not a readable MIDI file"), "{e}");
+    let _ = std::fs::remove_file(bad);
+}
