@@ -10,6 +10,12 @@
 //! damping parameters in SI units as in `dsp::Damping`. Spectra in [`features`] are one-sided
 //! real FFTs, unnormalised, bin k at k·fs/M Hz.
 //!
+//! Memory: each file is streamed and kept only as mono `f32`, at most 15 minutes and
+//! 64 Mi samples (256 MiB; [`wav::MAX_SAMPLES`]); longer files are truncated with a warning.
+//! Files are processed one at a time, so peak memory is one file plus per-impact work
+//! buffers (a few × the impact length in `f64`, impacts are at most
+//! `SegmentOptions::max_impact_s` = 6 s by default).
+//!
 //! Everything here allocates and may take seconds: run it on a background thread. Inputs
 //! and outputs are `Send`; progress is reported through a callback (0..1) and a shared
 //! `AtomicBool` cancels between impacts and inside long loops.

@@ -326,3 +326,29 @@ fn no_impacts_and_send() {
     is_send::<EstimateError>();
     is_send::<Options>();
 }
+
+#[test]
+fn extreme_sample_rates() {
+    for fs in [8_000u32, 192_000] {
+        let mut rng = Rng::new(u64::from(fs));
+        let (x, _) =
+            estimator::synth::render_session(&mut rng, (5.0, 3e-8), 2, f64::from(fs), 40.0);
+        let p = tmp(&format!("rate{fs}"));
+        write_wav_f32(&p, &x, fs).unwrap();
+        let cancel = AtomicBool::new(false);
+        let rep = extract_features(
+            std::slice::from_ref(&p),
+            &Options::default(),
+            &|_| {},
+            &cancel,
+        )
+        .unwrap();
+        assert_eq!(rep.impacts.len(), 2, "{fs} Hz: {:?}", rep.skipped);
+        assert!(rep.impacts.iter().all(|i| i.features.len() >= 5), "{fs} Hz");
+        assert!(rep
+            .impacts
+            .iter()
+            .flat_map(|i| &i.features)
+            .all(|f| f.freq_hz < 0.5 * f64::from(fs)));
+    }
+}
