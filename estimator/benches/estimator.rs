@@ -1,0 +1,54 @@
+//! Speed of the estimator: EMG fits and feature extraction (figures in the README).
+//!
+//! `cargo bench -p struck-estimator`.
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use estimator::synth::{add_noise, mixture_modes, render, Rng};
+use estimator::{fit_damping, ExtractOptions, Method, ModelKind};
+use std::hint::black_box;
+use std::sync::atomic::AtomicBool;
+
+/// `n` (λ, c) points: Rayleigh material plus exponential support damping and 3 % noise.
+fn points(n: usize, seed: u64) -> Vec<(f64, f64)> {
+    let mut rng = Rng::new(seed);
+    (0..n)
+        .map(|_| {
+            let f = rng.log_uniform(100.0, 15_000.0);
+            let lambda = (std::f64::consts::TAU * f).powi(2);
+            let c = 6.0 + 4e-8 * lambda;
+            (lambda, c * (1.0 + 0.03 * rng.normal()) + rng.exponential(0.2 * c))
+        })
+        .collect()
+}
+
+fn fits(c: &mut Criterion) {
+    let mut g = c.benchmark_group("fit");
+    for n in [1_000usize, 10_000] {
+        let p = points(n, 7);
+        for (model, name) in [(ModelKind::Rayleigh, "rayleigh"), (ModelKind::Hybrid, "hybrid")] {
+            g.bench_function(format!("EMG {name}, {n} points"), |b| b.iter(|| fit_damping(black_box(&p), model, Method::Emg).unwrap()));
+        }
+        g.bench_function(format!("LSQ rayleigh, {n} points"), |b| b.iter(|| fit_damping(black_box(&p), ModelKind::Rayleigh, Method::Lsq).unwrap()));
+    }
+    g.finish();
+}
+
+fn extraction(c: &mut Criterion) {
+    let mut g = c.benchmark_group("features");
+    g.sample_size(10);
+    let fs = 48_000.0;
+    let mut rng = Rng::new(3);
+    let modes = mixture_modes(&mut rng);
+    let mut x = render(&modes, fs, 48_000);
+    let noise_var = add_noise(&mut x, 40.0, 48_000, &mut rng);
+    let x32: Vec<f32> = x.iter().map(|v| *v as f32).collect();
+    let cancel = AtomicBool::new(false);
+    let opts = ExtractOptions::default();
+    g.bench_function("30-mode 1 s impact at 48 kHz, 40 dB SNR", |b| {
+        b.iter(|| estimator::features::extract_impact(black_box(&x32), fs, noise_var, &opts, &cancel).unwrap())
+    });
+    g.finish();
+}
+
+criterion_group!(benches, fits, extraction);
+criterion_main!(benches);
