@@ -239,3 +239,26 @@ fn positions_mode_keys_pick_strike_points_at_one_pitch() {
     // Keys wrap around the strike points.
     assert_eq!(a, wrap);
 }
+
+#[test]
+fn poly_modulation_of_the_strike_position_moves_that_note_only() {
+    use nice_plug::prelude::NoteEvent;
+    use struck::offline::TimedEvent;
+    let sr = f64::from(SR);
+    // Note 0 at the parameter's position 0.3 with a +0.4 poly-mod offset, note 1 unmodulated.
+    let notes = [note(50, 100, None), NoteSpec { key: 62, velocity: 100, position: None, start_s: 0.0 }];
+    let mut events = struck::cli::note_events(&notes, sr);
+    events.push(TimedEvent { sample: 0, event: NoteEvent::PolyModulation { timing: 0, voice_id: 0, poly_modulation_id: struck::params::POSITION_POLY_MOD_ID, normalized_offset: 0.4 } });
+    let mut h = host("rect-plate", "glass-ren2013", SR, &[("pos", 0.3)]);
+    let (modulated, _) = h.render(&events, 24_000, 512);
+    // The same two notes with explicit positions 0.7 and 0.3.
+    let explicit = [note(50, 100, Some(0.7)), note(62, 100, Some(0.3))];
+    let mut h = host("rect-plate", "glass-ren2013", SR, &[("pos", 0.3)]);
+    let y = render(&mut h, &explicit, 0.5, 512);
+    let worst = modulated[0].iter().zip(&y).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+    assert!(worst < 1e-6, "poly modulation differs from the explicit position by {worst}");
+    // And it really moved: without the offset the output differs.
+    let mut h = host("rect-plate", "glass-ren2013", SR, &[("pos", 0.3)]);
+    let plain = render(&mut h, &notes, 0.5, 512);
+    assert!(plain.iter().zip(&y).any(|(a, b)| (a - b).abs() > 1e-3));
+}
