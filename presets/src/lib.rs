@@ -21,6 +21,7 @@ mod bank;
 mod damping;
 mod error;
 pub mod factory;
+pub mod fem;
 mod json;
 mod material;
 
