@@ -11,10 +11,9 @@ pub(crate) use outln;
 
 use crate::library::Library;
 use crate::offline::{note_off, note_on, set_timing, OfflineHost, TimedEvent};
-use crate::params::{DampingModelParam, LAMBDA_10K, LAMBDA_1K};
 use dsp::Damping;
 use nice_plug::midi::{Channel, Key, VoiceID};
-use nice_plug::prelude::{Enum, NoteEvent, Param};
+use nice_plug::prelude::{Enum, NoteEvent};
 use presets::Material;
 use std::path::{Path, PathBuf};
 
@@ -118,36 +117,13 @@ pub fn resolve_material(lib: &Library, query: &str) -> Result<MaterialChoice, St
 /// If the law needs a knob beyond its range or a fourth Caughey term.
 pub fn set_custom_damping(host: &mut OfflineHost, d: &Damping) -> Result<(), String> {
     let lib = host.plugin().library().clone();
-    let (model, a1, c1k, e, c10k) = match *d {
-        Damping::Rayleigh { alpha1, alpha2 } => (DampingModelParam::Rayleigh, alpha1, alpha2 * LAMBDA_1K, 1.0, 0.0),
-        Damping::Hybrid { alpha1, alpha2, alpha3 } => (DampingModelParam::Hybrid, alpha1, alpha2 * LAMBDA_1K.powf(alpha3), alpha3, 0.0),
-        Damping::Power { alpha1, alpha2 } => (DampingModelParam::Power, 0.0, alpha1 * LAMBDA_1K.powf(alpha2), alpha2, 0.0),
-        Damping::Caughey { coeffs, order } => {
-            if order > 3 && coeffs[3] != 0.0 {
-                return Err("the plugin's Custom material plays Caughey series up to order 3".into());
-            }
-            (DampingModelParam::Caughey, coeffs[0], coeffs[1] * LAMBDA_1K, 1.0, coeffs[2] * LAMBDA_10K * LAMBDA_10K)
-        }
-    };
-    let p = host.plugin().struck_params().clone();
-    let check = |name: &str, v: f64, param: &nice_plug::prelude::FloatParam| -> Result<f32, String> {
-        let v = v as f32;
-        let (lo, hi) = (param.preview_plain(0.0), param.preview_plain(1.0));
-        if !(lo..=hi).contains(&v) {
-            return Err(format!("{name} = {v} is outside the plugin's range {lo}..={hi}"));
-        }
-        Ok(v)
-    };
-    let a1 = check("base damping α₁ (1/s)", a1, &p.alpha1_per_s)?;
-    let c1k = check("damping at 1 kHz (1/s)", c1k, &p.damping_1k_per_s)?;
-    let e = check("exponent", e, &p.exponent)?;
-    let c10k = check("Caughey c at 10 kHz (1/s)", c10k, &p.caughey_10k_per_s)?;
+    let k = host.plugin().struck_params().custom_knobs_for(d)?;
     host.set_param("material", lib.custom_material_index() as f32).map_err(|e| e.to_string())?;
-    host.set_param("dmodel", model.to_index() as f32).map_err(|e| e.to_string())?;
-    host.set_param("alpha1", a1).map_err(|e| e.to_string())?;
-    host.set_param("c1k", c1k).map_err(|e| e.to_string())?;
-    host.set_param("expo", e).map_err(|e| e.to_string())?;
-    host.set_param("c10k", c10k).map_err(|e| e.to_string())?;
+    host.set_param("dmodel", k.model.to_index() as f32).map_err(|e| e.to_string())?;
+    host.set_param("alpha1", k.alpha1_per_s).map_err(|e| e.to_string())?;
+    host.set_param("c1k", k.damping_1k_per_s).map_err(|e| e.to_string())?;
+    host.set_param("expo", k.exponent).map_err(|e| e.to_string())?;
+    host.set_param("c10k", k.caughey_10k_per_s).map_err(|e| e.to_string())?;
     Ok(())
 }
 
@@ -372,6 +348,9 @@ pub fn render(opts: &RenderOptions) -> Result<String, String> {
 /// Never (kept for symmetry with the other commands).
 pub fn print_objects(json: bool) -> Result<(), String> {
     let lib = Library::factory();
+    for e in &lib.load_errors {
+        eprintln!("warning: user bank skipped: {e}");
+    }
     if json {
         let v: Vec<_> = lib
             .banks

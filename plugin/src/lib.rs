@@ -3,8 +3,10 @@
 //! Glue only: parameters live in [`params`], the objects and materials in [`library`], the
 //! synthesis in the `dsp` crate; [`offline`] hosts this plugin for the command line and tests.
 
+pub mod banks;
 pub mod capture;
 pub mod cli;
+pub mod editor;
 pub mod library;
 pub mod midi_file;
 pub mod offline;
@@ -30,12 +32,21 @@ pub struct Struck {
     engine: Option<Engine>,
     mono: Vec<f32>,
     sample_rate: f32,
+    /// State shared with the editor: audition queue (GUI → audio) and meters (audio → GUI).
+    editor_shared: Arc<editor::EditorShared>,
 }
 
 impl Default for Struck {
     fn default() -> Self {
         let library = Library::factory();
-        Struck { params: Arc::new(StruckParams::new(&library)), library, engine: None, mono: Vec::new(), sample_rate: 48_000.0 }
+        Struck {
+            params: Arc::new(StruckParams::new(&library)),
+            library,
+            engine: None,
+            mono: Vec::new(),
+            sample_rate: 48_000.0,
+            editor_shared: Arc::new(editor::EditorShared::default()),
+        }
     }
 }
 
@@ -48,6 +59,11 @@ impl Struck {
     /// The library this instance plays.
     pub fn library(&self) -> &Arc<Library> {
         &self.library
+    }
+
+    /// State shared with the editor (audition queue, meters).
+    pub fn editor_shared(&self) -> &Arc<editor::EditorShared> {
+        &self.editor_shared
     }
 
     /// The engine, once activated.
@@ -165,10 +181,14 @@ impl Plugin for Struck {
 
     type SysExMessage = ();
     type BackgroundTask = ();
-    type Editor = ();
+    type Editor = editor::StruckEditor;
 
     fn params(&self) -> Arc<dyn Params> {
         self.params.clone()
+    }
+
+    fn editor(&mut self, _async_executor: AsyncExecutor<Self>) -> Option<Self::Editor> {
+        Some(editor::StruckEditor::new(self.params.clone(), self.library.clone(), self.editor_shared.clone()))
     }
 
     fn activate(&mut self, _layout: &AudioIOLayout, config: &BufferConfig, context: &mut impl ActivateContext<Self>) -> bool {
@@ -212,6 +232,14 @@ impl Plugin for Struck {
             e.set_params(sp);
             e.set_object(object);
         }
+        // Editor auditions (clicks on the object view): lock-free pops, no allocation.
+        while let Some(a) = self.editor_shared.audition.pop() {
+            let mut strike = self.strike_for(a.key, a.velocity);
+            strike.position = a.position;
+            if let Some(e) = self.engine.as_mut() {
+                e.note_on(a.note(), strike);
+            }
+        }
 
         let mut next = context.next_event();
         let mut start = 0;
@@ -233,6 +261,10 @@ impl Plugin for Struck {
                     if let Some(e) = self.engine.as_mut() {
                         e.render(&mut self.mono[pos..until]);
                         e.drain_terminated(|t| {
+                            // The host never saw the editor's audition notes.
+                            if editor::is_audition(&t.note) {
+                                return;
+                            }
                             let _ = context.try_send_event(NoteEvent::VoiceTerminated {
                                 timing: (start + pos) as u32 + t.offset,
                                 voice_id: t.note.voice_id.map_or(VoiceID::Wildcard, VoiceID::ID),
@@ -262,6 +294,9 @@ impl Plugin for Struck {
         while let Some(ev) = next {
             self.handle_event(ev);
             next = context.next_event();
+        }
+        if let Some(e) = self.engine.as_ref() {
+            self.editor_shared.store_meters(e.active_voices(), e.active_modes());
         }
         ProcessStatus::Normal
     }

@@ -3,6 +3,7 @@
 
 use dsp::{Damping, ObjectModes};
 use presets::{Bank, Material};
+use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
 
 /// Factory banks and materials, with the engine's view of them.
@@ -13,30 +14,63 @@ pub struct Library {
     pub materials: Vec<Material>,
     /// Each material's damping law (validated).
     pub dampings: Vec<Damping>,
+    /// Problems met loading user banks (each names the file); such banks are left out.
+    pub load_errors: Vec<String>,
+}
+
+/// The folder user banks are listed from: `$STRUCK_BANK_DIR`, else `banks` beside the user
+/// materials folder (Linux `~/.local/share/struck/banks`, macOS
+/// `~/Library/Application Support/Struck/banks`, Windows `%APPDATA%\Struck\banks`).
+pub fn user_bank_dir() -> PathBuf {
+    match std::env::var_os("STRUCK_BANK_DIR") {
+        Some(d) => PathBuf::from(d),
+        None => crate::editor::logic::user_material_dir().with_file_name("banks"),
+    }
 }
 
 /// The default material's id (it rings, and is a measured one).
 pub const DEFAULT_MATERIAL: &str = "glass-ren2013";
 
 impl Library {
-    /// The factory library (computed on first use, then shared).
+    /// The factory library plus the banks in [`user_bank_dir`] (computed on first use, then
+    /// shared by every instance in the process).
     pub fn factory() -> Arc<Library> {
         static LIB: OnceLock<Arc<Library>> = OnceLock::new();
-        LIB.get_or_init(|| {
-            let banks = presets::factory_banks();
-            let mut materials = Vec::new();
-            let mut dampings = Vec::new();
-            for m in presets::factory_materials() {
-                // PANIC: never; factory materials are validated by presets' tests. A bad one
-                // would be skipped rather than crash a host.
-                if let Ok(d) = m.damping.to_damping() {
-                    materials.push(m);
-                    dampings.push(d);
+        LIB.get_or_init(|| Arc::new(Library::load(Some(&user_bank_dir())))).clone()
+    }
+
+    /// Factory banks and materials, then every `*.json` bank in `user_banks` (sorted by file
+    /// name). A user bank that fails to load, or repeats an id already listed, is left out
+    /// and reported in [`load_errors`](Self::load_errors); it never stops the others.
+    pub fn load(user_banks: Option<&Path>) -> Library {
+        let mut banks = presets::factory_banks();
+        let mut load_errors = Vec::new();
+        if let Some(dir) = user_banks {
+            if let Ok(entries) = std::fs::read_dir(dir) {
+                let mut files: Vec<PathBuf> = entries.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.extension().is_some_and(|x| x == "json")).collect();
+                files.sort();
+                for f in files {
+                    match Bank::load(&f) {
+                        Ok(b) if banks.iter().any(|x| x.id == b.id) => {
+                            load_errors.push(format!("{}: a bank with id '{}' is already listed; rename its id", f.display(), b.id))
+                        }
+                        Ok(b) => banks.push(b),
+                        Err(e) => load_errors.push(format!("{}: {e}", f.display())),
+                    }
                 }
             }
-            Arc::new(Library { banks, materials, dampings })
-        })
-        .clone()
+        }
+        let mut materials = Vec::new();
+        let mut dampings = Vec::new();
+        for m in presets::factory_materials() {
+            // Factory materials are validated by presets' tests; a bad one would be skipped
+            // rather than crash a host.
+            if let Ok(d) = m.damping.to_damping() {
+                materials.push(m);
+                dampings.push(d);
+            }
+        }
+        Library { banks, materials, dampings, load_errors }
     }
 
     /// Index of the bank with `id`, if any.
@@ -70,5 +104,31 @@ impl Library {
             (Some(g), Some(b)) if g > 0.0 && b.reference.specific_modulus > 0.0 => g / b.reference.specific_modulus,
             _ => 1.0,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn user_banks_are_listed_and_broken_ones_reported() {
+        let dir = std::env::temp_dir().join(format!("struck-user-banks-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut good = presets::factory_bank("bar").unwrap();
+        good.id = "my-bar".into();
+        good.name = "My bar".into();
+        good.save(&dir.join("a-good.json")).unwrap();
+        std::fs::write(dir.join("b-broken.json"), "{ not a bank").unwrap();
+        let dup = presets::factory_bank("rect-plate").unwrap();
+        std::fs::write(dir.join("c-dup.json"), dup.to_json()).unwrap();
+        let lib = Library::load(Some(&dir));
+        let factory = presets::factory_banks().len();
+        assert_eq!(lib.banks.len(), factory + 1);
+        assert_eq!(lib.banks[factory].id, "my-bar");
+        assert_eq!(lib.load_errors.len(), 2, "{:?}", lib.load_errors);
+        assert!(lib.load_errors[0].contains("b-broken.json"));
+        assert!(lib.load_errors[1].contains("already listed"));
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -3,7 +3,7 @@
 use crate::library::Library;
 use dsp::Damping;
 use nice_plug::prelude::*;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 /// Poly-modulation id of the strike position (CLAP polyphonic modulation).
 pub const POSITION_POLY_MOD_ID: u32 = 0;
@@ -114,6 +114,27 @@ pub struct StruckParams {
     /// Output gain.
     #[id = "gain"]
     pub gain_db: FloatParam,
+    /// Editor window size in logical points `[width, height]`, so it reopens at that size.
+    #[persist = "editor-size"]
+    pub editor_size: Mutex<[u32; 2]>,
+    /// The editor's last capture (features and fits, no audio), so reopening shows it.
+    #[persist = "capture"]
+    pub capture: Mutex<Option<crate::editor::CaptureRecord>>,
+}
+
+/// Values of the *Custom* material knobs (plain units) that reproduce a damping law.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CustomKnobs {
+    /// Damping model.
+    pub model: DampingModelParam,
+    /// `alpha1`, s⁻¹.
+    pub alpha1_per_s: f32,
+    /// `c1k`, s⁻¹.
+    pub damping_1k_per_s: f32,
+    /// `expo`.
+    pub exponent: f32,
+    /// `c10k`, s⁻¹.
+    pub caughey_10k_per_s: f32,
 }
 
 fn object_name(lib: &Arc<Library>) -> Arc<dyn Fn(i32) -> String + Send + Sync> {
@@ -194,7 +215,44 @@ impl StruckParams {
                 .with_smoother(SmoothingStyle::Linear(20.0))
                 .with_unit(" dB")
                 .with_value_to_string(formatters::v2s_f32_rounded(1)),
+            editor_size: Mutex::new(crate::editor::DEFAULT_SIZE),
+            capture: Mutex::new(None),
         }
+    }
+
+    /// The *Custom* knob values that reproduce `d` (exactly for Rayleigh, hybrid, power law
+    /// and Caughey up to order 3): the inverse of [`custom_damping`](Self::custom_damping).
+    /// Shared by the command line (`--material file.json`) and the editor's *Apply*.
+    ///
+    /// # Errors
+    /// If the law needs a knob beyond its range or a fourth Caughey term.
+    pub fn custom_knobs_for(&self, d: &Damping) -> Result<CustomKnobs, String> {
+        let (model, a1, c1k, e, c10k) = match *d {
+            Damping::Rayleigh { alpha1, alpha2 } => (DampingModelParam::Rayleigh, alpha1, alpha2 * LAMBDA_1K, 1.0, 0.0),
+            Damping::Hybrid { alpha1, alpha2, alpha3 } => (DampingModelParam::Hybrid, alpha1, alpha2 * LAMBDA_1K.powf(alpha3), alpha3, 0.0),
+            Damping::Power { alpha1, alpha2 } => (DampingModelParam::Power, 0.0, alpha1 * LAMBDA_1K.powf(alpha2), alpha2, 0.0),
+            Damping::Caughey { coeffs, order } => {
+                if order > 3 && coeffs[3] != 0.0 {
+                    return Err("the plugin's Custom material plays Caughey series up to order 3".into());
+                }
+                (DampingModelParam::Caughey, coeffs[0], coeffs[1] * LAMBDA_1K, 1.0, coeffs[2] * LAMBDA_10K * LAMBDA_10K)
+            }
+        };
+        let check = |name: &str, v: f64, param: &FloatParam| -> Result<f32, String> {
+            let v = v as f32;
+            let (lo, hi) = (param.preview_plain(0.0), param.preview_plain(1.0));
+            if !(lo..=hi).contains(&v) {
+                return Err(format!("{name} = {v} is outside the plugin's range {lo}..={hi}"));
+            }
+            Ok(v)
+        };
+        Ok(CustomKnobs {
+            model,
+            alpha1_per_s: check("base damping α₁ (1/s)", a1, &self.alpha1_per_s)?,
+            damping_1k_per_s: check("damping at 1 kHz (1/s)", c1k, &self.damping_1k_per_s)?,
+            exponent: check("exponent", e, &self.exponent)?,
+            caughey_10k_per_s: check("Caughey c at 10 kHz (1/s)", c10k, &self.caughey_10k_per_s)?,
+        })
     }
 
     /// The *Custom* material's damping law from the knobs (exact reparametrisation: α₂ is

@@ -15,7 +15,8 @@ fn mode_index(bank: &Bank, label: &str) -> usize {
 
 #[test]
 fn factory_banks_are_valid_ordered_and_rich() {
-    let banks = factory_banks();
+    // The analytic banks come first; the embedded FEM banks are checked below.
+    let banks: Vec<Bank> = factory_banks().into_iter().take(FACTORY_BANK_IDS.len()).collect();
     let ids: Vec<&str> = banks.iter().map(|b| b.id.as_str()).collect();
     assert_eq!(ids, FACTORY_BANK_IDS);
     for bank in &banks {
@@ -208,5 +209,23 @@ fn gains_at_interpolates_between_points() {
     for (m, &g) in out.iter().enumerate() {
         let mid = 0.5 * (bank.gains[2][m] + bank.gains[3][m]);
         assert!((g - mid).abs() < 1e-5);
+    }
+}
+
+#[test]
+fn embedded_fem_banks_parse_validate_and_are_listed() {
+    use presets::factory::FACTORY_FEM_BANKS;
+    assert!(FACTORY_FEM_BANKS.len() >= 8);
+    let all = presets::factory_banks();
+    assert_eq!(all.len(), 3 + FACTORY_FEM_BANKS.len());
+    for (id, json) in FACTORY_FEM_BANKS {
+        let b = presets::Bank::from_json(json).unwrap_or_else(|e| panic!("{id}: {e}"));
+        assert_eq!(&b.id, id);
+        assert!(b.num_points() >= 64, "{id}: {} points", b.num_points());
+        assert!(b.num_modes() >= 10, "{id}: {} modes", b.num_modes());
+        assert!(b.provenance.contains("FEM"), "{id}");
+        assert_eq!(presets::factory_bank(id).as_ref(), Some(&b));
+        // Compact enough to ship: well under 1 MB per bank.
+        assert!(json.len() < 1_000_000, "{id}: {} bytes", json.len());
     }
 }

@@ -83,6 +83,11 @@ enum Command {
         #[arg(long)]
         report: Option<PathBuf>,
     },
+    /// Build mode banks by FEM, or show a bank.
+    Bank {
+        #[command(subcommand)]
+        command: BankCommand,
+    },
     /// Render notes to a WAV file through the plugin's process().
     Render {
         #[command(flatten)]
@@ -104,6 +109,63 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+}
+
+#[derive(Subcommand)]
+enum BankCommand {
+    /// Modal analysis (10-node tetrahedra) of a built-in shape or a Gmsh mesh into a bank.
+    Build {
+        /// Built-in shape: bar, plate, block, circular-plate, tube, bowl, cup, bell, sphere-shell.
+        #[arg(long, conflicts_with = "mesh", required_unless_present = "mesh")]
+        shape: Option<String>,
+        /// The shape's dimensions in metres, comma separated, in the order given by
+        /// `struck bank shapes` (e.g. bar: length,width,thickness).
+        #[arg(long, requires = "shape")]
+        dims: Option<String>,
+        /// A Gmsh .msh 2.2 ASCII tetrahedral mesh (metres).
+        #[arg(long)]
+        mesh: Option<PathBuf>,
+        /// Number of modes (above the six rigid ones).
+        #[arg(long, default_value_t = 100)]
+        modes: usize,
+        /// Keep only modes below this frequency (Hz).
+        #[arg(long)]
+        max_freq: Option<f64>,
+        /// Young's modulus, Pa.
+        #[arg(long, default_value_t = 200e9)]
+        young: f64,
+        /// Density, kg/m³.
+        #[arg(long, default_value_t = 7850.0)]
+        density: f64,
+        /// Poisson's ratio.
+        #[arg(long, default_value_t = 0.3)]
+        poisson: f64,
+        /// Mesh resolution: elements along the largest dimension (built-in shapes).
+        #[arg(long, default_value_t = 40)]
+        resolution: usize,
+        /// Number of strike points.
+        #[arg(long, default_value_t = 64)]
+        points: usize,
+        /// Bank id (kebab-case; default from the output file name).
+        #[arg(long)]
+        id: Option<String>,
+        /// Display name (default: the id).
+        #[arg(long)]
+        name: Option<String>,
+        /// Output bank JSON.
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Summarise a bank JSON file (validates it).
+    Info {
+        /// Bank JSON file.
+        bank: PathBuf,
+        /// Machine-readable output.
+        #[arg(long)]
+        json: bool,
+    },
+    /// List the built-in shapes and their dimension order.
+    Shapes,
 }
 
 #[derive(clap::Args)]
@@ -147,6 +209,7 @@ fn run(cli: Cli) -> Result<(), String> {
         Command::Materials { json } => cli::print_materials(json),
         Command::Params { json } => cli::print_params(json),
         Command::Modes { sound, note, velocity, json } => cli::print_modes(&sound.options(), note, velocity, json),
+        Command::Bank { command } => struck::banks::run(command.into()),
         Command::Features { files, channel, json } => struck::capture::features(&files, channel, json),
         Command::Estimate { files, model, method, object, channel, out, report } => {
             let summary = struck::capture::estimate(&struck::capture::EstimateArgs { files, model, method, object, channel, out, report })?;
@@ -158,6 +221,19 @@ fn run(cli: Cli) -> Result<(), String> {
             let summary = cli::render(&opts)?;
             eprintln!("{summary}");
             Ok(())
+        }
+    }
+}
+
+impl From<BankCommand> for struck::banks::BankCommand {
+    fn from(c: BankCommand) -> Self {
+        use struck::banks::BankCommand as B;
+        match c {
+            BankCommand::Build { shape, dims, mesh, modes, max_freq, young, density, poisson, resolution, points, id, name, out } => {
+                B::Build { shape, dims, mesh, modes, max_freq, young, density, poisson, resolution, points, id, name, out }
+            }
+            BankCommand::Info { bank, json } => B::Info { bank, json },
+            BankCommand::Shapes => B::Shapes,
         }
     }
 }

@@ -17,22 +17,40 @@ use crate::{Bank, BankReference, StrikePoint, SCHEMA_VERSION};
 /// Factory banks keep every mode whose frequency at the reference is at or below this, Hz.
 pub const FACTORY_MAX_FREQ_HZ: f64 = 20_000.0;
 
-/// Ids of the factory banks, in the order of [`factory_banks`].
+/// Ids of the analytic factory banks, first in the order of [`factory_banks`].
 pub const FACTORY_BANK_IDS: [&str; 3] = ["bar", "circular-plate", "rect-plate"];
 
-/// All factory banks, computed now: `"bar"`, `"circular-plate"`, `"rect-plate"`, in that
-/// order. Each takes a few milliseconds in a release build.
+/// The factory FEM banks, built by `cargo xtask banks` (the FEM bank builder, `crate::fem`)
+/// and embedded as JSON: id and text, in the order [`factory_banks`] lists them.
+pub const FACTORY_FEM_BANKS: &[(&str, &str)] = &[
+    ("fem-bar", include_str!("../../factory/banks/fem-bar.json")),
+    ("fem-plate", include_str!("../../factory/banks/fem-plate.json")),
+    ("fem-circular-plate", include_str!("../../factory/banks/fem-circular-plate.json")),
+    ("fem-tube", include_str!("../../factory/banks/fem-tube.json")),
+    ("fem-bowl", include_str!("../../factory/banks/fem-bowl.json")),
+    ("fem-cup", include_str!("../../factory/banks/fem-cup.json")),
+    ("fem-bell", include_str!("../../factory/banks/fem-bell.json")),
+    ("fem-block", include_str!("../../factory/banks/fem-block.json")),
+    ("fem-sphere-shell", include_str!("../../factory/banks/fem-sphere-shell.json")),
+];
+
+/// All factory banks: the analytic `"bar"`, `"circular-plate"`, `"rect-plate"` (computed now,
+/// a few milliseconds each in a release build), then the embedded FEM banks
+/// ([`FACTORY_FEM_BANKS`]). An embedded bank that fails to parse is left out (a test checks
+/// that all of them parse).
 pub fn factory_banks() -> Vec<Bank> {
-    vec![bar_bank(), circular_plate_bank(), rect_plate_bank()]
+    let mut banks = vec![bar_bank(), circular_plate_bank(), rect_plate_bank()];
+    banks.extend(FACTORY_FEM_BANKS.iter().filter_map(|(_, json)| Bank::from_json(json).ok()));
+    banks
 }
 
-/// The factory bank with this id, computed now, or `None` for an unknown id.
+/// The factory bank with this id (analytic banks computed now), or `None` for an unknown id.
 pub fn factory_bank(id: &str) -> Option<Bank> {
     match id {
         "bar" => Some(bar_bank()),
         "circular-plate" => Some(circular_plate_bank()),
         "rect-plate" => Some(rect_plate_bank()),
-        _ => None,
+        _ => FACTORY_FEM_BANKS.iter().find(|(i, _)| *i == id).and_then(|(_, json)| Bank::from_json(json).ok()),
     }
 }
 

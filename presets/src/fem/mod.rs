@@ -25,6 +25,7 @@ pub mod assembly;
 pub mod eigen;
 pub mod element;
 pub mod gmsh;
+pub mod import;
 pub mod mesh;
 pub mod strike;
 
@@ -34,6 +35,7 @@ use crate::{Bank, BankReference, PresetError, StrikePoint, MAX_BANK_MODES, MAX_B
 
 pub use assembly::{assemble, System};
 pub use gmsh::read_gmsh;
+pub use import::{build_bank_from_mesh, surface_strike_points};
 pub use mesh::TetMesh;
 
 /// A built-in solid. All lengths in metres.
@@ -579,7 +581,7 @@ pub fn peak_memory_bytes() -> Option<u64> {
 }
 
 /// Today's UTC date as YYYY-MM-DD (civil-from-days, H. Hinnant's algorithm).
-fn today() -> String {
+pub(crate) fn today() -> String {
     let secs = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map(|d| d.as_secs())

@@ -1,0 +1,173 @@
+//! `struck bank build | info | shapes`: the FEM bank builder on the command line.
+
+use crate::cli::outln;
+use presets::fem::{self, BuildOptions, Shape};
+use presets::Bank;
+use std::path::{Path, PathBuf};
+
+/// A `struck bank` command (mirrors the command-line arguments).
+#[allow(missing_docs)]
+pub enum BankCommand {
+    Build {
+        shape: Option<String>,
+        dims: Option<String>,
+        mesh: Option<PathBuf>,
+        modes: usize,
+        max_freq: Option<f64>,
+        young: f64,
+        density: f64,
+        poisson: f64,
+        resolution: usize,
+        points: usize,
+        id: Option<String>,
+        name: Option<String>,
+        out: PathBuf,
+    },
+    Info {
+        bank: PathBuf,
+        json: bool,
+    },
+    Shapes,
+}
+
+/// Built-in shapes: name, dimension names (metres), an example.
+pub const SHAPES: &[(&str, &[&str], &str)] = &[
+    ("bar", &["length", "width", "thickness"], "0.5,0.03,0.01"),
+    ("plate", &["length", "width", "thickness"], "0.4,0.3,0.003"),
+    ("block", &["length", "width", "height"], "0.2,0.08,0.05"),
+    ("circular-plate", &["radius", "thickness"], "0.15,0.002"),
+    ("tube", &["length", "outer_radius", "wall"], "0.6,0.016,0.0015"),
+    ("bowl", &["radius", "wall"], "0.08,0.004"),
+    ("cup", &["radius", "height", "wall"], "0.04,0.09,0.003"),
+    ("bell", &["radius", "height", "wall"], "0.1,0.14,0.006"),
+    ("sphere-shell", &["radius", "wall"], "0.1,0.004"),
+];
+
+/// Parses a shape name and its comma-separated dimensions (metres).
+///
+/// # Errors
+/// Unknown shape, wrong count or non-positive dimensions.
+pub fn parse_shape(name: &str, dims: &str) -> Result<Shape, String> {
+    let (_, fields, example) = SHAPES
+        .iter()
+        .find(|(n, _, _)| *n == name)
+        .ok_or_else(|| format!("unknown shape '{name}' (known: {})", SHAPES.iter().map(|s| s.0).collect::<Vec<_>>().join(", ")))?;
+    let v: Vec<f64> = dims
+        .split(',')
+        .map(|x| x.trim().parse::<f64>().map_err(|_| format!("--dims: '{x}' is not a number")))
+        .collect::<Result<_, _>>()?;
+    if v.len() != fields.len() || v.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
+        return Err(format!("--dims for {name} takes {} positive lengths in metres ({}), e.g. {example}", fields.len(), fields.join(",")));
+    }
+    let shape = match name {
+        "bar" => Shape::Bar { length: v[0], width: v[1], thickness: v[2] },
+        "plate" => Shape::Plate { length: v[0], width: v[1], thickness: v[2] },
+        "block" => Shape::Block { length: v[0], width: v[1], height: v[2] },
+        "circular-plate" => Shape::CircularPlate { radius: v[0], thickness: v[1] },
+        "tube" => Shape::Tube { length: v[0], outer_radius: v[1], wall: v[2] },
+        "bowl" => Shape::Bowl { radius: v[0], wall: v[1] },
+        "cup" => Shape::Cup { radius: v[0], height: v[1], wall: v[2] },
+        "bell" => Shape::Bell { radius: v[0], height: v[1], wall: v[2] },
+        _ => Shape::SphereShell { radius: v[0], wall: v[1] },
+    };
+    shape.validate().map_err(|e| e.to_string())?;
+    Ok(shape)
+}
+
+fn kebab(s: &str) -> String {
+    let k: String = s.to_lowercase().chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '-' }).collect();
+    let k = k.trim_matches('-').to_string();
+    if k.is_empty() { "bank".into() } else { k.chars().take(64).collect() }
+}
+
+/// A progress line on stderr, redrawn in place.
+fn progress() -> impl Fn(&str, f32) {
+    let last = std::cell::RefCell::new(String::new());
+    move |stage: &str, f: f32| {
+        let line = format!("{stage:>10} {:3.0}%", (f.clamp(0.0, 1.0) * 100.0).floor());
+        if *last.borrow() != line {
+            eprint!("\r{line}");
+            if stage == "done" {
+                eprintln!();
+            }
+            *last.borrow_mut() = line;
+        }
+    }
+}
+
+/// Runs a `struck bank` command.
+///
+/// # Errors
+/// A one-line reason (bad arguments, unreadable mesh, solver failure, unwritable output).
+pub fn run(cmd: BankCommand) -> Result<(), String> {
+    match cmd {
+        BankCommand::Shapes => {
+            for (n, f, e) in SHAPES {
+                outln!("{n:14} --dims {}   e.g. {e}", f.join(","));
+            }
+            Ok(())
+        }
+        BankCommand::Info { bank, json } => info(&bank, json),
+        BankCommand::Build { shape, dims, mesh, modes, max_freq, young, density, poisson, resolution, points, id, name, out } => {
+            let material = fem::Material { young, density, poisson };
+            material.validate().map_err(|e| e.to_string())?;
+            if modes == 0 || modes > presets::MAX_BANK_MODES {
+                return Err(format!("--modes must be 1..={}", presets::MAX_BANK_MODES));
+            }
+            let opts = BuildOptions { max_modes: modes, max_freq_hz: max_freq, resolution, strike_points: points.clamp(1, presets::MAX_BANK_POINTS) };
+            let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("bank");
+            let id = kebab(id.as_deref().unwrap_or(stem));
+            let name = name.unwrap_or_else(|| id.clone());
+            let (bank, report) = match (shape, mesh) {
+                (Some(s), None) => {
+                    let dims = dims.ok_or("--shape needs --dims (see `struck bank shapes`)")?;
+                    let shape = parse_shape(&s, &dims)?;
+                    fem::build_bank(&id, &name, &shape, &material, &opts, &progress()).map_err(|e| e.to_string())?
+                }
+                (None, Some(path)) => {
+                    let text = std::fs::read_to_string(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+                    let mesh = fem::read_gmsh(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+                    fem::build_bank_from_mesh(&id, &name, &path.display().to_string(), &mesh, &material, &opts, &progress()).map_err(|e| e.to_string())?
+                }
+                _ => return Err("give either --shape with --dims, or --mesh".into()),
+            };
+            bank.save(&out).map_err(|e| e.to_string())?;
+            eprintln!(
+                "wrote {}: {} modes ({:.1}–{:.0} Hz), {} strike points; {} vertices, {} elements, {} DOFs; {:.1} s, peak memory {}",
+                out.display(),
+                bank.num_modes(),
+                bank.frequencies_hz().first().copied().unwrap_or(0.0),
+                bank.frequencies_hz().last().copied().unwrap_or(0.0),
+                bank.num_points(),
+                report.vertices,
+                report.elements,
+                report.dofs,
+                report.seconds,
+                report.peak_memory_bytes.map_or("n/a".into(), |b| format!("{:.0} MiB", b as f64 / 1048576.0))
+            );
+            Ok(())
+        }
+    }
+}
+
+fn info(path: &Path, json: bool) -> Result<(), String> {
+    let bank = Bank::load(path).map_err(|e| e.to_string())?;
+    let f = bank.frequencies_hz();
+    if json {
+        let v = serde_json::json!({
+            "id": bank.id, "name": bank.name, "description": bank.description, "provenance": bank.provenance,
+            "modes": bank.num_modes(), "strike_points": bank.num_points(), "reference": bank.reference,
+            "lowest_hz": f.first(), "highest_hz": f.last(), "frequencies_hz": f,
+        });
+        outln!("{}", serde_json::to_string_pretty(&v).map_err(|e| e.to_string())?);
+    } else {
+        outln!("{} ({})", bank.name, bank.id);
+        outln!("  {}", bank.description);
+        outln!("  provenance: {}", bank.provenance);
+        outln!("  {} modes, {:.2}–{:.0} Hz; {} strike points", bank.num_modes(), f.first().copied().unwrap_or(0.0), f.last().copied().unwrap_or(0.0), bank.num_points());
+        outln!("  reference: γ₀ = {:.4e} m²/s², ν = {}, ρ = {} kg/m³, size {} m", bank.reference.specific_modulus, bank.reference.poisson, bank.reference.density, bank.reference.size_m);
+        let first: Vec<String> = f.iter().take(8).map(|x| format!("{x:.1}")).collect();
+        outln!("  lowest modes (Hz): {}", first.join(", "));
+    }
+    Ok(())
+}

@@ -1,0 +1,206 @@
+//! Struck's editor (egui through nice-plug-egui): play the object where you click, shape the
+//! material while seeing its T60 curve, and capture a material from recordings with the
+//! estimator running on a background thread.
+//!
+//! Threads: the GUI talks to the audio thread only through [`EditorShared`] (a bounded
+//! lock-free queue of auditions, atomics for the meters). Parameters change only through
+//! nice-plug's `ParamSetter` (host gestures). The estimator runs on its own `std::thread`;
+//! progress and cancel are atomics, the result is picked up by the GUI with a `try_lock`.
+//!
+//! The panels are drawn by [`EditorUi::ui`], which takes any `ParamSetter`: the plugin passes
+//! the host's, the tests one built on [`testing::RecordingContext`].
+
+mod capture;
+pub mod logic;
+mod material;
+mod object;
+mod plot;
+pub mod testing;
+mod ui;
+
+pub use capture::CaptureRecord;
+pub use ui::{EditorUi, Tab};
+
+use crate::library::Library;
+use crate::params::StruckParams;
+use crossbeam_queue::ArrayQueue;
+use dsp::engine::NoteId;
+use nice_plug::context::gui::GuiContext;
+use nice_plug::editor::{HostMethods, SpawnedEditor};
+use nice_plug::prelude::*;
+use nice_plug_egui::{create_egui_editor, EguiEditorHandle, EguiEditorState, EguiNiceSettings, NiceEguiApp, RepaintNotifier};
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::{Arc, Mutex, PoisonError};
+
+/// Window size the editor first opens at, logical points `[width, height]`.
+pub const DEFAULT_SIZE: [u32; 2] = [1040, 720];
+/// Smallest window size the host may resize the editor to.
+pub const MIN_SIZE: [u32; 2] = [720, 480];
+/// Capacity of the audition queue (clicks faster than the audio thread drains are dropped).
+pub const AUDITION_QUEUE: usize = 64;
+/// Number of distinct voice ids auditions cycle through, so quick clicks overlap.
+const AUDITION_VOICES: i32 = 16;
+
+/// A strike requested by the editor, played at the start of the next audio block.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Audition {
+    /// Key whose tuning the strike uses (as a MIDI note-on of this key would).
+    pub key: u8,
+    /// Velocity 0..=1.
+    pub velocity: f32,
+    /// Strike position 0..=1 along the bank's strike points.
+    pub position: f32,
+    /// Sequence number (the editor counts clicks); picks the audition voice id.
+    pub serial: u32,
+}
+
+impl Audition {
+    /// The engine note id: negative voice ids (which hosts never use) mark auditions.
+    pub fn note(&self) -> NoteId {
+        let slot = (self.serial % AUDITION_VOICES as u32) as i32;
+        NoteId { voice_id: Some(-1 - slot), channel: 0, key: self.key }
+    }
+}
+
+/// Whether `note` is one of the editor's auditions (not to be reported to the host).
+pub fn is_audition(note: &NoteId) -> bool {
+    note.voice_id.is_some_and(|v| v < 0)
+}
+
+/// State shared between the plugin's audio thread and the editor.
+pub struct EditorShared {
+    /// GUI → audio: strikes to play. `push`/`pop` are lock-free and do not allocate.
+    pub audition: ArrayQueue<Audition>,
+    /// Audio → GUI: sounding voices at the end of the last block.
+    pub active_voices: AtomicU32,
+    /// Audio → GUI: modes rendered over all voices at the end of the last block.
+    pub active_modes: AtomicU32,
+}
+
+impl Default for EditorShared {
+    fn default() -> Self {
+        EditorShared { audition: ArrayQueue::new(AUDITION_QUEUE), active_voices: AtomicU32::new(0), active_modes: AtomicU32::new(0) }
+    }
+}
+
+impl EditorShared {
+    /// Stores the meters.
+    ///
+    /// # Realtime safety
+    /// Two relaxed atomic stores.
+    pub fn store_meters(&self, voices: usize, modes: usize) {
+        self.active_voices.store(voices.min(u32::MAX as usize) as u32, Ordering::Relaxed);
+        self.active_modes.store(modes.min(u32::MAX as usize) as u32, Ordering::Relaxed);
+    }
+
+    /// `(active voices, active modes)` as last stored.
+    pub fn meters(&self) -> (u32, u32) {
+        (self.active_voices.load(Ordering::Relaxed), self.active_modes.load(Ordering::Relaxed))
+    }
+
+    /// Queues a strike; `false` if the queue is full (the strike is dropped).
+    pub fn audition(&self, a: Audition) -> bool {
+        self.audition.push(a).is_ok()
+    }
+}
+
+/// The plugin's editor: builds a fresh egui window at each open, at the persisted size, with
+/// the UI state ([`EditorUi`]) kept across opens.
+pub struct StruckEditor {
+    params: Arc<StruckParams>,
+    ui: Arc<Mutex<EditorUi>>,
+    repaint: RepaintNotifier,
+    /// Last scale factor the window reported (physical / logical pixels).
+    scale: Arc<AtomicF32>,
+}
+
+impl StruckEditor {
+    /// An editor for these parameters and library, talking to the audio thread through `shared`.
+    pub fn new(params: Arc<StruckParams>, library: Arc<Library>, shared: Arc<EditorShared>) -> Self {
+        let ui = EditorUi::new(params.clone(), library, shared);
+        StruckEditor { params, ui: Arc::new(Mutex::new(ui)), repaint: RepaintNotifier::new(), scale: Arc::new(AtomicF32::new(1.0)) }
+    }
+
+    fn logical_size(&self) -> [u32; 2] {
+        sanitize_size(*self.params.editor_size.lock().unwrap_or_else(PoisonError::into_inner))
+    }
+}
+
+/// A persisted size clamped to something openable (old or hand-edited states).
+pub fn sanitize_size([w, h]: [u32; 2]) -> [u32; 2] {
+    [w.clamp(MIN_SIZE[0], 8192), h.clamp(MIN_SIZE[1], 8192)]
+}
+
+fn resize_hint() -> ResizeHint {
+    ResizeHint::resizable().with_min_logical_size(nice_plug::editor::dpi::LogicalSize::new(MIN_SIZE[0] as f32, MIN_SIZE[1] as f32))
+}
+
+impl Editor for StruckEditor {
+    type Handle = EguiEditorHandle;
+
+    fn spawn(
+        &self,
+        parent: Option<ParentWindowHandle>,
+        wait_for_parent: bool,
+        fallback_scale_factor: Option<f64>,
+        gui_context: GuiContext,
+        host: Option<HostMethods>,
+    ) -> Result<SpawnedEditor<Self::Handle>, Box<dyn std::error::Error>> {
+        let [w, h] = self.logical_size();
+        let state = EguiEditorState::from_size(nice_plug::editor::dpi::LogicalSize::new(w as f32, h as f32), 1.0);
+        let app = App { ui: self.ui.clone(), params: self.params.clone(), scale: self.scale.clone(), ctx: None };
+        let settings = EguiNiceSettings::new().with_tile("Struck").with_resize_hint(resize_hint());
+        let editor = create_egui_editor(state, self.repaint.clone(), settings, app).ok_or("nice-plug-egui could not create the editor")?;
+        editor.spawn(parent, wait_for_parent, fallback_scale_factor, gui_context, host)
+    }
+
+    fn size(&self) -> nice_plug::editor::dpi::NativeSize<u32> {
+        let [w, h] = self.logical_size();
+        let size = nice_plug::editor::dpi::LogicalSize::new(f64::from(w), f64::from(h));
+        nice_plug::editor::dpi::NativeSize::from_size(size.into(), f64::from(self.scale.load(Ordering::Relaxed)))
+    }
+
+    fn resize_hint(&self) -> ResizeHint {
+        resize_hint()
+    }
+}
+
+/// The egui app of one open window.
+struct App {
+    ui: Arc<Mutex<EditorUi>>,
+    params: Arc<StruckParams>,
+    scale: Arc<AtomicF32>,
+    ctx: Option<GuiContext>,
+}
+
+impl NiceEguiApp for App {
+    fn build(
+        &mut self,
+        egui_ctx: egui::Context,
+        nice_gui_ctx: GuiContext,
+        _frame: &mut nice_plug_egui::Frame,
+    ) -> Result<(), nice_plug_egui::baseview::HandlerError> {
+        ui::setup_style(&egui_ctx);
+        self.ctx = Some(nice_gui_ctx);
+        Ok(())
+    }
+
+    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut nice_plug_egui::Frame) {
+        let Some(ctx) = &self.ctx else { return };
+        let setter = ctx.param_setter();
+        self.ui.lock().unwrap_or_else(PoisonError::into_inner).ui(ui, &setter);
+    }
+
+    fn resized(&mut self, size: nice_plug_egui::baseview::WindowSize) {
+        let w = size.logical.width.round().max(1.0) as u32;
+        let h = size.logical.height.round().max(1.0) as u32;
+        *self.params.editor_size.lock().unwrap_or_else(PoisonError::into_inner) = [w, h];
+        if size.scale_factor.is_finite() && size.scale_factor > 0.0 {
+            self.scale.store(size.scale_factor as f32, Ordering::Relaxed);
+        }
+    }
+
+    fn editor_closed(&mut self) {
+        self.ctx = None;
+    }
+}

@@ -1,0 +1,511 @@
+//! Capture panel: recordings in (path field, built-in browser, dropped files), the estimator
+//! on a background thread, the fit shown as in Sterling's thesis Fig. 4.5, and the actions.
+
+use super::logic;
+use super::material::apply_damping;
+use super::plot::{series_color, Axis, Plot};
+use super::ui::EditorUi;
+use crate::params::StruckParams;
+use estimator::{EstimateReport, Method, ModelKind};
+use nice_plug::prelude::ParamSetter;
+use egui::{self, Color32, RichText, Stroke};
+use presets::{DampingSpec, Material, SCHEMA_VERSION};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+use std::sync::{Arc, Mutex, PoisonError};
+
+/// The last capture, persisted with the plugin state: the files' names and the estimator's
+/// report (features and fits, no audio).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CaptureRecord {
+    /// The recordings analysed.
+    pub files: Vec<String>,
+    /// What the estimator found.
+    pub report: EstimateReport,
+}
+
+/// One entry of the built-in file browser.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct Entry {
+    pub path: PathBuf,
+    pub is_dir: bool,
+}
+
+/// A running analysis.
+pub(super) struct Job {
+    /// Progress 0..1 as `f32` bits.
+    progress: Arc<AtomicU32>,
+    cancel: Arc<AtomicBool>,
+    result: Arc<Mutex<Option<Result<EstimateReport, String>>>>,
+    files: Vec<PathBuf>,
+}
+
+/// Capture panel state.
+pub(super) struct CaptureUi {
+    pub files: Vec<PathBuf>,
+    pub path_text: String,
+    pub browse_dir: PathBuf,
+    pub entries: Option<Vec<Entry>>,
+    pub model: ModelKind,
+    pub method: Method,
+    pub recorded_object: bool,
+    pub job: Option<Job>,
+    pub message: Option<String>,
+    pub save_name: String,
+    pub apply_method: Option<Method>,
+}
+
+impl Default for CaptureUi {
+    fn default() -> Self {
+        let browse_dir = std::env::var_os("HOME").map(PathBuf::from).or_else(|| std::env::current_dir().ok()).unwrap_or_else(|| PathBuf::from("/"));
+        CaptureUi {
+            files: Vec::new(),
+            path_text: String::new(),
+            browse_dir,
+            entries: None,
+            model: ModelKind::Rayleigh,
+            method: Method::Emg,
+            recorded_object: false,
+            job: None,
+            message: None,
+            save_name: "My material".into(),
+            apply_method: None,
+        }
+    }
+}
+
+/// Sub-folders (with `..` first) and `.wav` files of `dir`, folders first, by name.
+pub(super) fn list_dir(dir: &Path) -> Vec<Entry> {
+    let mut out: Vec<Entry> = std::fs::read_dir(dir)
+        .map(|rd| {
+            rd.filter_map(Result::ok)
+                .filter_map(|e| {
+                    let path = e.path();
+                    let hidden = path.file_name().is_some_and(|n| n.to_string_lossy().starts_with('.'));
+                    let is_dir = path.is_dir();
+                    let wav = path.extension().is_some_and(|x| x.eq_ignore_ascii_case("wav"));
+                    (!hidden && (is_dir || wav)).then_some(Entry { path, is_dir })
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    out.sort_by(|a, b| b.is_dir.cmp(&a.is_dir).then_with(|| a.path.cmp(&b.path)));
+    if let Some(parent) = dir.parent() {
+        out.insert(0, Entry { path: parent.to_path_buf(), is_dir: true });
+    }
+    out
+}
+
+impl CaptureUi {
+    /// Adds a recording (no duplicates). `Err` says why not.
+    pub fn add_file(&mut self, path: PathBuf) -> Result<(), String> {
+        if !path.is_file() {
+            return Err(format!("{} is not a file", path.display()));
+        }
+        if !path.extension().is_some_and(|x| x.eq_ignore_ascii_case("wav")) {
+            return Err(format!("{} is not a .wav file", path.display()));
+        }
+        if !self.files.contains(&path) {
+            self.files.push(path);
+        }
+        Ok(())
+    }
+
+    pub fn is_running(&self) -> bool {
+        self.job.is_some()
+    }
+
+    /// Files dropped on the window (when the windowing layer delivers them).
+    pub fn take_dropped_files(&mut self, ctx: &egui::Context) {
+        let dropped: Vec<PathBuf> = ctx.input(|i| i.raw.dropped_files.iter().map(|f| f.path().to_path_buf()).collect());
+        for p in dropped {
+            if let Err(e) = self.add_file(p) {
+                self.message = Some(e);
+            }
+        }
+    }
+
+    /// Starts the estimator on a background thread.
+    fn start(&mut self, object_lambdas: Option<Vec<f64>>) {
+        if self.job.is_some() || self.files.is_empty() {
+            return;
+        }
+        let progress = Arc::new(AtomicU32::new(0f32.to_bits()));
+        let cancel = Arc::new(AtomicBool::new(false));
+        let result = Arc::new(Mutex::new(None));
+        let files = self.files.clone();
+        let opts = estimator::Options { model: self.model, method: self.method, object_lambdas, ..estimator::Options::default() };
+        let (p, c, r, f) = (progress.clone(), cancel.clone(), result.clone(), files.clone());
+        let spawned = std::thread::Builder::new().name("struck-estimator".into()).spawn(move || {
+            let out = estimator::estimate(&f, &opts, &|x| p.store(x.clamp(0.0, 1.0).to_bits(), Ordering::Relaxed), &c).map_err(|e| e.to_string());
+            *r.lock().unwrap_or_else(PoisonError::into_inner) = Some(out);
+        });
+        match spawned {
+            Ok(_) => {
+                self.message = None;
+                self.job = Some(Job { progress, cancel, result, files });
+            }
+            Err(e) => self.message = Some(format!("could not start the estimator: {e}")),
+        }
+    }
+
+    /// Picks up a finished analysis (never blocks: `try_lock`).
+    pub fn poll(&mut self, params: &StruckParams) {
+        let Some(job) = &self.job else { return };
+        let done = match job.result.try_lock() {
+            Ok(mut g) => g.take(),
+            Err(_) => None,
+        };
+        let Some(out) = done else { return };
+        let files: Vec<String> = job.files.iter().map(|f| f.display().to_string()).collect();
+        self.job = None;
+        match out {
+            Ok(report) => {
+                self.apply_method = None;
+                *params.capture.lock().unwrap_or_else(PoisonError::into_inner) = Some(CaptureRecord { files, report });
+            }
+            Err(e) => self.message = Some(e),
+        }
+    }
+
+    /// Waits for a running analysis to end and picks it up (tests, and closing the plugin).
+    pub fn wait(&mut self, params: &StruckParams) {
+        while self.job.is_some() {
+            std::thread::sleep(std::time::Duration::from_millis(5));
+            self.poll(params);
+        }
+    }
+}
+
+fn method_color(m: Method) -> Color32 {
+    match m {
+        Method::Emg => Color32::from_rgb(255, 190, 60),
+        Method::Lsq => Color32::from_rgb(80, 200, 255),
+        Method::Lb => Color32::from_rgb(230, 110, 230),
+    }
+}
+
+/// The material a capture saves: the chosen law, with its provenance.
+pub(super) fn captured_material(name: &str, rec: &CaptureRecord, fit: &estimator::FitResult) -> Material {
+    let names: Vec<&str> = rec.files.iter().map(|f| Path::new(f).file_name().and_then(|n| n.to_str()).unwrap_or(f.as_str())).collect();
+    Material {
+        schema_version: SCHEMA_VERSION,
+        id: logic::kebab_id("captured", name),
+        name: if name.trim().is_empty() { "Captured material".into() } else { name.trim().to_string() },
+        provenance: format!(
+            "Struck editor capture: {} fit ({}) of {} features from {} impacts in {}",
+            fit.model.name(),
+            fit.method.name(),
+            rec.report.n_points,
+            rec.report.impacts.len(),
+            names.join(", ")
+        ),
+        specific_modulus: None,
+        damping: DampingSpec::from_damping(&fit.damping()),
+        notes: rec.report.warnings.join("; "),
+    }
+}
+
+impl EditorUi {
+    /// Adds a recording to the capture list (what the path field, the browser and a drop do).
+    ///
+    /// # Errors
+    /// If `path` is not an existing `.wav` file.
+    pub fn add_capture_file(&mut self, path: PathBuf) -> Result<(), String> {
+        self.capture.add_file(path)
+    }
+
+    /// The recordings the next analysis will use.
+    pub fn capture_files(&self) -> &[PathBuf] {
+        &self.capture.files
+    }
+
+    /// Whether an analysis is running.
+    pub fn capture_running(&self) -> bool {
+        self.capture.is_running()
+    }
+
+    /// Blocks until a running analysis ends and stores its result (for tests).
+    pub fn wait_for_capture(&mut self) {
+        let p = self.params.clone();
+        self.capture.wait(&p);
+    }
+
+    /// The last capture error or note shown in the panel.
+    pub fn capture_message(&self) -> Option<&str> {
+        self.capture.message.as_deref()
+    }
+
+    pub(super) fn capture_panel(&mut self, ui: &mut egui::Ui, setter: &ParamSetter) {
+        ui.heading("Capture a material from recordings");
+        let hovering = ui.ctx().input(|i| !i.raw.hovered_files.is_empty());
+        if hovering {
+            ui.colored_label(Color32::from_rgb(255, 190, 60), "Drop WAV files to add them");
+        }
+        ui.columns(2, |cols| {
+            self.capture_inputs(&mut cols[0]);
+            self.capture_run(&mut cols[1]);
+        });
+        ui.separator();
+        self.capture_results(ui, setter);
+    }
+
+    fn capture_inputs(&mut self, ui: &mut egui::Ui) {
+        let c = &mut self.capture;
+        ui.label(RichText::new("Recordings").strong());
+        let mut remove = None;
+        for (i, f) in c.files.iter().enumerate() {
+            ui.horizontal(|ui| {
+                if ui.small_button("x").on_hover_text("Remove").clicked() {
+                    remove = Some(i);
+                }
+                ui.label(f.file_name().map_or_else(|| f.display().to_string(), |n| n.to_string_lossy().into_owned())).on_hover_text(f.display().to_string());
+            });
+        }
+        if let Some(i) = remove {
+            c.files.remove(i);
+        }
+        if c.files.is_empty() {
+            ui.label(RichText::new("None yet: type a path, browse, or drop WAV files here.").weak());
+        }
+        ui.horizontal(|ui| {
+            let edit = ui.add(egui::TextEdit::singleline(&mut c.path_text).hint_text("/path/to/taps.wav").desired_width(220.0)).accessible_name("Recording path");
+            let enter = edit.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
+            if ui.button("Add").clicked() || enter {
+                let path = PathBuf::from(c.path_text.trim());
+                match c.add_file(path) {
+                    Ok(()) => {
+                        c.path_text.clear();
+                        c.message = None;
+                    }
+                    Err(e) => c.message = Some(e),
+                }
+            }
+        });
+        egui::CollapsingHeader::new("Browse").default_open(true).show(ui, |ui| {
+            ui.label(RichText::new(c.browse_dir.display().to_string()).weak());
+            if c.entries.is_none() {
+                c.entries = Some(list_dir(&c.browse_dir));
+            }
+            let mut go = None;
+            let mut add = None;
+            egui::ScrollArea::vertical().id_salt("browser").max_height(160.0).show(ui, |ui| {
+                for (i, e) in c.entries.iter().flatten().enumerate() {
+                    let name = if i == 0 && c.browse_dir.parent() == Some(e.path.as_path()) {
+                        ".. (up)".to_string()
+                    } else {
+                        let n = e.path.file_name().map_or_else(|| e.path.display().to_string(), |n| n.to_string_lossy().into_owned());
+                        if e.is_dir {
+                            format!("{n}/")
+                        } else {
+                            n
+                        }
+                    };
+                    if ui.selectable_label(false, name).clicked() {
+                        if e.is_dir {
+                            go = Some(e.path.clone());
+                        } else {
+                            add = Some(e.path.clone());
+                        }
+                    }
+                }
+            });
+            if let Some(d) = go {
+                c.browse_dir = d;
+                c.entries = None;
+            }
+            if let Some(f) = add {
+                if let Err(e) = c.add_file(f) {
+                    c.message = Some(e);
+                }
+            }
+        });
+    }
+
+    fn capture_run(&mut self, ui: &mut egui::Ui) {
+        let lib = self.library.clone();
+        let object = logic::object_index(&self.params, &lib);
+        let c = &mut self.capture;
+        ui.label(RichText::new("Analysis").strong());
+        egui::Grid::new("capture-options").num_columns(2).show(ui, |ui| {
+            ui.label("Damping model");
+            egui::ComboBox::from_id_salt("capture-model").selected_text(c.model.name()).show_ui(ui, |ui| {
+                for m in [ModelKind::Rayleigh, ModelKind::Hybrid, ModelKind::Power, ModelKind::Caughey] {
+                    ui.selectable_value(&mut c.model, m, m.name());
+                }
+            });
+            ui.end_row();
+            ui.label("Chosen fit");
+            egui::ComboBox::from_id_salt("capture-method").selected_text(c.method.name()).show_ui(ui, |ui| {
+                for m in [Method::Emg, Method::Lsq, Method::Lb] {
+                    ui.selectable_value(&mut c.method, m, m.name());
+                }
+            });
+            ui.end_row();
+        });
+        if let Some(o) = object {
+            ui.checkbox(&mut c.recorded_object, format!("Recordings are of the current object ({})", lib.banks[o].name));
+        }
+        let running = c.job.is_some();
+        ui.horizontal(|ui| {
+            let analyse = ui.add_enabled(!running && !c.files.is_empty(), egui::Button::new("Analyse"));
+            if analyse.clicked() {
+                let lambdas = if c.recorded_object { object.map(|o| lib.banks[o].lambdas.clone()) } else { None };
+                c.start(lambdas);
+            }
+            if ui.add_enabled(running, egui::Button::new("Cancel")).clicked() {
+                if let Some(j) = &c.job {
+                    j.cancel.store(true, Ordering::Relaxed);
+                }
+            }
+        });
+        if let Some(j) = &c.job {
+            let p = f32::from_bits(j.progress.load(Ordering::Relaxed));
+            ui.add(egui::ProgressBar::new(p).show_percentage().animate(true));
+        }
+        if let Some(m) = &c.message {
+            ui.colored_label(Color32::from_rgb(255, 170, 60), m.as_str());
+        }
+    }
+
+    fn capture_results(&mut self, ui: &mut egui::Ui, setter: &ParamSetter) {
+        let params = self.params.clone();
+        // GUI thread only (and the host's state save, on this same thread): never the audio.
+        let guard = params.capture.lock().unwrap_or_else(PoisonError::into_inner);
+        let Some(rec) = guard.as_ref() else {
+            ui.label(RichText::new("No capture yet.").weak());
+            return;
+        };
+        let r = &rec.report;
+        ui.label(RichText::new("Results").strong());
+        let recommended = r.comparison.as_ref().map(|c| {
+            let bic = c.delta_bic.map_or(String::new(), |d| format!(" (ΔBIC hybrid − Rayleigh = {d:.1})"));
+            format!("recommended model: {}{bic}", c.recommended.name())
+        });
+        ui.label(format!(
+            "{} features from {} impacts in {} file(s); chosen {} fit of {}; {}",
+            r.n_points,
+            r.impacts.len(),
+            r.files.len(),
+            r.method.name(),
+            r.model,
+            recommended.unwrap_or_else(|| "no model comparison".into())
+        ));
+        if let Some(o) = &r.object {
+            ui.label(format!("object match: {o:?}"));
+        }
+        egui::CollapsingHeader::new(format!("Impacts per file ({} skipped)", r.skipped.len())).default_open(false).show(ui, |ui| {
+            egui::Grid::new("capture-files").striped(true).show(ui, |ui| {
+                ui.label("file");
+                ui.label("found");
+                ui.label("used");
+                ui.label("noise floor");
+                ui.end_row();
+                for f in &r.files {
+                    ui.label(Path::new(&f.file).file_name().map_or(f.file.clone(), |n| n.to_string_lossy().into_owned()));
+                    ui.label(f.impacts_found.to_string());
+                    ui.label(f.impacts_used.to_string());
+                    ui.label(format!("{:.1} dBFS", f.noise_floor_db));
+                    ui.end_row();
+                }
+            });
+            for s in &r.skipped {
+                ui.label(format!("skipped {} @ {:.3} s: {}", s.file, s.onset_s, s.reason));
+            }
+        });
+        for w in &r.warnings {
+            ui.colored_label(Color32::from_rgb(255, 170, 60), format!("warning: {w}"));
+        }
+
+        // (λ, c) scatter coloured by impact, and the fitted curves (thesis Fig. 4.5).
+        let pts: Vec<(f64, f64, usize)> =
+            r.impacts.iter().enumerate().flat_map(|(i, imp)| imp.features.iter().map(move |f| (f.lambda(), f.c(), i))).filter(|p| p.0 > 0.0 && p.1 > 0.0).collect();
+        let (lmin, lmax) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p.0), b.max(p.0)));
+        let (cmin, cmax) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p.1), b.max(p.1)));
+        if pts.is_empty() {
+            ui.label("No (λ, c) points with c > 0 to plot.");
+        } else {
+            let x = Axis::log(lmin / 2.0, lmax * 2.0);
+            let y = Axis::log(cmin / 3.0, cmax * 3.0);
+            let (plot, _, painter) = Plot::show(ui, 260.0, x, y, "λ (rad²/s²)", "c (1/s)", "Capture scatter");
+            for &(l, c, i) in &pts {
+                plot.dot(&painter, l, c, 2.5, series_color(i, r.impacts.len()));
+            }
+            for f in &r.fits {
+                let n = 120;
+                let curve: Vec<(f64, f64)> = (0..n)
+                    .map(|k| {
+                        let l = ((x.lo.ln()) + (x.hi.ln() - x.lo.ln()) * f64::from(k) / f64::from(n - 1)).exp();
+                        (l, f.c(l))
+                    })
+                    .collect();
+                let width = if f.method == r.method { 2.5 } else { 1.5 };
+                plot.line(&painter, &curve, Stroke::new(width, method_color(f.method)));
+            }
+            ui.horizontal(|ui| {
+                for f in &r.fits {
+                    ui.colored_label(method_color(f.method), format!("— {}", f.method.name()));
+                }
+                ui.label(RichText::new("dots: features, one colour per impact").weak());
+            });
+        }
+
+        // Parameters with their standard errors, one row per method.
+        egui::Grid::new("capture-fits").striped(true).show(ui, |ui| {
+            ui.label("fit");
+            ui.label("parameters ± standard error (SI)");
+            ui.label("σ");
+            ui.label("BIC");
+            ui.end_row();
+            for f in &r.fits {
+                let sel = self.capture.apply_method.unwrap_or(r.method) == f.method;
+                if ui.selectable_label(sel, f.method.name()).on_hover_text("Use this fit for Apply and Save").clicked() {
+                    self.capture.apply_method = Some(f.method);
+                }
+                let ps: Vec<String> = f
+                    .params
+                    .iter()
+                    .zip(f.std_errors.iter().chain(std::iter::repeat(&None)))
+                    .map(|(v, e)| match e {
+                        Some(e) => format!("{v:.4e} ± {e:.2e}"),
+                        None => format!("{v:.4e}"),
+                    })
+                    .collect();
+                ui.label(ps.join(", "));
+                ui.label(format!("{:.3}", f.sigma));
+                ui.label(f.bic.map_or("–".into(), |b| format!("{b:.1}")));
+                ui.end_row();
+            }
+        });
+
+        let method = self.capture.apply_method.unwrap_or(r.method);
+        let fit = r.fits.iter().find(|f| f.method == method).unwrap_or(&r.chosen).clone();
+        let rec = rec.clone();
+        drop(guard);
+        ui.horizontal(|ui| {
+            if ui.button("Apply").on_hover_text("Set the Custom material to this fit (one host gesture per parameter)").clicked() {
+                let custom = self.library.custom_material_index();
+                match apply_damping(&params, custom, setter, &fit.damping()) {
+                    Ok(()) => self.capture.message = Some(format!("applied the {} fit to the Custom material", fit.method.name())),
+                    Err(e) => self.capture.message = Some(e),
+                }
+            }
+            ui.add(egui::TextEdit::singleline(&mut self.capture.save_name).desired_width(160.0));
+            if ui.button("Save material").on_hover_text(format!("Write a user material to {}", logic::user_material_dir().display())).clicked() {
+                let m = captured_material(&self.capture.save_name, &rec, &fit);
+                let dir = logic::user_material_dir();
+                let path = dir.join(format!("{}.json", m.id));
+                let out = std::fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display())).and_then(|()| m.save(&path).map_err(|e| e.to_string()));
+                self.capture.message = Some(match out {
+                    Ok(()) => format!("saved {}", path.display()),
+                    Err(e) => e,
+                });
+                self.material.user = None;
+            }
+            if ui.button("Clear").on_hover_text("Forget this capture").clicked() {
+                *params.capture.lock().unwrap_or_else(PoisonError::into_inner) = None;
+            }
+        });
+    }
+}

@@ -1,0 +1,168 @@
+//! Material panel: factory and user materials, the damping knobs and the sound controls,
+//! and the T60 curve of the law the audio plays.
+
+use super::logic::{self, F_MAX_HZ, F_MIN_HZ};
+use super::plot::{Axis, Plot};
+use super::ui::{param_row, set_param, EditorUi};
+use crate::params::StruckParams;
+use nice_plug::prelude::ParamSetter;
+use egui::{self, Color32, Stroke};
+use presets::Material;
+use std::path::PathBuf;
+
+/// A material file in the user folder.
+pub(super) struct UserMaterial {
+    pub path: PathBuf,
+    pub material: Result<Material, String>,
+}
+
+/// Material panel state.
+#[derive(Default)]
+pub(super) struct MaterialUi {
+    /// User materials, listed on first show and on *Rescan*.
+    pub user: Option<Vec<UserMaterial>>,
+    /// Name of the user material last loaded into the Custom knobs.
+    pub loaded_user: Option<String>,
+    /// Last error or note.
+    pub message: Option<String>,
+}
+
+/// Lists `dir`'s `.json` materials, sorted by file name.
+pub(super) fn scan_user_materials(dir: &std::path::Path) -> Vec<UserMaterial> {
+    let mut out: Vec<UserMaterial> = std::fs::read_dir(dir)
+        .map(|rd| {
+            rd.filter_map(Result::ok)
+                .map(|e| e.path())
+                .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")))
+                .map(|path| UserMaterial { material: Material::load(&path).map_err(|e| e.to_string()), path })
+                .collect()
+        })
+        .unwrap_or_default();
+    out.sort_by(|a, b| a.path.cmp(&b.path));
+    out
+}
+
+/// Sets the *Custom* material to reproduce `d`: one gesture per parameter.
+///
+/// # Errors
+/// As [`StruckParams::custom_knobs_for`] (nothing is changed).
+pub(super) fn apply_damping(params: &StruckParams, custom_index: usize, setter: &ParamSetter, d: &dsp::Damping) -> Result<(), String> {
+    let k = params.custom_knobs_for(d)?;
+    set_param(setter, &params.material, custom_index as i32);
+    set_param(setter, &params.damping_model, k.model);
+    set_param(setter, &params.alpha1_per_s, k.alpha1_per_s);
+    set_param(setter, &params.damping_1k_per_s, k.damping_1k_per_s);
+    set_param(setter, &params.exponent, k.exponent);
+    set_param(setter, &params.caughey_10k_per_s, k.caughey_10k_per_s);
+    Ok(())
+}
+
+impl EditorUi {
+    pub(super) fn material_panel(&mut self, ui: &mut egui::Ui, setter: &ParamSetter) {
+        ui.heading("Material");
+        let lib = self.library.clone();
+        let p = self.params.clone();
+        let selected = p.material.value().max(0) as usize;
+        let custom = lib.custom_material_index();
+        if self.material.user.is_none() {
+            self.material.user = Some(scan_user_materials(&logic::user_material_dir()));
+        }
+        let shown = match (lib.materials.get(selected), &self.material.loaded_user) {
+            (Some(m), _) => m.name.clone(),
+            (None, Some(u)) => format!("Custom: {u}"),
+            (None, None) => "Custom (knobs)".into(),
+        };
+        let mut chosen_user: Option<(String, dsp::Damping)> = None;
+        ui.horizontal(|ui| {
+            egui::ComboBox::from_label("Material").selected_text(shown).width(220.0).show_ui(ui, |ui| {
+                ui.label(egui::RichText::new("Factory").weak());
+                for (i, m) in lib.materials.iter().enumerate() {
+                    let r = ui.selectable_label(i == selected, m.name.as_str()).on_hover_text(format!("{}\n\n{}", m.provenance, m.notes));
+                    if r.clicked() && i != selected {
+                        set_param(setter, &p.material, i as i32);
+                        self.material.loaded_user = None;
+                    }
+                }
+                if ui.selectable_label(selected >= custom, "Custom (the knobs below)").clicked() && selected < custom {
+                    set_param(setter, &p.material, custom as i32);
+                }
+                ui.separator();
+                ui.label(egui::RichText::new(format!("User ({})", logic::user_material_dir().display())).weak());
+                for u in self.material.user.iter().flatten() {
+                    let name = u.path.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+                    match &u.material {
+                        Ok(m) => {
+                            if ui.selectable_label(false, m.name.as_str()).on_hover_text(format!("{}\n\n{}", m.provenance, u.path.display())).clicked() {
+                                match m.to_damping() {
+                                    Ok(d) => chosen_user = Some((m.name.clone(), d)),
+                                    Err(e) => self.material.message = Some(e.to_string()),
+                                }
+                            }
+                        }
+                        Err(e) => {
+                            ui.label(egui::RichText::new(format!("{name}: unreadable")).weak()).on_hover_text(e.as_str());
+                        }
+                    }
+                }
+            });
+            if ui.small_button("Rescan").on_hover_text("List the user materials folder again").clicked() {
+                self.material.user = None;
+            }
+        });
+        if let Some((name, d)) = chosen_user {
+            match apply_damping(&p, custom, setter, &d) {
+                Ok(()) => self.material.loaded_user = Some(name),
+                Err(e) => self.material.message = Some(e),
+            }
+        }
+        if let Some(m) = &self.material.message {
+            ui.colored_label(Color32::from_rgb(255, 170, 60), m.as_str());
+        }
+
+        egui::CollapsingHeader::new("Custom damping law").default_open(true).show(ui, |ui| {
+            if selected < custom {
+                ui.label(egui::RichText::new("These knobs play when Material is Custom.").weak());
+            }
+            egui::Grid::new("damping-knobs").num_columns(2).show(ui, |ui| {
+                param_row(ui, setter, &p.damping_model);
+                param_row(ui, setter, &p.alpha1_per_s);
+                param_row(ui, setter, &p.damping_1k_per_s);
+                param_row(ui, setter, &p.exponent);
+                param_row(ui, setter, &p.caughey_10k_per_s);
+            });
+        });
+        egui::Grid::new("sound-knobs").num_columns(2).show(ui, |ui| {
+            param_row(ui, setter, &p.decay_scale);
+            param_row(ui, setter, &p.modulus_ratio);
+            param_row(ui, setter, &p.material_pitch);
+            param_row(ui, setter, &p.size);
+            param_row(ui, setter, &p.hardness);
+            param_row(ui, setter, &p.noise);
+            param_row(ui, setter, &p.velocity_sensitivity);
+            param_row(ui, setter, &p.release_damping_per_s);
+            param_row(ui, setter, &p.pressure_damping_per_s);
+            param_row(ui, setter, &p.quality_db);
+            param_row(ui, setter, &p.gain_db);
+            param_row(ui, setter, &p.key_mode);
+            param_row(ui, setter, &p.root_note);
+            param_row(ui, setter, &p.key_tuning);
+        });
+
+        ui.add_space(6.0);
+        ui.label("Decay time T60 = ln(1000)/d, d = c(λ)/2, λ = (2πf)² (dots: last capture)");
+        let d = logic::current_damping(&p, &lib);
+        let scale = f64::from(p.decay_scale.value());
+        let curve = logic::t60_curve(&d, scale, F_MIN_HZ, F_MAX_HZ, 200);
+        let (plot, _, painter) = Plot::show(ui, 190.0, Axis::log(F_MIN_HZ, F_MAX_HZ), Axis::log(1e-3, 100.0), "frequency (Hz)", "T60 (s)", "T60 curve");
+        if let Ok(c) = p.capture.try_lock() {
+            if let Some(rec) = c.as_ref() {
+                for f in rec.report.impacts.iter().flat_map(|i| &i.features) {
+                    if f.decay_per_s > 0.0 {
+                        plot.dot(&painter, f.freq_hz, logic::LN_1000 / f.decay_per_s, 2.0, Color32::from_gray(150));
+                    }
+                }
+            }
+        }
+        plot.line(&painter, &curve, Stroke::new(2.0, Color32::from_rgb(255, 190, 60)));
+    }
+}

@@ -1,0 +1,112 @@
+//! Object view: the bank's strike points; click or drag to strike there. Below, the mode
+//! gains at the current strike position.
+
+use super::logic::{self, F_MAX_HZ, F_MIN_HZ};
+use super::plot::{Axis, Plot};
+use super::ui::{set_param, EditorUi};
+use nice_plug::prelude::ParamSetter;
+use egui::{self, Color32, Pos2, Rect, Sense, Stroke, Vec2};
+
+impl EditorUi {
+    pub(super) fn object_panel(&mut self, ui: &mut egui::Ui, setter: &ParamSetter) {
+        ui.heading("Object");
+        let lib = self.library.clone();
+        let Some(obj) = logic::object_index(&self.params, &lib) else {
+            ui.label("No objects in the library.");
+            return;
+        };
+        let bank = &lib.banks[obj];
+        egui::ComboBox::from_label("Object").selected_text(bank.name.as_str()).show_ui(ui, |ui| {
+            for (i, b) in lib.banks.iter().enumerate() {
+                let r = ui.selectable_label(i == obj, b.name.as_str()).on_hover_text(format!("{}\n\n{}", b.description, b.provenance));
+                if r.clicked() && i != obj {
+                    set_param(setter, &self.params.object, i as i32);
+                }
+            }
+        });
+        ui.horizontal(|ui| {
+            ui.add(egui::Slider::new(&mut self.audition_velocity, 0.05..=1.0).text("Velocity"));
+            ui.add(egui::DragValue::new(&mut self.audition_key).range(0..=127).prefix("Key "));
+        });
+
+        // The drawing: points in [0,1]², y up, in a square that fits the column.
+        let side = ui.available_width().clamp(120.0, 280.0);
+        let (rect, response) = ui.allocate_exact_size(Vec2::new(ui.available_width(), side), Sense::click_and_drag());
+        let response = response.accessible_name("Object view");
+        let area = Rect::from_center_size(rect.center(), Vec2::splat(side - 24.0));
+        let to_screen = |xy: [f32; 2]| Pos2::new(area.left() + xy[0] * area.width(), area.bottom() - xy[1] * area.height());
+        let from_screen = |p: Pos2| [(p.x - area.left()) / area.width(), (area.bottom() - p.y) / area.height()];
+        let points: Vec<[f32; 2]> = bank.points.iter().map(|p| p.xy).collect();
+        let n = points.len();
+
+        // Interaction: press (or drag onto) a point → one gesture on the strike position,
+        // released when the button is; each new point also strikes.
+        let pointer = response.interact_pointer_pos().or_else(|| response.hover_pos());
+        let down = response.is_pointer_button_down_on();
+        if down {
+            if let Some(i) = pointer.and_then(|p| logic::nearest_point(&points, from_screen(p))) {
+                let pos = logic::position_of_point(i, n);
+                match self.object_gesture {
+                    None => {
+                        setter.begin_set_parameter(&self.params.strike_position);
+                        setter.set_parameter(&self.params.strike_position, pos);
+                        self.object_gesture = Some(i);
+                        self.audition(pos);
+                    }
+                    Some(j) if j != i => {
+                        setter.set_parameter(&self.params.strike_position, pos);
+                        self.object_gesture = Some(i);
+                        self.audition(pos);
+                    }
+                    Some(_) => {}
+                }
+            }
+        } else if self.object_gesture.take().is_some() {
+            setter.end_set_parameter(&self.params.strike_position);
+        } else if response.clicked() {
+            // Press and release within one frame.
+            if let Some(i) = pointer.and_then(|p| logic::nearest_point(&points, from_screen(p))) {
+                let pos = logic::position_of_point(i, n);
+                set_param(setter, &self.params.strike_position, pos);
+                self.audition(pos);
+            }
+        }
+
+        let painter = ui.painter_at(rect);
+        let visuals = ui.visuals();
+        painter.rect_filled(rect, 4.0, visuals.extreme_bg_color);
+        let path: Vec<Pos2> = points.iter().map(|&p| to_screen(p)).collect();
+        if path.len() > 1 {
+            painter.add(egui::Shape::line(path.clone(), Stroke::new(1.0, visuals.weak_text_color())));
+        }
+        let position = self.params.strike_position.value();
+        let current = logic::nearest_point(&points, logic::point_at_position(&points, position).unwrap_or([0.0, 0.0]));
+        for (i, p) in path.iter().enumerate() {
+            let color = if Some(i) == current { Color32::from_rgb(255, 190, 60) } else { visuals.text_color() };
+            painter.circle_filled(*p, if Some(i) == current { 5.0 } else { 3.0 }, color);
+        }
+        if let Some(xy) = logic::point_at_position(&points, position) {
+            painter.circle_stroke(to_screen(xy), 9.0, Stroke::new(2.0, Color32::from_rgb(255, 150, 40)));
+        }
+        let label = current.and_then(|i| bank.points.get(i)).map_or("", |p| p.label.as_str());
+        painter.text(rect.left_top() + Vec2::new(6.0, 4.0), egui::Align2::LEFT_TOP, format!("{} · {label}", self.params.strike_position), egui::FontId::proportional(11.0), visuals.text_color());
+        if let Some(p) = response.hover_pos() {
+            if let Some(i) = logic::nearest_point(&points, from_screen(p)) {
+                painter.circle_stroke(path[i], 6.0, Stroke::new(1.0, visuals.strong_text_color()));
+            }
+        }
+
+        ui.add_space(6.0);
+        ui.label("Mode gains at the strike position (mode shapes at key's pitch, before the mallet)");
+        let scale = logic::lambda_scale(&self.params, &lib, self.audition_key);
+        let bars = logic::mode_bars(bank, position, scale);
+        let peak = bars.iter().fold(0.0f32, |m, b| m.max(b.gain.abs())).max(1e-6);
+        let threshold = peak * 10f32.powf(-self.params.quality_db.value() / 20.0);
+        let (plot, _, painter) = Plot::show(ui, 170.0, Axis::log(F_MIN_HZ, F_MAX_HZ), Axis::lin(0.0, f64::from(peak)), "frequency (Hz)", "|gain|", "Mode gains");
+        for b in &bars {
+            let strong = b.gain.abs() >= threshold && b.gain != 0.0;
+            let color = if strong { Color32::from_rgb(90, 170, 255) } else { Color32::from_gray(90) };
+            plot.bar(&painter, b.freq_hz, f64::from(b.gain.abs()), Stroke::new(2.0, color));
+        }
+    }
+}

@@ -1,0 +1,298 @@
+//! The real editor UI driven headlessly with egui_kittest: the same `EditorUi::ui` the plugin
+//! window draws, with a `ParamSetter` over a recording GUI context instead of the host's.
+//!
+//! Screenshots of the main views go to `$CARGO_TARGET_TMPDIR/editor-screenshots/` when a wgpu
+//! adapter is available (on Linux CI: Mesa's lavapipe, package `mesa-vulkan-drivers`); without
+//! one the screenshots are skipped with a note, and the tests still run.
+
+// PANIC: in these tests each `expect` is an assertion; its message names what was missing.
+
+use egui_kittest::kittest::Queryable;
+use egui_kittest::Harness;
+use nice_plug::prelude::*;
+use std::path::PathBuf;
+use std::sync::Arc;
+use struck::editor::testing::{Gesture, RecordingContext};
+use struck::editor::{EditorUi, Tab};
+use struck::Struck;
+
+/// A file dropped on the window (what the windowing layer hands egui).
+#[derive(Debug)]
+struct Dropped(PathBuf);
+impl egui::DroppedFile for Dropped {
+    fn path(&self) -> &std::path::Path {
+        &self.0
+    }
+    fn bytes(&self) -> Result<Vec<u8>, String> {
+        std::fs::read(&self.0).map_err(|e| e.to_string())
+    }
+}
+
+struct State {
+    ui: EditorUi,
+    ctx: Arc<RecordingContext>,
+}
+
+fn harness(plugin: &Struck) -> Harness<'static, State> {
+    harness_sized(plugin, 720.0)
+}
+
+/// A harness `height` points tall (the capture results need more than the default window).
+fn harness_sized(plugin: &Struck, height: f32) -> Harness<'static, State> {
+    let params = plugin.struck_params().clone();
+    let ctx = Arc::new(RecordingContext::new(params.clone()));
+    let ui = EditorUi::new(params, plugin.library().clone(), plugin.editor_shared().clone());
+    Harness::builder().with_size([1040.0, height]).build_ui_state(
+        |ui, s: &mut State| {
+            let setter = ParamSetter::new(&*s.ctx);
+            s.ui.ui(ui, &setter);
+        },
+        State { ui, ctx },
+    )
+}
+
+fn tmp(name: &str) -> PathBuf {
+    std::env::temp_dir().join(format!("struck-editor-test-{}-{name}", std::process::id()))
+}
+
+/// Saves a screenshot if a renderer is available; never fails the test.
+fn screenshot(h: &mut Harness<'_, State>, name: &str) {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("editor-screenshots");
+    let _ = std::fs::create_dir_all(&dir);
+    let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| h.render()));
+    match out {
+        Ok(Ok(img)) => {
+            let path = dir.join(format!("{name}.png"));
+            match img.save(&path) {
+                Ok(()) => println!("screenshot: {}", path.display()),
+                Err(e) => println!("screenshot {name} not saved: {e}"),
+            }
+        }
+        Ok(Err(e)) => println!("screenshot {name} skipped: no renderer ({e})"),
+        Err(_) => println!("screenshot {name} skipped: the wgpu renderer panicked (no adapter?)"),
+    }
+}
+
+/// Screen position of strike point `i` of the current object in the object view (the
+/// mapping of `editor/object.rs`: a square of side (height − 24) centred in the view, y up).
+fn point_on_screen(h: &Harness<'_, State>, plugin: &Struck, i: usize) -> egui::Pos2 {
+    let rect = h.get_by_label("Object view").rect();
+    let side = rect.height() - 24.0;
+    let area = egui::Rect::from_center_size(rect.center(), egui::Vec2::splat(side));
+    let bank = &plugin.library().banks[plugin.struck_params().object.value() as usize];
+    let xy = bank.points[i].xy;
+    egui::pos2(area.left() + xy[0] * area.width(), area.bottom() - xy[1] * area.height())
+}
+
+/// A strike point whose drawing position no other point shares.
+fn distinct_point(plugin: &Struck, avoid: usize) -> usize {
+    let bank = &plugin.library().banks[plugin.struck_params().object.value() as usize];
+    let n = bank.points.len();
+    (0..n).rev().find(|&i| i != avoid && bank.points.iter().filter(|p| p.xy == bank.points[i].xy).count() == 1).expect("a distinct strike point")
+}
+
+#[test]
+fn clicking_a_strike_point_sets_the_position_and_strikes() {
+    let plugin = Struck::default();
+    let mut h = harness(&plugin);
+    h.run_steps(2);
+    screenshot(&mut h, "play");
+    let n = plugin.library().banks[0].points.len();
+    let k = distinct_point(&plugin, usize::MAX);
+    let at = point_on_screen(&h, &plugin, k);
+    h.hover_at(at);
+    h.run_steps(1);
+    h.drag_at(at);
+    h.run_steps(2);
+    h.drop_at(at);
+    h.run_steps(2);
+
+    let want = k as f32 / (n - 1) as f32;
+    let got = plugin.struck_params().strike_position.value();
+    assert!((got - want).abs() < 1e-6, "position {got}, expected point {k} of {n} = {want}");
+    let ctx = h.state().ctx.clone();
+    let g = ctx.gestures();
+    assert_eq!(g.first(), Some(&Gesture::Begin("pos".into())), "{g:?}");
+    assert_eq!(g.last(), Some(&Gesture::End("pos".into())), "{g:?}");
+    assert!(ctx.gestures_well_formed(), "{g:?}");
+    // One strike queued for the audio thread, at that position.
+    let a = plugin.editor_shared().audition.pop().expect("an audition note was queued");
+    assert!((a.position - want).abs() < 1e-6);
+    assert!(a.velocity > 0.0 && a.key == 60);
+    assert!(plugin.editor_shared().audition.pop().is_none(), "one click, one strike");
+}
+
+#[test]
+fn dragging_across_points_is_one_gesture_striking_each_point() {
+    let plugin = Struck::default();
+    let mut h = harness(&plugin);
+    h.run_steps(2);
+    let a = distinct_point(&plugin, usize::MAX);
+    let b = distinct_point(&plugin, a);
+    let (pa, pb) = (point_on_screen(&h, &plugin, a), point_on_screen(&h, &plugin, b));
+    h.hover_at(pa);
+    h.run_steps(1);
+    h.drag_at(pa);
+    h.run_steps(1);
+    for t in 1..=4 {
+        h.hover_at(pa + (pb - pa) * (t as f32 / 4.0));
+        h.run_steps(1);
+    }
+    h.drop_at(pb);
+    h.run_steps(2);
+    let g = h.state().ctx.gestures();
+    assert_eq!(g.iter().filter(|x| matches!(x, Gesture::Begin(_))).count(), 1, "{g:?}");
+    assert!(h.state().ctx.gestures_well_formed(), "{g:?}");
+    let n = plugin.library().banks[0].points.len();
+    assert!((plugin.struck_params().strike_position.value() - b as f32 / (n - 1) as f32).abs() < 1e-6);
+    let mut strikes = 0;
+    while plugin.editor_shared().audition.pop().is_some() {
+        strikes += 1;
+    }
+    assert!(strikes >= 2, "{strikes} strikes");
+}
+
+#[test]
+fn a_param_slider_changes_its_parameter_through_a_gesture() {
+    let plugin = Struck::default();
+    let mut h = harness(&plugin);
+    h.run_steps(2);
+    let before = plugin.struck_params().noise.value();
+    let rect = h.get_by_label("Noise slider").rect();
+    let at = egui::pos2(rect.left() + 0.6 * rect.width().min(170.0), rect.center().y);
+    h.hover_at(at);
+    h.run_steps(1);
+    h.drag_at(at);
+    h.run_steps(1);
+    h.drop_at(at);
+    h.run_steps(2);
+    let after = plugin.struck_params().noise.value();
+    assert!((after - before).abs() > 0.1, "noise {before} → {after}");
+    let g = h.state().ctx.gestures();
+    assert!(g.contains(&Gesture::Begin("noise".into())), "{g:?}");
+    assert!(g.iter().any(|x| matches!(x, Gesture::Set(id, _) if id == "noise")), "{g:?}");
+}
+
+#[test]
+fn choosing_a_material_from_the_list_sets_the_material_parameter() {
+    let plugin = Struck::default();
+    let mut h = harness(&plugin);
+    h.run_steps(2);
+    h.get_by_role_and_label(egui::accesskit::Role::ComboBox, "Material").click();
+    h.run_steps(2);
+    h.get_by_label("Custom (the knobs below)").click_accesskit();
+    h.run_steps(2);
+    let custom = plugin.library().custom_material_index() as i32;
+    assert_eq!(plugin.struck_params().material.value(), custom);
+    assert!(h.state().ctx.gestures_well_formed());
+}
+
+fn render_taps(name: &str) -> PathBuf {
+    let wav = tmp(name);
+    let opts = struck::cli::RenderOptions {
+        sound: struck::cli::SoundOptions { object: "circular-plate".into(), material: "steel-sterling-rayleigh".into(), ..Default::default() },
+        notes: Some("48:110@0.1,55:110@0.45+1.5,50:120@0.8+3".into()),
+        midi: None,
+        seconds: Some(4.5),
+        block_size: 512,
+        out: wav.clone(),
+    };
+    struck::cli::render(&opts).expect("render the taps");
+    wav
+}
+
+#[test]
+fn files_arrive_by_path_field_browser_and_drop_and_a_capture_applies_and_persists() {
+    let plugin = Struck::default();
+    let wav = render_taps("taps.wav");
+    let mut h = harness_sized(&plugin, 1100.0);
+    h.state_mut().ui.tab = Tab::Capture;
+    h.run_steps(2);
+    screenshot(&mut h, "capture-empty");
+
+    // A bad path is refused with a reason.
+    h.get_by_label("Recording path").type_text("/nonexistent/x.wav");
+    h.run_steps(1);
+    h.get_by_label("Add").click();
+    h.run_steps(2);
+    assert!(h.state().ui.capture_files().is_empty());
+    assert!(h.state().ui.capture_message().is_some_and(|m| m.contains("not a file")));
+
+    // A dropped file is added.
+    h.input_mut().dropped_files.push(Arc::new(Dropped(wav.clone())));
+    h.run_steps(2);
+    assert_eq!(h.state().ui.capture_files(), [wav.clone()]);
+    // The same file again through the path field: no duplicate.
+    h.get_by_label("Recording path").type_text(&wav.display().to_string());
+    h.run_steps(1);
+    h.get_by_label("Add").click();
+    h.run_steps(2);
+    assert_eq!(h.state().ui.capture_files(), [wav.clone()]);
+
+    // Analyse on the background thread, then pick up the result.
+    h.get_by_label("Analyse").click();
+    h.run_steps(2);
+    h.state_mut().ui.wait_for_capture();
+    h.run_steps(3);
+    assert!(h.state().ui.capture_message().is_none(), "{:?}", h.state().ui.capture_message());
+    let params = plugin.struck_params().clone();
+    {
+        let cap = params.capture.lock().expect("capture lock");
+        let rec = cap.as_ref().expect("a capture result");
+        assert!(!rec.report.impacts.is_empty() && rec.report.fits.len() >= 2);
+        assert_eq!(rec.files, [wav.display().to_string()]);
+    }
+    screenshot(&mut h, "capture-results");
+
+    // Apply: Custom material with the fitted law, one closed gesture per parameter.
+    h.state().ctx.clear();
+    h.get_by_label("Apply").click();
+    h.run_steps(2);
+    assert_eq!(params.material.value(), plugin.library().custom_material_index() as i32);
+    let g = h.state().ctx.gestures();
+    for id in ["material", "dmodel", "alpha1", "c1k", "expo", "c10k"] {
+        assert_eq!(g.iter().filter(|x| **x == Gesture::Begin(id.into())).count(), 1, "{id}: {g:?}");
+    }
+    assert!(h.state().ctx.gestures_well_formed(), "{g:?}");
+    let fitted = params.capture.lock().expect("lock").as_ref().expect("capture").report.damping();
+    let played = plugin.sound_params().damping;
+    let l = (std::f64::consts::TAU * 1000.0f64).powi(2);
+    assert!((played.c(l) / fitted.c(l) - 1.0).abs() < 1e-3, "{played:?} vs {fitted:?}");
+
+    // The capture is part of the plugin state: a fresh instance loading it shows it.
+    let fields = params.serialize_fields();
+    assert!(fields.contains_key("capture"));
+    let other = Struck::default();
+    other.struck_params().deserialize_fields(&fields);
+    assert_eq!(*other.struck_params().capture.lock().expect("lock"), *params.capture.lock().expect("lock"));
+    let mut h2 = harness(&other);
+    h2.state_mut().ui.tab = Tab::Capture;
+    h2.run_steps(2);
+    let _ = h2.get_by_label("Capture scatter");
+    let _ = std::fs::remove_file(&wav);
+}
+
+#[test]
+fn save_material_writes_a_loadable_user_preset() {
+    // Separate user folder for this test (the editor reads $STRUCK_USER_DIR).
+    let dir = tmp("user-materials");
+    std::env::set_var("STRUCK_USER_DIR", &dir);
+    let plugin = Struck::default();
+    let wav = render_taps("taps-save.wav");
+    let mut h = harness_sized(&plugin, 1100.0);
+    h.state_mut().ui.tab = Tab::Capture;
+    h.state_mut().ui.add_capture_file(wav.clone()).expect("add");
+    h.run_steps(1);
+    h.get_by_label("Analyse").click();
+    h.run_steps(1);
+    h.state_mut().ui.wait_for_capture();
+    h.run_steps(2);
+    h.get_by_label("Save material").click();
+    h.run_steps(2);
+    let files: Vec<_> = std::fs::read_dir(&dir).expect("user folder").filter_map(Result::ok).map(|e| e.path()).collect();
+    assert_eq!(files.len(), 1, "{files:?}");
+    let m = presets::Material::load(&files[0]).expect("a valid material");
+    assert!(m.id.starts_with("captured-") && m.provenance.contains("taps-save.wav"), "{m:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_file(&wav);
+}
