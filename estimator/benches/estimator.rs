@@ -50,5 +50,23 @@ fn extraction(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, fits, extraction);
+/// The whole pipeline (read, segment, extract, fit) on one WAV of 20 taps at 48 kHz.
+fn pipeline(c: &mut Criterion) {
+    let mut g = c.benchmark_group("pipeline");
+    g.sample_size(10);
+    let mut rng = Rng::new(20);
+    let (x, _) = estimator::synth::render_session(&mut rng, (5.0, 3e-8), 20, 48_000.0, 40.0);
+    let path = std::env::temp_dir().join(format!("struck-bench-20-taps-{}.wav", std::process::id()));
+    estimator::synth::write_wav_f32(&path, &x, 48_000).unwrap();
+    let files = vec![path.clone()];
+    let cancel = AtomicBool::new(false);
+    let opts = estimator::Options::default();
+    g.bench_function("estimate: 20 taps in one 48 kHz file (EMG Rayleigh)", |b| {
+        b.iter(|| estimator::estimate(black_box(&files), &opts, &|_| {}, &cancel).unwrap())
+    });
+    g.finish();
+    let _ = std::fs::remove_file(path);
+}
+
+criterion_group!(benches, fits, extraction, pipeline);
 criterion_main!(benches);
