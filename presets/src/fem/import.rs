@@ -7,7 +7,7 @@
 //! close (the plugin interpolates along that order). Drawing coordinates project the points
 //! on the bounding box's two largest axes.
 
-use super::{analyse, peak_memory_bytes, strike_gains, today, BuildOptions, BuildReport, FemError, Material, TetMesh};
+use super::{analyse, finish_bank, strike_gains, today, BuildOptions, BuildReport, FemError, Material, TetMesh};
 use crate::{Bank, BankReference, StrikePoint};
 use std::collections::HashMap;
 use std::time::Instant;
@@ -117,7 +117,7 @@ pub fn build_bank_from_mesh(
     axes.sort_by(|&a, &b| ext[b].total_cmp(&ext[a]));
     let (u, v) = (axes[0], axes[1]);
     let size = ext[u].max(1e-9);
-    let mut bank = Bank {
+    let bank = Bank {
         schema_version: crate::SCHEMA_VERSION,
         id: id.to_string(),
         name: name.to_string(),
@@ -153,23 +153,7 @@ pub fn build_bank_from_mesh(
         gains: gains.iter().map(|r| r.iter().map(|&g| g as f32).collect()).collect(),
         mode_labels: modes.frequencies_hz().iter().map(|f| format!("{f:.1} Hz")).collect(),
     };
-    bank.normalize_gains();
-    bank.validate()?;
-    progress("done", 1.0);
-    let report = BuildReport {
-        vertices: mesh.corners,
-        nodes: mesh.nodes.len(),
-        elements: mesh.tets.len(),
-        dofs: modes.dofs,
-        modes: modes.lambdas.len(),
-        rigid_eigenvalues: modes.rigid_lambdas.clone(),
-        iterations: modes.iterations,
-        basis: modes.basis,
-        seconds: t0.elapsed().as_secs_f64(),
-        factor_seconds: modes.factor_seconds,
-        peak_memory_bytes: peak_memory_bytes(),
-    };
-    Ok((bank, report))
+    finish_bank(bank, mesh, &modes, t0, progress)
 }
 
 #[cfg(test)]

@@ -528,7 +528,7 @@ pub fn build_bank(
         modes.sigma,
         today()
     );
-    let mut bank = Bank {
+    let bank = Bank {
         schema_version: crate::SCHEMA_VERSION,
         id: id.to_string(),
         name: name.to_string(),
@@ -553,6 +553,18 @@ pub fn build_bank(
         gains: gains.iter().map(|r| r.iter().map(|&g| g as f32).collect()).collect(),
         mode_labels: modes.frequencies_hz().iter().map(|f| format!("{f:.1} Hz")).collect(),
     };
+    finish_bank(bank, &mesh, &modes, t0, progress)
+}
+
+/// Normalises and validates a freshly built bank and reports how it was made (shared by
+/// [`build_bank`] and [`import::build_bank_from_mesh`]).
+pub(crate) fn finish_bank(
+    mut bank: Bank,
+    mesh: &TetMesh,
+    modes: &Modes,
+    t0: Instant,
+    progress: &dyn Fn(&str, f32),
+) -> Result<(Bank, BuildReport), FemError> {
     bank.normalize_gains();
     bank.validate()?;
     progress("done", 1.0);
