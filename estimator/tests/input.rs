@@ -196,33 +196,7 @@ fn formats_channels_and_warnings() {
 fn session(path: &Path, seed: u64, taps: usize, fs: f64) -> (f64, f64, Vec<f64>) {
     let (a1, a2) = (6.0, 3e-8);
     let mut rng = Rng::new(seed);
-    let lambdas: Vec<f64> = (0..20)
-        .map(|_| (std::f64::consts::TAU * rng.log_uniform(200.0, 8000.0)).powi(2))
-        .collect();
-    let gap = (0.7 * fs) as usize;
-    let lead = (0.2 * fs) as usize;
-    let mut x = vec![0.0; lead + taps * gap];
-    for t in 0..taps {
-        let extra_mean = rng.range(1.0, 6.0);
-        let mut modes: Vec<(f64, f64, f64)> = Vec::new();
-        for &l in &lambdas {
-            if rng.uniform() < 0.7 {
-                let c = a1 + a2 * l + rng.exponential(extra_mean);
-                let d = 0.5 * c;
-                modes.push((
-                    (l - d * d).sqrt() / std::f64::consts::TAU,
-                    d,
-                    rng.log_uniform(0.01, 0.1),
-                ));
-            }
-        }
-        let y = render(&modes, fs, gap);
-        for (i, v) in y.iter().enumerate() {
-            x[lead + t * gap + i] += v;
-        }
-    }
-    let len = x.len();
-    add_noise(&mut x, 40.0, len, &mut rng);
+    let (x, lambdas) = estimator::synth::render_session(&mut rng, (a1, a2), taps, fs, 40.0);
     write_wav_f32(path, &x, fs as u32).unwrap();
     (a1, a2, lambdas)
 }

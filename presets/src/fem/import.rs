@@ -98,6 +98,7 @@ pub fn build_bank_from_mesh(
 ) -> Result<(Bank, BuildReport), FemError> {
     let t0 = Instant::now();
     material.validate()?;
+    opts.validate()?;
     if mesh.corners > MAX_IMPORT_VERTICES {
         return Err(FemError::Mesh(format!(
             "{} corner vertices is over the limit of {MAX_IMPORT_VERTICES}: coarsen the mesh (e.g. a larger Gmsh characteristic length)",
