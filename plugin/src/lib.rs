@@ -34,6 +34,8 @@ pub struct Struck {
     sample_rate: f32,
     /// State shared with the editor: audition queue (GUI → audio) and meters (audio → GUI).
     editor_shared: Arc<editor::EditorShared>,
+    /// The editor's A/B clip playing, if any.
+    clip_player: editor::ClipPlayer,
 }
 
 impl Default for Struck {
@@ -46,6 +48,7 @@ impl Default for Struck {
             mono: Vec::new(),
             sample_rate: 48_000.0,
             editor_shared: Arc::new(editor::EditorShared::default()),
+            clip_player: editor::ClipPlayer::default(),
         }
     }
 }
@@ -193,6 +196,7 @@ impl Plugin for Struck {
 
     fn activate(&mut self, _layout: &AudioIOLayout, config: &BufferConfig, context: &mut impl ActivateContext<Self>) -> bool {
         self.sample_rate = config.sample_rate;
+        self.editor_shared.sample_rate.store(config.sample_rate.to_bits(), std::sync::atomic::Ordering::Relaxed);
         let rebuild = self.engine.as_ref().is_none_or(|e| e.sample_rate() != f64::from(config.sample_rate));
         if rebuild {
             self.engine = Some(Engine::new(self.library.object_modes(), MAX_VOICES, f64::from(config.sample_rate)));
@@ -279,6 +283,8 @@ impl Plugin for Struck {
                     break;
                 }
             }
+            // The editor's A/B clip, if one is playing (before the output gain, like the voices).
+            self.clip_player.mix(&self.editor_shared, &mut self.mono[..len]);
             for i in 0..len {
                 let g = util::db_to_gain_fast(self.params.gain_db.smoothed.next());
                 let s = self.mono[i] * g;

@@ -274,12 +274,12 @@ fn files_arrive_by_path_field_browser_and_drop_and_a_capture_applies_and_persist
 
 #[test]
 fn save_material_writes_a_loadable_user_preset() {
-    // Separate user folder for this test (the editor reads $STRUCK_USER_DIR).
+    // Separate user folder for this test.
     let dir = tmp("user-materials");
-    std::env::set_var("STRUCK_USER_DIR", &dir);
     let plugin = Struck::default();
     let wav = render_taps("taps-save.wav");
     let mut h = harness_sized(&plugin, 1100.0);
+    h.state_mut().ui.user_material_dir = Some(dir.clone());
     h.state_mut().ui.tab = Tab::Capture;
     h.state_mut().ui.add_capture_file(wav.clone()).expect("add");
     h.run_steps(1);
@@ -293,6 +293,123 @@ fn save_material_writes_a_loadable_user_preset() {
     assert_eq!(files.len(), 1, "{files:?}");
     let m = presets::Material::load(&files[0]).expect("a valid material");
     assert!(m.id.starts_with("captured-") && m.provenance.contains("taps-save.wav"), "{m:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_file(&wav);
+}
+
+/// Frequency (Hz) of the largest DFT magnitude of `x` in `lo..hi`, scanned in 0.02 % steps.
+fn strongest_between(x: &[f32], rate: f64, lo: f64, hi: f64) -> f64 {
+    let mut best = (0.0, lo);
+    let mut f = lo;
+    while f < hi {
+        let (mut re, mut im) = (0.0, 0.0);
+        for (i, v) in x.iter().enumerate() {
+            let ph = std::f64::consts::TAU * f * i as f64 / rate;
+            re += f64::from(*v) * ph.cos();
+            im += f64::from(*v) * ph.sin();
+        }
+        if re * re + im * im > best.0 {
+            best = (re * re + im * im, f);
+        }
+        f *= 1.0002;
+    }
+    best.1
+}
+
+#[test]
+fn ab_plays_the_recording_and_resyntheses_and_a_known_object_gives_gamma() {
+    let dir = tmp("user-materials-ab");
+    let plugin = Struck::default();
+    let lib = plugin.library().clone();
+    let plate = lib.bank_index("circular-plate").expect("circular plate");
+    // Two taps of key 48: with "Keys tune the object" the plate's lowest mode sounds at C3.
+    let wav = tmp("taps-ab.wav");
+    let opts = struck::cli::RenderOptions {
+        sound: struck::cli::SoundOptions { object: "circular-plate".into(), material: "steel-sterling-rayleigh".into(), ..Default::default() },
+        notes: Some("48:110@0.1,48:120@0.8+1.5".into()),
+        midi: None,
+        seconds: Some(3.5),
+        block_size: 512,
+        out: wav.clone(),
+    };
+    struck::cli::render(&opts).expect("render the taps");
+    let mut h = harness_sized(&plugin, 1100.0);
+    h.state_mut().ui.user_material_dir = Some(dir.clone());
+    {
+        let setter = ParamSetter::new(&*h.state().ctx);
+        let p = plugin.struck_params();
+        setter.begin_set_parameter(&p.object);
+        setter.set_parameter(&p.object, plate as i32);
+        setter.end_set_parameter(&p.object);
+    }
+    h.state_mut().ui.tab = Tab::Capture;
+    h.state_mut().ui.add_capture_file(wav.clone()).expect("add");
+    h.run_steps(2);
+    h.get_by_label(&format!("Recordings are of the current object ({})", lib.banks[plate].name)).click();
+    h.run_steps(1);
+    h.get_by_label("Analyse").click();
+    h.run_steps(1);
+    h.state_mut().ui.wait_for_capture();
+    h.run_steps(2);
+    let params = plugin.struck_params().clone();
+    let (impact, gamma) = {
+        let cap = params.capture.lock().expect("lock");
+        let rec = cap.as_ref().expect("a capture");
+        let o = rec.object.as_ref().expect("the object is recorded with the capture");
+        assert_eq!(o.id, "circular-plate");
+        (rec.report.impacts[0].clone(), rec.specific_modulus().expect("γ from the object match"))
+    };
+    // γ/γ₀ = (f_C3 / f₁)²: the key put the lowest mode at C3.
+    let l0 = lib.banks[plate].lambdas[0];
+    let f1 = l0.sqrt() / std::f64::consts::TAU;
+    let f_c3 = 440.0 * 2f64.powf((48.0 - 69.0) / 12.0);
+    let want = (f_c3 / f1).powi(2) * lib.banks[plate].reference.specific_modulus;
+    assert!((gamma / want - 1.0).abs() < 0.005, "γ {gamma} vs {want}");
+
+    // A: the recording's own samples (48 kHz file, 48 kHz plugin: no resampling).
+    let shared = plugin.editor_shared().clone();
+    h.get_by_label("A: recording").click();
+    h.run_steps(1);
+    h.state_mut().ui.wait_for_ab();
+    let a = shared.clips.pop().expect("the recording clip was queued");
+    let file: Vec<f32> = hound::WavReader::open(&wav).expect("wav").into_samples::<f32>().step_by(2).map(|s| s.expect("sample")).collect();
+    let start = ((impact.onset_s - struck::editor::ab::PRE_ROLL_S) * 48_000.0) as usize;
+    assert!(a.samples().len() > 24_000, "{} samples", a.samples().len());
+    // The reader removes the file's DC offset (a constant); otherwise the samples are the file's.
+    let dc = a.samples()[0] - file[start];
+    assert!(dc.abs() < 1e-3, "offset {dc}");
+    let worst = a.samples()[..20_000].iter().zip(&file[start..]).fold(0.0f32, |m, (x, y)| m.max((x - y - dc).abs()));
+    assert!(worst < 1e-6, "the A clip is not the recording's impact (onset {} s): off by {worst}", impact.onset_s);
+    let peak = |x: &[f32]| x.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+
+    // B on the object: same length and peak, lowest mode at the recording's pitch (matched γ).
+    h.get_by_label("B: object").click();
+    h.run_steps(1);
+    h.state_mut().ui.wait_for_ab();
+    let b = shared.clips.pop().expect("the object clip was queued");
+    assert_eq!(b.samples().len(), a.samples().len());
+    assert!((peak(b.samples()) / peak(a.samples()) - 1.0).abs() < 1e-4);
+    let n = 24_000;
+    let fa = strongest_between(&a.samples()[..n], 48_000.0, f_c3 * 0.97, f_c3 * 1.03);
+    let fb = strongest_between(&b.samples()[..n], 48_000.0, f_c3 * 0.97, f_c3 * 1.03);
+    assert!((1200.0 * (fb / fa).log2()).abs() < 3.0, "A {fa} Hz, B {fb} Hz");
+
+    // B from the impact's modes: same length and peak.
+    h.get_by_label("B: modes").click();
+    h.run_steps(1);
+    h.state_mut().ui.wait_for_ab();
+    let m = shared.clips.pop().expect("the modes clip was queued");
+    assert_eq!(m.samples().len(), a.samples().len());
+    assert!((peak(m.samples()) / peak(a.samples()) - 1.0).abs() < 1e-4);
+    let fm = strongest_between(&m.samples()[..n], 48_000.0, f_c3 * 0.97, f_c3 * 1.03);
+    assert!((1200.0 * (fm / fa).log2()).abs() < 3.0, "A {fa} Hz, modes {fm} Hz");
+
+    // The saved material carries γ, so "Material sets pitch" plays it at the recorded pitch.
+    h.get_by_label("Save material").click();
+    h.run_steps(2);
+    let files: Vec<_> = std::fs::read_dir(&dir).expect("user folder").filter_map(Result::ok).map(|e| e.path()).collect();
+    let saved = presets::Material::load(&files[0]).expect("a valid material");
+    assert!((saved.specific_modulus.expect("γ saved") / want - 1.0).abs() < 0.005);
     let _ = std::fs::remove_dir_all(&dir);
     let _ = std::fs::remove_file(&wav);
 }

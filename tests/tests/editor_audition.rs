@@ -59,3 +59,50 @@ fn a_full_queue_drops_strikes_without_blocking() {
     }
     assert_eq!(queued, struck::editor::AUDITION_QUEUE);
 }
+
+#[test]
+fn an_ab_clip_plays_sample_exact_and_comes_back_to_the_gui_for_freeing() {
+    use struck::editor::Clip;
+    // Allocation assertions are on in OfflineHost's process(): the player must not free.
+    let mut h = OfflineHost::new(SR, 100).expect("host");
+    h.set_param("gain", 0.0).expect("gain");
+    h.reset();
+    let shared = h.plugin().editor_shared().clone();
+    assert_eq!(shared.sample_rate(), SR, "activate() publishes the sample rate");
+    let clip: Vec<f32> = (0..1_000).map(|i| ((i as f32) * 0.01).sin() * 0.5).collect();
+    shared.play_clip(Clip::new(clip.clone())).expect("queued");
+    let (out, _) = h.render(&[], 1_500, 100);
+    // The clip starts at the next block and is added before the 0 dB output gain: exact.
+    assert_eq!(&out[0][..1_000], &clip[..], "clip samples changed on the way out");
+    assert!(out[0][1_000..].iter().all(|v| *v == 0.0));
+    assert_eq!(out[0], out[1]);
+    assert!(!shared.clip_playing.load(std::sync::atomic::Ordering::Relaxed));
+    // Handed back, not freed on the audio thread.
+    assert_eq!(shared.clips_done.len(), 1);
+    assert_eq!(shared.reclaim_clips(), 1);
+
+    // A new clip replaces one playing; Stop silences at the next block.
+    shared.play_clip(Clip::new(vec![0.25; 10_000])).expect("queued");
+    let (a, _) = h.render(&[], 300, 100);
+    assert!(a[0].iter().all(|v| *v == 0.25));
+    shared.play_clip(Clip::new(vec![-0.5; 10_000])).expect("queued");
+    let (b, _) = h.render(&[], 300, 100);
+    assert!(b[0].iter().all(|v| *v == -0.5), "the new clip did not replace the old");
+    assert_eq!(shared.clips_done.len(), 1, "the replaced clip went back");
+    shared.stop_clip();
+    let (c, _) = h.render(&[], 300, 100);
+    assert!(c[0].iter().all(|v| *v == 0.0), "stop did not silence");
+    assert_eq!(shared.reclaim_clips(), 2);
+
+    // With the return queue full the player takes no new clip (it would have to free one).
+    for _ in 0..struck::editor::CLIP_RETURN {
+        shared.clips_done.push(Clip::new(Vec::new())).expect("room");
+    }
+    shared.clips.push(Clip::new(vec![1.0; 100])).expect("room");
+    let (d, _) = h.render(&[], 100, 100);
+    assert!(d[0].iter().all(|v| *v == 0.0));
+    assert_eq!(shared.clips.len(), 1, "the clip waits until the GUI frees the returned ones");
+    shared.reclaim_clips();
+    let (e, _) = h.render(&[], 100, 100);
+    assert!(e[0].iter().all(|v| *v == 1.0));
+}

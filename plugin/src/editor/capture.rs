@@ -23,6 +23,31 @@ pub struct CaptureRecord {
     pub files: Vec<String>,
     /// What the estimator found.
     pub report: EstimateReport,
+    /// The object the recordings were matched to (its bank id and reference specific
+    /// modulus γ₀), when "Recordings are of the current object" was on.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub object: Option<CapturedObject>,
+}
+
+/// The known object of a capture.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CapturedObject {
+    /// Bank id.
+    pub id: String,
+    /// The bank's reference specific modulus γ₀ (m²/s²).
+    pub specific_modulus: f64,
+}
+
+impl CaptureRecord {
+    /// γ = (γ/γ₀)·γ₀ from the object match, if there was one and it is usable.
+    pub fn specific_modulus(&self) -> Option<f64> {
+        match (&self.object, &self.report.object) {
+            (Some(o), Some(m)) if m.gamma_ratio.is_finite() && m.gamma_ratio > 0.0 && o.specific_modulus > 0.0 => {
+                Some(m.gamma_ratio * o.specific_modulus)
+            }
+            _ => None,
+        }
+    }
 }
 
 /// One entry of the built-in file browser.
@@ -39,6 +64,13 @@ pub(super) struct Job {
     cancel: Arc<AtomicBool>,
     result: Arc<Mutex<Option<Result<EstimateReport, String>>>>,
     files: Vec<PathBuf>,
+    object: Option<CapturedObject>,
+}
+
+/// A clip being built for the A/B comparison.
+pub(super) struct AbJob {
+    side: super::ab::Side,
+    result: Arc<Mutex<Option<Result<Vec<f32>, String>>>>,
 }
 
 /// Capture panel state.
@@ -54,6 +86,11 @@ pub(super) struct CaptureUi {
     pub message: Option<String>,
     pub save_name: String,
     pub apply_method: Option<Method>,
+    /// The impact the A/B buttons play (index into the report's impacts).
+    pub ab_impact: usize,
+    pub ab_job: Option<AbJob>,
+    /// What the last A/B button queued (for the label and the tests).
+    pub ab_last: Option<(super::ab::Side, usize)>,
 }
 
 impl Default for CaptureUi {
@@ -71,6 +108,9 @@ impl Default for CaptureUi {
             message: None,
             save_name: "My material".into(),
             apply_method: None,
+            ab_impact: 0,
+            ab_job: None,
+            ab_last: None,
         }
     }
 }
@@ -126,8 +166,11 @@ impl CaptureUi {
         }
     }
 
-    /// Starts the estimator on a background thread.
-    fn start(&mut self, object_lambdas: Option<Vec<f64>>) {
+    /// Starts the estimator on a background thread; `object` is the bank the recordings were
+    /// made of, if known.
+    fn start(&mut self, object: Option<&presets::Bank>) {
+        let object_lambdas = object.map(|b| b.lambdas.clone());
+        let captured = object.map(|b| CapturedObject { id: b.id.clone(), specific_modulus: b.reference.specific_modulus });
         if self.job.is_some() || self.files.is_empty() {
             return;
         }
@@ -144,7 +187,7 @@ impl CaptureUi {
         match spawned {
             Ok(_) => {
                 self.message = None;
-                self.job = Some(Job { progress, cancel, result, files });
+                self.job = Some(Job { progress, cancel, result, files, object: captured });
             }
             Err(e) => self.message = Some(format!("could not start the estimator: {e}")),
         }
@@ -159,11 +202,14 @@ impl CaptureUi {
         };
         let Some(out) = done else { return };
         let files: Vec<String> = job.files.iter().map(|f| f.display().to_string()).collect();
+        let object = job.object.clone();
         self.job = None;
         match out {
             Ok(report) => {
                 self.apply_method = None;
-                *params.capture.lock().unwrap_or_else(PoisonError::into_inner) = Some(CaptureRecord { files, report });
+                self.ab_impact = 0;
+                let object = if report.object.is_some() { object } else { None };
+                *params.capture.lock().unwrap_or_else(PoisonError::into_inner) = Some(CaptureRecord { files, report, object });
             }
             Err(e) => self.message = Some(e),
         }
@@ -186,7 +232,9 @@ fn method_color(m: Method) -> Color32 {
     }
 }
 
-/// The material a capture saves: the chosen law, with its provenance.
+/// The material a capture saves: the chosen law, with its provenance, and the specific
+/// modulus γ = (γ/γ₀)·γ₀ when the recordings were matched to a known object (Ren §5), so
+/// *Material sets pitch* plays it at the recording's pitch on that object.
 pub(super) fn captured_material(name: &str, rec: &CaptureRecord, fit: &estimator::FitResult) -> Material {
     let names: Vec<&str> = rec.files.iter().map(|f| Path::new(f).file_name().and_then(|n| n.to_str()).unwrap_or(f.as_str())).collect();
     Material {
@@ -201,7 +249,7 @@ pub(super) fn captured_material(name: &str, rec: &CaptureRecord, fit: &estimator
             rec.report.impacts.len(),
             names.join(", ")
         ),
-        specific_modulus: None,
+        specific_modulus: rec.specific_modulus(),
         damping: DampingSpec::from_damping(&fit.damping()),
         notes: rec.report.warnings.join("; "),
     }
@@ -351,8 +399,8 @@ impl EditorUi {
         ui.horizontal(|ui| {
             let analyse = ui.add_enabled(!running && !c.files.is_empty(), egui::Button::new("Analyse"));
             if analyse.clicked() {
-                let lambdas = if c.recorded_object { object.map(|o| lib.banks[o].lambdas.clone()) } else { None };
-                c.start(lambdas);
+                let bank = if c.recorded_object { object.map(|o| &lib.banks[o]) } else { None };
+                c.start(bank);
             }
             if ui.add_enabled(running, egui::Button::new("Cancel")).clicked() {
                 if let Some(j) = &c.job {
@@ -483,6 +531,7 @@ impl EditorUi {
         let fit = r.fits.iter().find(|f| f.method == method).unwrap_or(&r.chosen).clone();
         let rec = rec.clone();
         drop(guard);
+        self.ab_row(ui, &rec, &fit);
         ui.horizontal(|ui| {
             if ui.button("Apply").on_hover_text("Set the Custom material to this fit (one host gesture per parameter)").clicked() {
                 let custom = self.library.custom_material_index();
@@ -492,9 +541,9 @@ impl EditorUi {
                 }
             }
             ui.add(egui::TextEdit::singleline(&mut self.capture.save_name).desired_width(160.0));
-            if ui.button("Save material").on_hover_text(format!("Write a user material to {}", logic::user_material_dir().display())).clicked() {
+            let dir = self.material_dir();
+            if ui.button("Save material").on_hover_text(format!("Write a user material to {}", dir.display())).clicked() {
                 let m = captured_material(&self.capture.save_name, &rec, &fit);
-                let dir = logic::user_material_dir();
                 let path = dir.join(format!("{}.json", m.id));
                 let out = std::fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display())).and_then(|()| m.save(&path).map_err(|e| e.to_string()));
                 self.capture.message = Some(match out {
@@ -507,5 +556,132 @@ impl EditorUi {
                 *params.capture.lock().unwrap_or_else(PoisonError::into_inner) = None;
             }
         });
+    }
+
+    /// A/B: pick an impact, play the recording or a resynthesis of it (built on a worker
+    /// thread, played by the audio thread's clip player).
+    fn ab_row(&mut self, ui: &mut egui::Ui, rec: &CaptureRecord, fit: &estimator::FitResult) {
+        let impacts = &rec.report.impacts;
+        if impacts.is_empty() {
+            return;
+        }
+        let c = &mut self.capture;
+        c.ab_impact = c.ab_impact.min(impacts.len() - 1);
+        let name = |i: usize| {
+            let imp = &impacts[i];
+            let file = Path::new(&imp.file).file_name().map_or(imp.file.clone(), |n| n.to_string_lossy().into_owned());
+            format!("{file} @ {:.2} s ({} modes)", imp.onset_s, imp.features.len())
+        };
+        let mut clicked = None;
+        ui.horizontal(|ui| {
+            ui.label(RichText::new("A/B").strong());
+            egui::ComboBox::from_id_salt("ab-impact").selected_text(name(c.ab_impact)).show_ui(ui, |ui| {
+                for i in 0..impacts.len() {
+                    ui.selectable_value(&mut c.ab_impact, i, name(i));
+                }
+            });
+            let busy = c.ab_job.is_some();
+            for side in [super::ab::Side::Recording, super::ab::Side::Modes, super::ab::Side::Object] {
+                let hint = match side {
+                    super::ab::Side::Recording => "Play this impact of the recording",
+                    super::ab::Side::Modes => "Play the impact's own modes with the fitted decay law",
+                    super::ab::Side::Object => "Strike the current object with the fitted material",
+                };
+                if ui.add_enabled(!busy, egui::Button::new(side.label())).on_hover_text(hint).clicked() {
+                    clicked = Some(side);
+                }
+            }
+            if ui.button("Stop").clicked() {
+                self.shared.stop_clip();
+            }
+            if self.shared.clip_playing.load(Ordering::Relaxed) {
+                ui.label(RichText::new("playing").weak());
+            }
+        });
+        let Some(side) = clicked else { return };
+        let imp = &impacts[c.ab_impact];
+        let lib = &self.library;
+        let Some(o) = logic::object_index(&self.params, lib) else { return };
+        let bank = &lib.banks[o];
+        // The recorded object's γ/γ₀ plays it at the recording's pitch only on that object.
+        let gamma_ratio = match (&rec.object, &rec.report.object) {
+            (Some(ob), Some(m)) if ob.id == bank.id => Some(m.gamma_ratio),
+            _ => None,
+        };
+        let p = &self.params;
+        let req = super::ab::AbRequest {
+            side,
+            file: PathBuf::from(&imp.file),
+            onset_s: imp.onset_s,
+            duration_s: imp.duration_s,
+            features: imp.features.clone(),
+            damping: fit.damping(),
+            object: dsp::ObjectModes::new(bank.lambdas.clone(), &bank.gains),
+            params: dsp::engine::SoundParams {
+                hardness: p.hardness.value(),
+                noise: p.noise.value(),
+                velocity_sensitivity: p.velocity_sensitivity.value(),
+                quality_db: p.quality_db.value(),
+                ..dsp::engine::SoundParams::default()
+            },
+            position: p.strike_position.value(),
+            gamma_ratio,
+            rate: self.shared.sample_rate(),
+        };
+        let result = Arc::new(Mutex::new(None));
+        let r = result.clone();
+        let spawned = std::thread::Builder::new().name("struck-ab".into()).spawn(move || {
+            let out = super::ab::build(&req);
+            *r.lock().unwrap_or_else(PoisonError::into_inner) = Some(out);
+        });
+        match spawned {
+            Ok(_) => {
+                c.ab_job = Some(AbJob { side, result });
+                c.ab_last = Some((side, c.ab_impact));
+            }
+            Err(e) => c.message = Some(format!("could not start the A/B clip: {e}")),
+        }
+    }
+
+    /// Hands a finished A/B clip to the audio thread and frees the clips it returned
+    /// (never blocks: `try_lock`).
+    pub(super) fn poll_ab(&mut self) {
+        self.shared.reclaim_clips();
+        let Some(job) = &self.capture.ab_job else { return };
+        let done = match job.result.try_lock() {
+            Ok(mut g) => g.take(),
+            Err(_) => None,
+        };
+        let Some(out) = done else { return };
+        let side = job.side;
+        self.capture.ab_job = None;
+        match out {
+            Ok(samples) => {
+                if self.shared.play_clip(super::Clip::new(samples)).is_err() {
+                    self.capture.message = Some("the audio thread is not taking clips (is the plugin processing?)".into());
+                } else if self.capture.message.as_deref().is_some_and(|m| m.starts_with("A/B")) {
+                    self.capture.message = None;
+                }
+            }
+            Err(e) => self.capture.message = Some(format!("A/B {}: {e}", side.label())),
+        }
+    }
+
+    /// Whether an A/B clip is being built.
+    pub fn ab_busy(&self) -> bool {
+        self.capture.ab_job.is_some()
+    }
+
+    /// Waits for the A/B clip being built and queues it (for tests).
+    pub fn wait_for_ab(&mut self) {
+        while self.capture.ab_job.is_some() {
+            std::thread::sleep(std::time::Duration::from_millis(5));
+            self.poll_ab();
+        }
+    }
+
+    /// The last A/B button pressed and the impact it played.
+    pub fn ab_last(&self) -> Option<(super::ab::Side, usize)> {
+        self.capture.ab_last
     }
 }

@@ -65,7 +65,7 @@ impl EditorUi {
         let selected = p.material.value().max(0) as usize;
         let custom = lib.custom_material_index();
         if self.material.user.is_none() {
-            self.material.user = Some(scan_user_materials(&logic::user_material_dir()));
+            self.material.user = Some(scan_user_materials(&self.material_dir()));
         }
         let shown = match (lib.materials.get(selected), &self.material.loaded_user) {
             (Some(m), _) => m.name.clone(),
@@ -87,7 +87,7 @@ impl EditorUi {
                     set_param(setter, &p.material, custom as i32);
                 }
                 ui.separator();
-                ui.label(egui::RichText::new(format!("User ({})", logic::user_material_dir().display())).weak());
+                ui.label(egui::RichText::new(format!("User ({})", self.material_dir().display())).weak());
                 for u in self.material.user.iter().flatten() {
                     let name = u.path.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
                     match &u.material {

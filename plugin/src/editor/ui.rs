@@ -35,6 +35,8 @@ pub struct EditorUi {
     pub(super) object_gesture: Option<usize>,
     pub(super) material: MaterialUi,
     pub(super) capture: CaptureUi,
+    /// Where user materials are read and saved; `None`: [`super::logic::user_material_dir`].
+    pub user_material_dir: Option<std::path::PathBuf>,
 }
 
 impl EditorUi {
@@ -51,7 +53,13 @@ impl EditorUi {
             object_gesture: None,
             material: MaterialUi::default(),
             capture: CaptureUi::default(),
+            user_material_dir: None,
         }
+    }
+
+    /// The user materials folder this editor reads and saves to.
+    pub fn material_dir(&self) -> std::path::PathBuf {
+        self.user_material_dir.clone().unwrap_or_else(super::logic::user_material_dir)
     }
 
     /// The parameters this editor changes.
@@ -62,6 +70,7 @@ impl EditorUi {
     /// Draws the whole editor into `ui`; parameter changes go through `setter` (host gestures).
     pub fn ui(&mut self, ui: &mut egui::Ui, setter: &ParamSetter) {
         self.capture.poll(&self.params);
+        self.poll_ab();
         self.capture.take_dropped_files(ui.ctx());
         ui.horizontal(|ui| {
             ui.heading("Struck");
@@ -85,7 +94,7 @@ impl EditorUi {
         });
         ui.separator();
         self.status_line(ui);
-        if self.capture.is_running() || self.object_gesture.is_some() {
+        if self.capture.is_running() || self.object_gesture.is_some() || self.ab_busy() {
             ui.ctx().request_repaint();
         } else {
             // Meters move while notes ring: poll them a few times a second.
