@@ -86,9 +86,13 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
     let method: estimator::Method = parse_name("method", &args.method, "emg, lsq, lb")?;
     let lib = Library::factory();
     let bank = match &args.object {
-        Some(o) => Some(&lib.banks[crate::cli::resolve_object(&lib, o)?]),
+        Some(o) => match crate::cli::bank_file(&lib, o)? {
+            Some(b) => Some(b),
+            None => Some(lib.banks[crate::cli::resolve_object(&lib, o)?].clone()),
+        },
         None => None,
     };
+    let bank = bank.as_ref();
     let opts = estimator::Options {
         model,
         method,

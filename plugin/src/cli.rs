@@ -86,6 +86,18 @@ pub fn resolve_object(lib: &Library, query: &str) -> Result<usize, String> {
     find(&names, "object", query)
 }
 
+/// The bank in `query` if it names a bank file (a `.json` path, or an existing file that is
+/// not a listed object's id, name or index), else `None`.
+///
+/// # Errors
+/// The file cannot be read or is not a valid bank.
+pub fn bank_file(lib: &Library, query: &str) -> Result<Option<presets::Bank>, String> {
+    if resolve_object(lib, query).is_ok() || !(query.ends_with(".json") || Path::new(query).is_file()) {
+        return Ok(None);
+    }
+    presets::Bank::load(Path::new(query)).map(Some).map_err(|e| e.to_string())
+}
+
 /// A factory material index, or a material read from a file.
 pub enum MaterialChoice {
     /// A factory material.
@@ -132,9 +144,21 @@ pub fn set_custom_damping(host: &mut OfflineHost, d: &Damping) -> Result<(), Str
 /// # Errors
 /// Unknown object, material or parameter; a bad `id=value`; an unusable sample rate.
 pub fn configured_host(opts: &SoundOptions, max_block: usize) -> Result<OfflineHost, String> {
-    let mut host = OfflineHost::new(opts.sample_rate as f32, max_block).map_err(|e| e.to_string())?;
+    let factory = Library::factory();
+    // An object given as a bank file (`struck bank build` output) plays through a library with
+    // that bank added.
+    let file_bank = bank_file(&factory, &opts.object)?;
+    let file_bank_id = file_bank.as_ref().map(|b| b.id.clone());
+    let plugin = match file_bank {
+        Some(bank) => crate::Struck::with_library(std::sync::Arc::new(factory.with_bank(bank))),
+        None => crate::Struck::default(),
+    };
+    let mut host = OfflineHost::with_plugin(plugin, opts.sample_rate as f32, max_block).map_err(|e| e.to_string())?;
     let lib = host.plugin().library().clone();
-    let object = resolve_object(&lib, &opts.object)?;
+    let object = match file_bank_id {
+        Some(id) => lib.bank_index(&id).ok_or("internal error: the bank file's bank is not listed")?,
+        None => resolve_object(&lib, &opts.object)?,
+    };
     host.set_param("object", object as f32).map_err(|e| e.to_string())?;
     match resolve_material(&lib, &opts.material)? {
         MaterialChoice::Factory(i) => host.set_param("material", i as f32).map_err(|e| e.to_string())?,

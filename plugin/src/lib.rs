@@ -40,7 +40,13 @@ pub struct Struck {
 
 impl Default for Struck {
     fn default() -> Self {
-        let library = Library::factory();
+        Struck::with_library(Library::factory())
+    }
+}
+
+impl Struck {
+    /// An instance playing `library` (the command line uses it to play a bank file).
+    pub fn with_library(library: Arc<Library>) -> Self {
         Struck {
             params: Arc::new(StruckParams::new(&library)),
             library,

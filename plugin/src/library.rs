@@ -73,6 +73,17 @@ impl Library {
         Library { banks, materials, dampings, load_errors }
     }
 
+    /// This library with `bank` (read from a file) added after the others; a bank whose id is
+    /// already listed replaces that one, so a rebuilt factory or user bank plays as built.
+    pub fn with_bank(&self, bank: Bank) -> Library {
+        let mut banks = self.banks.clone();
+        match banks.iter().position(|b| b.id == bank.id) {
+            Some(i) => banks[i] = bank,
+            None => banks.push(bank),
+        }
+        Library { banks, materials: self.materials.clone(), dampings: self.dampings.clone(), load_errors: self.load_errors.clone() }
+    }
+
     /// Index of the bank with `id`, if any.
     pub fn bank_index(&self, id: &str) -> Option<usize> {
         self.banks.iter().position(|b| b.id == id)

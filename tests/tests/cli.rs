@@ -59,3 +59,44 @@ fn unwritable_output_and_bad_midi_are_one_line_errors() {
     assert!(e.contains("not a readable MIDI file"), "{e}");
     let _ = std::fs::remove_file(bad);
 }
+
+#[test]
+fn a_bank_file_given_as_the_object_plays_like_the_listed_bank() {
+    let dir = std::env::temp_dir();
+    let pid = std::process::id();
+    // The factory bar saved as a user's bank file under another id.
+    let lib = struck::library::Library::factory();
+    let mut bank = lib.banks[lib.bank_index("bar").unwrap()].clone();
+    bank.id = "my-bar".into();
+    bank.name = "My bar".into();
+    let file = dir.join(format!("struck-cli-bank-{pid}.json"));
+    bank.save(&file).unwrap();
+    let run = |object: &str, name: &str| {
+        let wav = dir.join(format!("struck-cli-bank-{pid}-{name}.wav"));
+        let opts = RenderOptions {
+            sound: SoundOptions { object: object.into(), ..SoundOptions::default() },
+            notes: Some("60:100@0.3".into()),
+            midi: None,
+            seconds: Some(0.5),
+            block_size: 256,
+            out: wav.clone(),
+        };
+        render(&opts).map(|_| {
+            let x: Vec<f32> = hound::WavReader::open(&wav).unwrap().samples::<f32>().map(Result::unwrap).collect();
+            let _ = std::fs::remove_file(&wav);
+            x
+        })
+    };
+    let from_file = run(file.to_str().unwrap(), "file").unwrap();
+    let listed = run("bar", "listed").unwrap();
+    assert!(from_file.iter().any(|v| *v != 0.0));
+    assert!(from_file == listed, "the bank file does not play like the same bank listed");
+
+    // Missing and broken bank files are one-line errors naming the problem.
+    let e = run("/nonexistent/bank.json", "missing").unwrap_err();
+    assert!(e.contains("/nonexistent/bank.json") && !e.contains('\n'), "{e}");
+    std::fs::write(&file, "{\"schema_version\": 1, \"id\": \"x\"").unwrap();
+    let e = run(file.to_str().unwrap(), "broken").unwrap_err();
+    assert!(!e.contains('\n') && !e.is_empty(), "{e}");
+    let _ = std::fs::remove_file(&file);
+}

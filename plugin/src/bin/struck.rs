@@ -70,7 +70,7 @@ enum Command {
         /// Fit method: emg (maximum likelihood), lsq, lb.
         #[arg(long, default_value = "emg")]
         method: String,
-        /// The object recorded (id, name or index): also fits γ/γ₀ (pitch).
+        /// The object recorded (id, name, index or bank JSON file): also fits γ/γ₀ (pitch).
         #[arg(long)]
         object: Option<String>,
         /// Analyse this channel only (default: mix to mono).
@@ -170,7 +170,7 @@ enum BankCommand {
 
 #[derive(clap::Args)]
 struct SoundArgs {
-    /// Object id, name or index (`struck objects`).
+    /// Object id, name or index (`struck objects`), or a bank JSON file (`struck bank build`).
     #[arg(long, default_value = "bar")]
     object: String,
     /// Material id, name or index (`struck materials`), or a material JSON file.
