@@ -11,7 +11,10 @@
 //!   translation loses nothing;
 //! - a parameter changed through the CLAP params extension (`flush`) is carried by the CLAP state
 //!   extension: a second instance loading the saved state plays identically to the first, and
-//!   differently from a fresh instance.
+//!   differently from a fresh instance;
+//! - the editor, through the CLAP `gui` extension, embeds in a real X11 window (Xvfb when there
+//!   is no `$DISPLAY`) at its default size, paints, follows a host resize and reopens at the size
+//!   it was left at (the host serves `request_callback`, as hosts do).
 //!
 //! Which binary: `$STRUCK_CLAP` if set (`cargo xtask test` bundles the debug plugin and sets
 //! it to `target/bundled/Struck.clap`), else `target/debug/libstruck.so` (built by `cargo test`
@@ -38,18 +41,44 @@ const VELOCITY: u8 = 100;
 /// runs synchronously on the test thread, so there is nothing to schedule).
 struct TestHost;
 
-struct TestHostShared;
+struct TestHostShared {
+    /// The plugin asked for `on_main_thread` (the GUI test serves it from its wait loop).
+    callback_requested: std::sync::atomic::AtomicBool,
+}
 
 impl<'a> SharedHandler<'a> for TestHostShared {
     fn request_restart(&self) {}
     fn request_process(&self) {}
-    fn request_callback(&self) {}
+    fn request_callback(&self) {
+        self.callback_requested.store(true, std::sync::atomic::Ordering::Release);
+    }
 }
 
 impl HostHandlers for TestHost {
     type Shared<'a> = TestHostShared;
     type MainThread<'a> = ();
     type AudioProcessor<'a> = ();
+
+    fn declare_extensions(builder: &mut HostExtensions<Self>, _shared: &Self::Shared<'_>) {
+        // Hosts that show plugin GUIs offer `clap_host_gui` (nice-plug requires it).
+        builder.register::<clack_extensions::gui::HostGui>();
+    }
+}
+
+/// The host side of the GUI extension: the test host's window is larger than any size the
+/// test uses, so every request is granted (the test shows the editor itself).
+impl clack_extensions::gui::HostGuiImpl for TestHostShared {
+    fn resize_hints_changed(&self) {}
+    fn request_resize(&self, _new_size: clack_extensions::gui::GuiSize) -> Result<(), HostError> {
+        Ok(())
+    }
+    fn request_show(&self) -> Result<(), HostError> {
+        Ok(())
+    }
+    fn request_hide(&self) -> Result<(), HostError> {
+        Ok(())
+    }
+    fn closed(&self, _was_destroyed: bool) {}
 }
 
 /// nice-plug's CLAP parameter id for a string parameter id.
@@ -96,7 +125,8 @@ fn load_entry() -> PluginEntry {
 
 fn instantiate(entry: &PluginEntry) -> PluginInstance<TestHost> {
     let info = HostInfo::new("struck-tests", "Struck developers", "https://example.invalid/struck", "0.1.0").unwrap();
-    PluginInstance::<TestHost>::new(|_| TestHostShared, |_| (), entry, PLUGIN_ID, &info).expect("instantiate Struck")
+    PluginInstance::<TestHost>::new(|_| TestHostShared { callback_requested: false.into() }, |_| (), entry, PLUGIN_ID, &info)
+        .expect("instantiate Struck")
 }
 
 /// Activates `instance` (48 kHz, blocks of at most 512), renders `num_samples` of stereo output
@@ -243,4 +273,131 @@ fn clap_binary_matches_offline_host_and_round_trips_state() {
     assert!(d > 1e-3, "B (strike position 0.8) plays like a default instance (max diff {d:e}): the state carried nothing");
 
     println!("clap_host test body took {:.2?}", started.elapsed());
+}
+
+/// An X server for the GUI test: `$DISPLAY` if set, else a private Xvfb (killed on drop).
+struct XServer(Option<std::process::Child>);
+
+impl Drop for XServer {
+    fn drop(&mut self) {
+        if let Some(c) = self.0.as_mut() {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+fn x_server() -> XServer {
+    if std::env::var_os("DISPLAY").is_some_and(|d| !d.is_empty()) {
+        return XServer(None);
+    }
+    // `-displayfd 1`: Xvfb picks a free display number and writes it to stdout when ready.
+    let mut child = std::process::Command::new("Xvfb")
+        .args(["-displayfd", "1", "-screen", "0", "1600x1200x24", "-nolisten", "tcp"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap_or_else(|e| {
+            panic!("no $DISPLAY and Xvfb cannot start ({e}): install the `xvfb` package (.ci/run does), or run with a display")
+        });
+    let mut line = String::new();
+    {
+        use std::io::BufRead;
+        let out = child.stdout.take().expect("Xvfb stdout");
+        std::io::BufReader::new(out).read_line(&mut line).expect("read Xvfb's display number");
+    }
+    let n: u32 = line.trim().parse().unwrap_or_else(|_| panic!("Xvfb did not report a display number (got {line:?})"));
+    // Only this test in this binary talks to X, and it sets DISPLAY before any connection.
+    std::env::set_var("DISPLAY", format!(":{n}"));
+    XServer(Some(child))
+}
+
+/// Polls `f` every 50 ms for up to 15 s, serving the plugin's main-thread callback requests
+/// in between, as a host's event loop does.
+fn wait_for<T>(plugin: &mut PluginInstance<TestHost>, what: &str, mut f: impl FnMut() -> Option<T>) -> T {
+    let t0 = std::time::Instant::now();
+    loop {
+        if plugin.access_shared_handler(|h| h.callback_requested.swap(false, std::sync::atomic::Ordering::AcqRel)) {
+            plugin.call_on_main_thread_callback();
+        }
+        if let Some(v) = f() {
+            return v;
+        }
+        assert!(t0.elapsed().as_secs() < 15, "timed out waiting for {what}");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+}
+
+/// The editor in a real X11 window, as a CLAP host embeds it: the built binary's `gui`
+/// extension creates the editor at its default size, embeds it in the host's window and
+/// paints it (OpenGL through Mesa); the host resizes it; it reopens at the size it was left
+/// at. A screenshot of the host window is saved to
+/// `target/tmp/editor-screenshots/clap-host-window.png`.
+#[test]
+fn the_editor_opens_in_a_host_window_resizes_and_reopens_at_its_size() {
+    use clack_extensions::gui::{GuiApiType, GuiConfiguration, GuiSize, PluginGui, Window as ClapWindow};
+    use x11rb::connection::Connection;
+    use x11rb::protocol::xproto::{ConnectionExt, CreateWindowAux, ImageFormat, WindowClass};
+
+    let _x = x_server();
+    let (conn, screen_num) = x11rb::connect(None).expect("connect to the X server");
+    let screen = &conn.setup().roots[screen_num];
+    let (depth, root, black) = (screen.root_depth, screen.root, screen.black_pixel);
+    let host_window = conn.generate_id().expect("x id");
+    conn.create_window(depth, host_window, root, 0, 0, 1400, 1000, 0, WindowClass::INPUT_OUTPUT, 0, &CreateWindowAux::new().background_pixel(black))
+        .expect("create the host window");
+    conn.map_window(host_window).expect("map");
+    conn.flush().expect("flush");
+
+    let entry = load_entry();
+    let mut plugin = instantiate(&entry);
+    let gui: PluginGui = plugin.plugin_shared_handle().get_extension().expect("no gui extension");
+    let cfg = GuiConfiguration { api_type: GuiApiType::X11, is_floating: false };
+    assert!(gui.is_api_supported(&plugin.plugin_handle(), cfg), "X11 embedding is not supported");
+    let children = |conn: &x11rb::rust_connection::RustConnection| conn.query_tree(host_window).expect("query").reply().expect("tree").children;
+    let geometry = |conn: &x11rb::rust_connection::RustConnection, w: u32| {
+        let g = conn.get_geometry(w).expect("geometry").reply().expect("geometry reply");
+        (u32::from(g.width), u32::from(g.height))
+    };
+
+    // Open: the default size, embedded in the host window, painted.
+    gui.create(&plugin.plugin_handle(), cfg).expect("create the editor");
+    let size = gui.get_size(&plugin.plugin_handle()).expect("editor size");
+    assert_eq!((size.width, size.height), (1040, 720), "default editor size");
+    assert!(gui.can_resize(&plugin.plugin_handle()));
+    // SAFETY: `host_window` stays alive until after `destroy`.
+    unsafe { gui.set_parent(&plugin.plugin_handle(), ClapWindow::from_x11_handle(host_window.into())) }.expect("embed the editor");
+    gui.show(&plugin.plugin_handle()).expect("show");
+    let editor = wait_for(&mut plugin, "the editor's window inside the host window", || children(&conn).first().copied());
+    assert_eq!(geometry(&conn, editor), (1040, 720), "the embedded window has the size the plugin reported");
+    // Painted: the egui frame has text, panels and plots, i.e. many distinct colours.
+    let (pixels, colours) = wait_for(&mut plugin, "the editor to paint", || {
+        let img = conn.get_image(ImageFormat::Z_PIXMAP, host_window, 0, 0, 1040, 720, !0).ok()?.reply().ok()?;
+        let data = img.data;
+        let mut seen = std::collections::HashSet::new();
+        for px in data.chunks_exact(4) {
+            seen.insert((px[0], px[1], px[2]));
+        }
+        (seen.len() > 50).then_some((data, seen.len()))
+    });
+    println!("editor painted with {colours} distinct colours");
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/tmp/editor-screenshots");
+    std::fs::create_dir_all(&dir).expect("screenshot folder");
+    let rgb: Vec<u8> = pixels.chunks_exact(4).flat_map(|p| [p[2], p[1], p[0]]).collect();
+    image::save_buffer(dir.join("clap-host-window.png"), &rgb, 1040, 720, image::ExtendedColorType::Rgb8).expect("save screenshot");
+
+    // The host resizes the editor.
+    gui.set_size(&plugin.plugin_handle(), GuiSize { width: 1200, height: 800 }).expect("set_size");
+    wait_for(&mut plugin, "the editor window to take the new size", || (geometry(&conn, editor) == (1200, 800)).then_some(()));
+    gui.destroy(&plugin.plugin_handle());
+    wait_for(&mut plugin, "the editor window to close", || children(&conn).is_empty().then_some(()));
+
+    // Reopened: at the size it was left at.
+    gui.create(&plugin.plugin_handle(), cfg).expect("create again");
+    let size = gui.get_size(&plugin.plugin_handle()).expect("editor size");
+    assert_eq!((size.width, size.height), (1200, 800), "the editor reopens at its last size");
+    gui.destroy(&plugin.plugin_handle());
+    drop(plugin);
+    conn.destroy_window(host_window).expect("destroy");
+    conn.flush().expect("flush");
 }
