@@ -1,13 +1,16 @@
-//! Times the FEM bank builder on each built-in shape at a realistic resolution.
+//! Times the FEM bank builder on each built-in shape, with the eigensolver's phases.
 //!
 //! `cargo run -p struck-presets --release --example fem_timing [-- SHAPE [RESOLUTION [MODES]]]`
 //! SHAPE is a kind name (`bar`, `plate`, `circular-plate`, `tube`, `bowl`, `cup`, `bell`,
-//! `block`, `sphere-shell`) or `all` (default). Prints one line per shape: corner vertices,
-//! nodes, DOFs, modes, seconds (total and factorisation), Lanczos steps, peak memory.
-//! Peak memory is the process high-water mark, so run one shape per process for exact
-//! per-shape figures.
+//! `block`, `sphere-shell`), `all` (default), or `factory` (the factory banks of
+//! `cargo xtask banks`, with their resolutions, mode counts and the 20 kHz limit).
+//! Prints one line per shape: corner vertices, nodes, DOFs, modes, wall seconds (total,
+//! symbolic + numeric factorisation, solves, M products, orthogonalisation, Rayleigh–Ritz,
+//! locking, residual check), CPU seconds of the process, shifts, Lanczos runs and steps,
+//! largest basis, worst residual and peak memory. Peak memory and CPU time are
+//! process-wide, so run one shape per process for exact per-shape figures.
 
-use presets::fem::{build_bank, BuildOptions, Material, Shape};
+use presets::fem::{build_bank, eigen, BuildOptions, Material, Shape};
 
 fn shapes() -> Vec<(Shape, Material, usize)> {
     vec![
@@ -23,26 +26,61 @@ fn shapes() -> Vec<(Shape, Material, usize)> {
     ]
 }
 
+/// The factory banks (copied from `xtask/src/main.rs` `FEM_BANKS`): id, shape, E, ρ, ν,
+/// resolution, modes; all with a 20 kHz limit.
+fn factory() -> Vec<(&'static str, Shape, Material, usize, usize)> {
+    let m = |young, density, poisson| Material { young, density, poisson };
+    vec![
+        ("fem-bar", Shape::Bar { length: 0.3, width: 0.04, thickness: 0.01 }, m(69e9, 2700.0, 0.33), 36, 100),
+        ("fem-plate", Shape::Plate { length: 0.4, width: 0.3, thickness: 0.004 }, m(200e9, 7850.0, 0.3), 28, 100),
+        ("fem-circular-plate", Shape::CircularPlate { radius: 0.15, thickness: 0.003 }, m(105e9, 8600.0, 0.34), 28, 100),
+        ("fem-tube", Shape::Tube { length: 0.6, outer_radius: 0.016, wall: 0.0015 }, m(69e9, 2700.0, 0.33), 40, 100),
+        ("fem-bowl", Shape::Bowl { radius: 0.08, wall: 0.004 }, m(70e9, 2500.0, 0.22), 24, 100),
+        ("fem-cup", Shape::Cup { radius: 0.04, height: 0.09, wall: 0.003 }, m(100e9, 2400.0, 0.22), 18, 80),
+        ("fem-bell", Shape::Bell { radius: 0.1, height: 0.14, wall: 0.006 }, m(105e9, 8600.0, 0.34), 16, 80),
+        ("fem-block", Shape::Block { length: 0.2, width: 0.08, height: 0.05 }, m(12e9, 650.0, 0.3), 12, 60),
+        ("fem-sphere-shell", Shape::SphereShell { radius: 0.1, wall: 0.004 }, m(200e9, 7850.0, 0.3), 16, 80),
+    ]
+}
+
+/// User + system CPU seconds of this process so far (Linux `/proc/self/stat`, 100 Hz ticks).
+fn cpu_seconds() -> f64 {
+    let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    // Fields after the command name (which is in parentheses): utime is the 12th, stime 13th.
+    let rest = s.rsplit(')').next().unwrap_or("");
+    let f: Vec<f64> = rest.split_whitespace().map(|x| x.parse().unwrap_or(0.0)).collect();
+    (f.get(11).copied().unwrap_or(0.0) + f.get(12).copied().unwrap_or(0.0)) / 100.0
+}
+
+fn load() -> String {
+    std::fs::read_to_string("/proc/loadavg").unwrap_or_default().split_whitespace().take(3).collect::<Vec<_>>().join(" ")
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let which = args.first().cloned().unwrap_or_else(|| "all".into());
     let res_override: Option<usize> = args.get(1).and_then(|s| s.parse().ok());
-    let modes: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(200);
-    println!("| shape | resolution | vertices | nodes | DOFs | modes | f1 Hz | f_last Hz | total s | factor s | Lanczos steps | basis | peak MiB |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
-    for (shape, mat, res) in shapes() {
-        if which != "all" && which != shape.kind() {
-            continue;
-        }
-        let res = res_override.unwrap_or(res);
-        let opts = BuildOptions { max_modes: modes, max_freq_hz: None, resolution: res, strike_points: 64 };
-        match build_bank(shape.kind(), shape.kind(), &shape, &mat, &opts, &|_, _| {}) {
+    let modes_override: Option<usize> = args.get(2).and_then(|s| s.parse().ok());
+    let jobs: Vec<(String, Shape, Material, usize, usize, Option<f64>)> = if which == "factory" {
+        factory().into_iter().map(|(id, s, m, r, n)| (id.to_string(), s, m, r, n, Some(20_000.0))).collect()
+    } else {
+        shapes()
+            .into_iter()
+            .filter(|(s, _, _)| which == "all" || which == s.kind())
+            .map(|(s, m, r)| (s.kind().to_string(), s, m, res_override.unwrap_or(r), modes_override.unwrap_or(200), None))
+            .collect()
+    };
+    println!("| object | res | vertices | nodes | DOFs | modes | f1 Hz | f_last Hz | total s | factor s (sym+num) | solve s | M s | orth s | RR s | lock s | check s | CPU s | shifts | runs | steps | basis | residual / RQ err | peak MiB | load |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    for (name, shape, mat, res, modes, fmax) in jobs {
+        let opts = BuildOptions { max_modes: modes, max_freq_hz: fmax, resolution: res, strike_points: 64 };
+        let cpu0 = cpu_seconds();
+        match build_bank(&name, &name, &shape, &mat, &opts, &|_, _| {}) {
             Ok((bank, r)) => {
+                let p = eigen::last_profile();
                 let f = bank.frequencies_hz();
                 println!(
-                    "| {} | {} | {} | {} | {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {} | {} | {:.0} |",
-                    shape.kind(),
-                    res,
+                    "| {name} | {res} | {} | {} | {} | {} | {:.1} | {:.1} | {:.1} | {:.1} ({:.1}+{:.1}) | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {} | {} | {} | {} | {:.0e} / {:.0e} | {:.0} | {} |",
                     r.vertices,
                     r.nodes,
                     r.dofs,
@@ -51,12 +89,26 @@ fn main() {
                     f[f.len() - 1],
                     r.seconds,
                     r.factor_seconds,
-                    r.iterations,
-                    r.basis,
-                    r.peak_memory_bytes.unwrap_or(0) as f64 / (1024.0 * 1024.0)
+                    p.symbolic_seconds,
+                    p.numeric_seconds,
+                    p.solve_seconds,
+                    p.mass_seconds,
+                    p.orth_seconds,
+                    p.ritz_seconds,
+                    p.lock_seconds,
+                    p.check_seconds,
+                    cpu_seconds() - cpu0,
+                    p.shifts.len(),
+                    p.runs,
+                    p.steps,
+                    p.max_basis,
+                    p.max_residual,
+                    p.max_rayleigh_error,
+                    r.peak_memory_bytes.unwrap_or(0) as f64 / (1024.0 * 1024.0),
+                    load()
                 );
             }
-            Err(e) => println!("| {} | {} | error: {e} |", shape.kind(), res),
+            Err(e) => println!("| {name} | {res} | error: {e} |"),
         }
     }
 }

@@ -1,19 +1,40 @@
-//! Lowest eigenpairs of K v = λ M v by block shift-invert Lanczos with full
-//! reorthogonalisation.
+//! Lowest eigenpairs of K v = λ M v by spectrum slicing with block shift-invert Lanczos.
 //!
-//! The operator Op = (K − σM)⁻¹M is self-adjoint in the M inner product; its largest
-//! eigenvalues θ = 1/(λ − σ) belong to the λ nearest σ from above (Ericsson & Ruhe 1980,
-//! "The spectral transformation Lanczos method"; Grimes, Lewis & Simon 1994 for the block
-//! form). σ < 0 keeps K − σM positive definite despite the six rigid modes (λ = 0), so a
-//! sparse Cholesky (faer, supernodal, AMD ordering) factors it once. Every new block is
-//! M-orthogonalised against the whole basis twice (classical Gram–Schmidt, "twice is
-//! enough") and within itself by Cholesky-QR done twice, so the basis V is M-orthonormal to
-//! rounding and the Ritz vectors V·y are mass-normalised by construction.
+//! For each shift σ the operator Op = (K − σM)⁻¹M is self-adjoint in the M inner product;
+//! its extreme eigenvalues θ = 1/(λ − σ) belong to the λ nearest σ on either side (Ericsson
+//! & Ruhe 1980, "The spectral transformation Lanczos method"). K − σM is factored as LDLᵀ
+//! (faer, supernodal, AMD ordering computed once for all shifts); by Sylvester's law of
+//! inertia the number of negative pivots is the number of eigenvalues below σ (the Sturm
+//! count), which tells each run exactly how many eigenvalues it still has to find below its
+//! shift and proves that none was missed (Grimes, Lewis & Simon 1994, "A shifted block
+//! Lanczos algorithm for solving sparse symmetric generalized eigenproblems", §3–4).
+//!
+//! Each run is a block Lanczos with full reorthogonalisation: every new block is
+//! M-orthogonalised against the eigenvectors already locked (deflation) and the run's
+//! basis, twice (classical Gram–Schmidt, "twice is enough"), then within itself by
+//! Cholesky-QR done twice; the M-images of the basis are kept so each step costs two sparse
+//! M products. Converged Ritz pairs are locked and the next shift is placed beyond them
+//! from the observed eigenvalue density, so no basis grows beyond a few times the number of
+//! eigenvalues one slice yields. The memory of a run is bounded by its basis (two n × cap
+//! blocks) instead of growing with the number of wanted modes. (A Krylov–Schur thick
+//! restart, Stewart 2001, "A Krylov–Schur algorithm for large eigenproblems", would bound
+//! the basis of a single shift as well but keeps the crowded θ spectrum of a far shift;
+//! slicing keeps every wanted θ well separated.)
 
+use std::cell::RefCell;
+use std::time::Instant;
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
 use faer::linalg::matmul::matmul;
-use faer::linalg::solvers::Solve;
-use faer::sparse::{SparseColMat, SymbolicSparseColMat};
-use faer::{Accum, Mat, MatMut, MatRef, Par, Side};
+use faer::sparse::linalg::cholesky::supernodal::SupernodalLdltRef;
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, CholeskySymbolicParams, LdltRef, SymbolicCholesky, SymbolicCholeskyRaw,
+    SymmetricOrdering,
+};
+use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::{Accum, Conj, Mat, MatMut, MatRef, Par, Side, Spec};
 
 use super::assembly::{sym_matvec_rows, System};
 use super::FemError;
@@ -22,17 +43,20 @@ use super::FemError;
 pub struct EigenOptions {
     /// How many of the lowest eigenpairs are wanted (rigid modes included).
     pub nev: usize,
-    /// Stop once every eigenvalue ≤ this (rad²/s²) is converged, even if fewer than `nev`.
+    /// Stop once every eigenvalue ≤ this (rad²/s²) is found, even if fewer than `nev`.
     pub lambda_max: Option<f64>,
-    /// Shift σ in rad²/s² (negative).
+    /// First shift σ in rad²/s² (negative: below the rigid modes).
     pub sigma: f64,
     /// Block size (vectors per operator application).
     pub block: usize,
-    /// Convergence: residual ‖Op x − θx‖_M ≤ tol·(θ + 10⁻³·θ_max) (θ_max ≈ ‖Op‖ = 1/|σ|).
-    /// The shift is moved once if the first elastic mode turns out far above |σ|.
+    /// Convergence: M-norm residual ‖Op x − θx‖ ≤ tol·|θ| (plus a rounding floor).
     pub tol: f64,
-    /// Largest basis size (memory: 8·DOFs·max_basis bytes).
+    /// Largest basis of one run (memory: 16·DOFs·max_basis bytes for the basis and its
+    /// M-image).
     pub max_basis: usize,
+    /// Eigenvalues each shift after the first aims to converge (about half below it, half
+    /// above). Fewer means more factorisations and smaller bases.
+    pub slice: usize,
 }
 
 /// Result of [`solve`].
@@ -43,31 +67,77 @@ pub struct EigenResult {
     pub vectors: Mat<f64>,
     /// Number of block operator applications (factor solves with `block` right-hand sides).
     pub iterations: usize,
-    /// Final basis size.
+    /// Largest basis of one run.
     pub basis: usize,
-    /// Seconds spent in the sparse Cholesky factorisation.
+    /// Seconds spent in sparse factorisations (symbolic and all numeric).
     pub factor_seconds: f64,
-    /// The shift σ finally used (rad²/s²).
+    /// The first shift σ (rad²/s²): eigenvalues far below |σ| are rigid-body modes.
     pub sigma: f64,
+    /// Where the time went.
+    pub profile: Profile,
 }
 
+/// Phase timings (wall seconds) and counters of one [`solve`].
+#[derive(Clone, Debug, Default)]
+pub struct Profile {
+    /// Symbolic analysis (AMD ordering, supernode structure), once.
+    pub symbolic_seconds: f64,
+    /// Numeric LDLᵀ factorisations, all shifts.
+    pub numeric_seconds: f64,
+    /// Triangular solves (operator applications).
+    pub solve_seconds: f64,
+    /// Sparse M products.
+    pub mass_seconds: f64,
+    /// Gram–Schmidt against locked vectors and the basis, Cholesky-QR.
+    pub orth_seconds: f64,
+    /// Projected eigenproblems (Rayleigh–Ritz).
+    pub ritz_seconds: f64,
+    /// Ritz vectors of converged pairs (locking) and the final assembly.
+    pub lock_seconds: f64,
+    /// Final residual check ‖Kφ − λMφ‖.
+    pub check_seconds: f64,
+    /// Total.
+    pub total_seconds: f64,
+    /// Shifts used (rad²/s²), in order.
+    pub shifts: Vec<f64>,
+    /// Lanczos runs (several runs may share a shift).
+    pub runs: usize,
+    /// Block steps (operator applications).
+    pub steps: usize,
+    /// Largest basis of one run.
+    pub max_basis: usize,
+    /// Largest relative residual ‖Kφ − λMφ‖₂ / ((|λ| + |σ₀|)‖Mφ‖₂) of the returned pairs.
+    pub max_residual: f64,
+    /// Largest |φᵀKφ − λ| / (|λ| + |σ₀|) of the returned (mass-normalised) pairs.
+    pub max_rayleigh_error: f64,
+    /// Nonzeros of the LDLᵀ factor.
+    pub factor_nnz: usize,
+}
+
+thread_local! {
+    static LAST_PROFILE: RefCell<Profile> = RefCell::new(Profile::default());
+}
+
+/// The profile of the last sparse [`solve`] on this thread (empty after a dense solve).
+pub fn last_profile() -> Profile {
+    LAST_PROFILE.with(|p| p.borrow().clone())
+}
+
+/// `STRUCK_EIGEN_DEBUG` set: one line per Lanczos run on stderr.
+fn debug() -> bool {
+    std::env::var_os("STRUCK_EIGEN_DEBUG").is_some()
+}
+
+/// Parallelism for the numeric factorisation and the dense solver of [`dense`] (large,
+/// compute-bound kernels).
 fn par() -> Par {
     faer::get_global_parallelism()
 }
 
-/// M·W for a block W (n × b).
-fn mul_m(sys: &System, w: MatRef<'_, f64>) -> Mat<f64> {
-    let (n, b) = (w.nrows(), w.ncols());
-    let mut xr = vec![0.0; n * b];
-    for c in 0..b {
-        for r in 0..n {
-            xr[r * b + c] = w[(r, c)];
-        }
-    }
-    let mut y = vec![0.0; n * b];
-    sym_matvec_rows(sys, &sys.m, &xr, &mut y, b);
-    Mat::from_fn(n, b, |r, c| y[r * b + c])
-}
+/// Parallelism for the per-step kernels (tall-skinny products, CholQR, triangular solves
+/// with a few right-hand sides): they are memory-bound and too small per call for a thread
+/// pool to pay off; measured on the shared 2-core machine, rayon made them 2–4× slower.
+const STEP_PAR: Par = Par::Seq;
 
 /// Deterministic pseudo-random block (xorshift64*), values in (−1, 1).
 fn random_block(n: usize, b: usize, seed: u64) -> Mat<f64> {
@@ -81,98 +151,17 @@ fn random_block(n: usize, b: usize, seed: u64) -> Mat<f64> {
     })
 }
 
-/// W ← W − V(VᵀMW), twice; adds the coefficients into `h` (k × b) if given.
-fn orthogonalise(sys: &System, v: MatRef<'_, f64>, w: &mut Mat<f64>, mut h: Option<MatMut<'_, f64>>) {
-    if v.ncols() == 0 {
-        return;
-    }
-    for _ in 0..2 {
-        let z = mul_m(sys, w.as_ref());
-        let mut c = Mat::<f64>::zeros(v.ncols(), w.ncols());
-        matmul(c.as_mut(), Accum::Replace, v.transpose(), z.as_ref(), 1.0, par());
-        matmul(w.as_mut(), Accum::Add, v, c.as_ref(), -1.0, par());
-        if let Some(h) = h.as_mut() {
-            for j in 0..c.ncols() {
-                for i in 0..c.nrows() {
-                    h[(i, j)] += c[(i, j)];
-                }
-            }
-        }
-    }
-}
-
-/// Cholesky-QR in the M inner product: W = Q R with QᵀMQ = I, R upper triangular (b × b).
-/// `None` if W is (numerically) rank deficient.
-fn chol_qr(sys: &System, w: &mut Mat<f64>) -> Option<Mat<f64>> {
-    let b = w.ncols();
-    let z = mul_m(sys, w.as_ref());
-    let mut g = Mat::<f64>::zeros(b, b);
-    matmul(g.as_mut(), Accum::Replace, w.transpose(), z.as_ref(), 1.0, par());
-    // G = L Lᵀ, R = Lᵀ.
-    let mut l = Mat::<f64>::zeros(b, b);
-    for j in 0..b {
-        let mut d = g[(j, j)];
-        for p in 0..j {
-            d -= l[(j, p)] * l[(j, p)];
-        }
-        if !(d > 1e-13 * g[(j, j)].abs()) || !(g[(j, j)] > 0.0) {
-            return None;
-        }
-        let d = d.sqrt();
-        l[(j, j)] = d;
-        for i in j + 1..b {
-            let mut s = g[(i, j)];
-            for p in 0..j {
-                s -= l[(i, p)] * l[(j, p)];
-            }
-            l[(i, j)] = s / d;
-        }
-    }
-    // Q = W L⁻ᵀ, column by column: Q[:, c] = (W[:, c] − Σ_{p<c} Q[:, p] L[c][p]) / L[c][c].
-    let n = w.nrows();
-    for c in 0..b {
-        for p in 0..c {
-            let f = l[(c, p)];
-            for r in 0..n {
-                let q = w[(r, p)];
-                w[(r, c)] -= f * q;
-            }
-        }
-        let d = l[(c, c)];
-        for r in 0..n {
-            w[(r, c)] /= d;
-        }
-    }
-    Some(Mat::from_fn(b, b, |i, j| l[(j, i)]))
-}
-
-/// M-orthonormalises W against `v` and within itself (CholQR twice). Returns R with
-/// W_in − V C = W_out R, or `None` on rank deficiency.
-fn orthonormalise(sys: &System, v: MatRef<'_, f64>, w: &mut Mat<f64>, h: Option<MatMut<'_, f64>>) -> Option<Mat<f64>> {
-    orthogonalise(sys, v, w, h);
-    let r1 = chol_qr(sys, w)?;
-    let r2 = chol_qr(sys, w)?;
-    let mut r = Mat::<f64>::zeros(r1.nrows(), r1.ncols());
-    matmul(r.as_mut(), Accum::Replace, r2.as_ref(), r1.as_ref(), 1.0, Par::Seq);
-    Some(r)
-}
-
-/// Computes the lowest eigenpairs of K v = λ M v.
+/// Computes the lowest eigenpairs of K v = λ M v (dense below [`DENSE_MAX`] DOFs, else
+/// [`solve_sliced`]).
 ///
 /// # Errors
-/// [`FemError::Factorization`] if K − σM is not positive definite (an invalid mesh or
-/// material), [`FemError::NotConverged`] if the basis limit is reached first.
+/// [`FemError::Factorization`] if K − σM cannot be factored (an invalid mesh or material),
+/// [`FemError::NotConverged`] if the wanted modes are not found within the run limit.
 pub fn solve(sys: &System, opts: &EigenOptions, progress: &dyn Fn(&str, f32)) -> Result<EigenResult, FemError> {
     if sys.n <= DENSE_MAX {
         return dense(sys, opts);
     }
-    match lanczos(sys, opts, opts.sigma, true, progress)? {
-        Outcome::Done(r) => Ok(r),
-        Outcome::Reshift(sigma) => match lanczos(sys, opts, sigma, false, progress)? {
-            Outcome::Done(r) => Ok(r),
-            Outcome::Reshift(_) => Err(FemError::Factorization("internal error: second shift requested".into())),
-        },
-    }
+    solve_sliced(sys, opts, progress)
 }
 
 /// Up to this many DOFs the problem is solved densely (a Krylov basis would be most of the
@@ -181,10 +170,13 @@ pub const DENSE_MAX: usize = 1200;
 
 /// Dense shift-invert solve: K − σM = LLᵀ, C = L⁻¹ML⁻ᵀ, C y = θ y with θ = 1/(λ − σ),
 /// v = L⁻ᵀy/√θ (mass-normalised). Accurate for the lowest λ (the largest θ).
-fn dense(sys: &System, opts: &EigenOptions) -> Result<EigenResult, FemError> {
+///
+/// # Errors
+/// [`FemError::Factorization`] if K − σM is not positive definite.
+pub fn dense(sys: &System, opts: &EigenOptions) -> Result<EigenResult, FemError> {
     let n = sys.n;
     let sigma = opts.sigma;
-    let t0 = std::time::Instant::now();
+    let t0 = Instant::now();
     let mut a = Mat::<f64>::zeros(n, n);
     let mut m = Mat::<f64>::zeros(n, n);
     for c in 0..n {
@@ -222,164 +214,679 @@ fn dense(sys: &System, opts: &EigenOptions) -> Result<EigenResult, FemError> {
         basis: n,
         factor_seconds: t0.elapsed().as_secs_f64(),
         sigma,
+        profile: Profile::default(),
     })
 }
 
-enum Outcome {
-    Done(EigenResult),
-    /// The first elastic eigenvalue lies far above |σ| (slow convergence): start again with
-    /// this shift.
-    Reshift(f64),
+/// Sparse M products on column-major blocks through a reused row-major buffer (the kernel
+/// gathers the `b` values of a row from one cache line).
+struct Mass<'a> {
+    sys: &'a System,
+    xr: Vec<f64>,
+    yr: Vec<f64>,
 }
 
-/// Number of rigid-body modes expected below the first elastic one.
-const RIGID: usize = 6;
-
-fn lanczos(
-    sys: &System,
-    opts: &EigenOptions,
-    sigma: f64,
-    probe: bool,
-    progress: &dyn Fn(&str, f32),
-) -> Result<Outcome, FemError> {
-    let n = sys.n;
-    let t0 = std::time::Instant::now();
-    let shifted: Vec<f64> = sys.k.iter().zip(&sys.m).map(|(k, m)| k - sigma * m).collect();
-    let symbolic = SymbolicSparseColMat::<usize>::new_checked(n, n, sys.col_ptr.clone(), None, sys.row_idx.clone());
-    let a = SparseColMat::<usize, f64>::new(symbolic, shifted);
-    let llt = a.sp_cholesky(Side::Lower).map_err(|e| {
-        FemError::Factorization(format!(
-            "sparse Cholesky of K - sigma*M failed ({e:?}); the mesh may be degenerate or the material invalid"
-        ))
-    })?;
-    drop(a);
-    let factor_seconds = t0.elapsed().as_secs_f64();
-    progress("factorised", 0.0);
-
-    let b = opts.block.clamp(1, n.max(1));
-    let cap = (opts.max_basis.min(n.saturating_sub(b)) / b * b).max(2 * b);
-    if cap > n {
-        return Err(FemError::Mesh(format!(
-            "the mesh has only {n} degrees of freedom; too few for {} modes, use a finer resolution",
-            opts.nev
-        )));
+impl Mass<'_> {
+    /// out = M w.
+    fn apply(&mut self, w: MatRef<'_, f64>, mut out: MatMut<'_, f64>, prof: &mut Profile) {
+        let t = Instant::now();
+        let (n, b) = (w.nrows(), w.ncols());
+        self.xr.resize(n * b, 0.0);
+        self.yr.resize(n * b, 0.0);
+        for c in 0..b {
+            let col = w.col(c);
+            for r in 0..n {
+                self.xr[r * b + c] = col[r];
+            }
+        }
+        sym_matvec_rows(self.sys, &self.sys.m, &self.xr, &mut self.yr, b);
+        for c in 0..b {
+            let mut col = out.as_mut().col_mut(c);
+            for r in 0..n {
+                col[r] = self.yr[r * b + c];
+            }
+        }
+        prof.mass_seconds += t.elapsed().as_secs_f64();
     }
-    let nev = opts.nev.min(cap - b);
+}
+
+/// Sparse LDLᵀ of K − σM on a symbolic structure shared by all shifts.
+struct Factor<'a> {
+    sys: &'a System,
+    symbolic: SymbolicCholesky<usize>,
+    values: Vec<f64>,
+    shifted: Vec<f64>,
+    sigma: f64,
+    /// Number of negative pivots = eigenvalues below σ (Sylvester's law of inertia).
+    negative: usize,
+}
+
+impl<'a> Factor<'a> {
+    fn new(sys: &'a System, prof: &mut Profile) -> Result<Self, FemError> {
+        let t = Instant::now();
+        let n = sys.n;
+        let pattern = SymbolicSparseColMatRef::new_checked(n, n, &sys.col_ptr, None, &sys.row_idx);
+        // Supernodal always: the inertia is read off the diagonal blocks.
+        let params = CholeskySymbolicParams {
+            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+            ..Default::default()
+        };
+        let symbolic = factorize_symbolic_cholesky(pattern, Side::Lower, SymmetricOrdering::Amd, params)
+            .map_err(|e| FemError::Factorization(format!("symbolic analysis failed ({e:?}); out of memory?")))?;
+        let len = symbolic.len_val();
+        prof.symbolic_seconds += t.elapsed().as_secs_f64();
+        prof.factor_nnz = len;
+        Ok(Factor { sys, symbolic, values: vec![0.0; len], shifted: vec![0.0; sys.k.len()], sigma: f64::NAN, negative: 0 })
+    }
+
+    /// Factors K − σM; a shift that hits a zero pivot is moved by a relative 1e-7.
+    fn factor(&mut self, sigma: f64, prof: &mut Profile) -> Result<(), FemError> {
+        let t = Instant::now();
+        let mut s = sigma;
+        for attempt in 0..4 {
+            for (o, (k, m)) in self.shifted.iter_mut().zip(self.sys.k.iter().zip(&self.sys.m)) {
+                *o = k - s * m;
+            }
+            let n = self.sys.n;
+            let pattern = SymbolicSparseColMatRef::new_checked(n, n, &self.sys.col_ptr, None, &self.sys.row_idx);
+            let a = SparseColMatRef::new(pattern, &self.shifted);
+            let mut buf = MemBuffer::new(self.symbolic.factorize_numeric_ldlt_scratch::<f64>(par(), Spec::default()));
+            let r = self.symbolic.factorize_numeric_ldlt(
+                &mut self.values,
+                a,
+                Side::Lower,
+                LdltRegularization::default(),
+                par(),
+                MemStack::new(&mut buf),
+                Spec::default(),
+            );
+            match r {
+                Ok(_) => {
+                    self.sigma = s;
+                    self.negative = self.inertia();
+                    prof.numeric_seconds += t.elapsed().as_secs_f64();
+                    prof.shifts.push(s);
+                    return Ok(());
+                }
+                Err(e) if attempt == 3 => {
+                    return Err(FemError::Factorization(format!(
+                        "LDL^T of K - sigma*M failed at sigma = {s:e} ({e:?}); the mesh may be degenerate or the material invalid"
+                    )))
+                }
+                Err(_) => s += 1e-7 * s.abs().max(1.0) * (attempt + 1) as f64,
+            }
+        }
+        unreachable_factor()
+    }
+
+    fn inertia(&self) -> usize {
+        match self.symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(s) => {
+                let l = SupernodalLdltRef::new(s, &self.values);
+                (0..s.n_supernodes())
+                    .map(|i| {
+                        let v = l.supernode(i).val();
+                        (0..v.ncols()).filter(|&j| v[(j, j)] < 0.0).count()
+                    })
+                    .sum()
+            }
+            SymbolicCholeskyRaw::Simplicial(s) => {
+                let f = s.factor();
+                (0..f.ncols())
+                    .filter(|&j| {
+                        let rows = &f.row_idx()[f.col_ptr()[j]..f.col_ptr()[j + 1]];
+                        rows.iter().position(|&r| r == j).is_some_and(|p| self.values[f.col_ptr()[j] + p] < 0.0)
+                    })
+                    .count()
+            }
+        }
+    }
+
+    /// x ← (K − σM)⁻¹ x.
+    fn solve(&self, x: MatMut<'_, f64>, prof: &mut Profile) {
+        let t = Instant::now();
+        let mut buf = MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(x.ncols(), STEP_PAR));
+        LdltRef::new(&self.symbolic, &self.values).solve_in_place_with_conj(Conj::No, x, STEP_PAR, MemStack::new(&mut buf));
+        prof.solve_seconds += t.elapsed().as_secs_f64();
+    }
+}
+
+fn unreachable_factor() -> Result<(), FemError> {
+    Err(FemError::Factorization("internal error: shift retry loop exited".into()))
+}
+
+/// Converged eigenpairs, M-orthonormal columns of `vecs` (first `len` in use).
+struct Locked {
+    lambdas: Vec<f64>,
+    vecs: Mat<f64>,
+}
+
+impl Locked {
+    fn len(&self) -> usize {
+        self.lambdas.len()
+    }
+    fn view(&self) -> MatRef<'_, f64> {
+        self.vecs.as_ref().subcols(0, self.len())
+    }
+    fn count_below(&self, x: f64) -> usize {
+        self.lambdas.iter().filter(|&&l| l < x).count()
+    }
+    /// Adds a pair; when full, the largest eigenvalue gives way to a smaller one.
+    fn push(&mut self, lambda: f64, v: MatRef<'_, f64>) {
+        let slot = if self.len() < self.vecs.ncols() {
+            self.lambdas.push(lambda);
+            self.len() - 1
+        } else {
+            let (imax, lmax) = self.lambdas.iter().copied().enumerate().fold((0, f64::MIN), |a, (i, l)| if l > a.1 { (i, l) } else { a });
+            if lambda >= lmax {
+                return;
+            }
+            self.lambdas[imax] = lambda;
+            imax
+        };
+        self.vecs.as_mut().col_mut(slot).copy_from(v.col(0));
+    }
+}
+
+/// W ← W − Φ(ΦᵀZ) − V(VᵀZ) with Z = MW kept current; returns the V coefficients.
+/// The first pass uses a fresh Z; after it Z is recomputed, so the second pass ("twice is
+/// enough") works from exact inner products; its small correction is carried into Z through
+/// the stored M-image of V (the Φ part of that correction is at rounding level and dropped).
+fn orthogonalise(
+    mass: &mut Mass<'_>,
+    locked: MatRef<'_, f64>,
+    v: MatRef<'_, f64>,
+    mv: MatRef<'_, f64>,
+    w: &mut Mat<f64>,
+    z: &mut Mat<f64>,
+    prof: &mut Profile,
+) -> Mat<f64> {
+    let b = w.ncols();
+    let mut total = Mat::<f64>::zeros(v.ncols(), b);
+    for pass in 0..2 {
+        let t = Instant::now();
+        if locked.ncols() > 0 {
+            let mut c = Mat::<f64>::zeros(locked.ncols(), b);
+            matmul(c.as_mut(), Accum::Replace, locked.transpose(), z.as_ref(), 1.0, STEP_PAR);
+            matmul(w.as_mut(), Accum::Add, locked, c.as_ref(), -1.0, STEP_PAR);
+        }
+        if v.ncols() > 0 {
+            let mut c = Mat::<f64>::zeros(v.ncols(), b);
+            matmul(c.as_mut(), Accum::Replace, v.transpose(), z.as_ref(), 1.0, STEP_PAR);
+            matmul(w.as_mut(), Accum::Add, v, c.as_ref(), -1.0, STEP_PAR);
+            if pass == 1 {
+                matmul(z.as_mut(), Accum::Add, mv, c.as_ref(), -1.0, STEP_PAR);
+            }
+            total += &c;
+        }
+        prof.orth_seconds += t.elapsed().as_secs_f64();
+        if pass == 0 {
+            mass.apply(w.as_ref(), z.as_mut(), prof);
+        }
+    }
+    total
+}
+
+/// Cholesky-QR in the M inner product with Z = MW: W = Q R, QᵀMQ = I, R upper triangular;
+/// Z is transformed alongside. `None` if W is (numerically) rank deficient.
+fn chol_qr(w: &mut Mat<f64>, z: &mut Mat<f64>) -> Option<Mat<f64>> {
+    let b = w.ncols();
+    let mut g = Mat::<f64>::zeros(b, b);
+    matmul(g.as_mut(), Accum::Replace, w.transpose(), z.as_ref(), 1.0, STEP_PAR);
+    // G = L Lᵀ (scalar Cholesky of a b × b matrix), R = Lᵀ.
+    let mut l = Mat::<f64>::zeros(b, b);
+    for j in 0..b {
+        let gjj = g[(j, j)];
+        let mut d = gjj;
+        for p in 0..j {
+            d -= l[(j, p)] * l[(j, p)];
+        }
+        if !(d > 1e-13 * gjj.abs()) || !(gjj > 0.0) {
+            return None;
+        }
+        let d = d.sqrt();
+        l[(j, j)] = d;
+        for i in j + 1..b {
+            let mut s = 0.5 * (g[(i, j)] + g[(j, i)]);
+            for p in 0..j {
+                s -= l[(i, p)] * l[(j, p)];
+            }
+            l[(i, j)] = s / d;
+        }
+    }
+    // W ← W R⁻¹ and Z ← Z R⁻¹ in place: Rᵀ Xᵀ = Wᵀ with Rᵀ = L lower triangular.
+    for x in [w, z] {
+        faer::linalg::triangular_solve::solve_lower_triangular_in_place(l.as_ref(), x.as_mut().transpose_mut(), STEP_PAR);
+    }
+    Some(l.transpose().to_owned())
+}
+
+/// Orthonormalises W (with Z = MW) against `locked` and `v`, then within itself (CholQR
+/// twice). Returns (V coefficients C, R) with W_in − V C − Φ(…) = W_out R, or `None` on
+/// rank deficiency.
+#[allow(clippy::too_many_arguments)]
+fn orthonormalise(
+    mass: &mut Mass<'_>,
+    locked: MatRef<'_, f64>,
+    v: MatRef<'_, f64>,
+    mv: MatRef<'_, f64>,
+    w: &mut Mat<f64>,
+    z: &mut Mat<f64>,
+    prof: &mut Profile,
+) -> Option<(Mat<f64>, Mat<f64>)> {
+    let c = orthogonalise(mass, locked, v, mv, w, z, prof);
+    let t = Instant::now();
+    let r = (|| {
+        let r1 = chol_qr(w, z)?;
+        let r2 = chol_qr(w, z)?;
+        let mut r = Mat::<f64>::zeros(r1.nrows(), r1.ncols());
+        matmul(r.as_mut(), Accum::Replace, r2.as_ref(), r1.as_ref(), 1.0, Par::Seq);
+        Some(r)
+    })();
+    prof.orth_seconds += t.elapsed().as_secs_f64();
+    r.map(|r| (c, r))
+}
+
+/// What one Lanczos run at a fixed shift must achieve.
+struct Goal {
+    /// Eigenvalues below σ not yet locked (from the Sturm count).
+    need_below: usize,
+    /// Contiguous eigenvalues above σ wanted.
+    want_above: usize,
+    /// The chain above σ may stop once it passes this eigenvalue.
+    lambda_stop: f64,
+    /// Initial basis allocation (a multiple of the block size).
+    cap: usize,
+    /// Largest basis (memory limit).
+    cap_max: usize,
+}
+
+/// What a run found (already locked).
+struct RunOut {
+    /// Converged eigenvalues below σ.
+    below: usize,
+    /// Unconverged Ritz values above the chain, ascending (estimates for the next shift).
+    ritz_above: Vec<f64>,
+}
+
+#[allow(clippy::too_many_arguments)]
+fn run(
+    fac: &Factor<'_>,
+    mass: &mut Mass<'_>,
+    locked: &mut Locked,
+    goal: &Goal,
+    block: usize,
+    tol: f64,
+    seed: &mut u64,
+    prof: &mut Profile,
+) -> Result<RunOut, FemError> {
+    let n = fac.sys.n;
+    let b = block;
+    let mut cap = goal.cap.min(goal.cap_max);
+    let sigma = fac.sigma;
+    prof.runs += 1;
     let mut v = Mat::<f64>::zeros(n, cap);
+    let mut mv = Mat::<f64>::zeros(n, cap);
     let mut h = Mat::<f64>::zeros(cap + b, cap);
 
-    let mut w = random_block(n, b, 1);
-    let mut seed = 2;
-    loop {
-        if orthonormalise(sys, v.as_ref().subcols(0, 0), &mut w, None).is_some() {
-            break;
+    let fresh = |mass: &mut Mass<'_>, locked: &Locked, v: MatRef<'_, f64>, mv: MatRef<'_, f64>, seed: &mut u64, prof: &mut Profile| {
+        for _ in 0..20 {
+            let mut w = random_block(n, b, *seed);
+            *seed += 1;
+            let mut z = Mat::<f64>::zeros(n, b);
+            mass.apply(w.as_ref(), z.as_mut(), prof);
+            if orthonormalise(mass, locked.view(), v, mv, &mut w, &mut z, prof).is_some() {
+                return Some((w, z));
+            }
         }
-        w = random_block(n, b, seed);
-        seed += 1;
-    }
-    v.as_mut().subcols_mut(0, b).copy_from(w.as_ref());
+        None
+    };
+    let no_room = |k: usize| FemError::NotConverged { converged: 0, wanted: goal.need_below + goal.want_above, basis: k };
+    let (w, z) = fresh(mass, locked, v.as_ref().subcols(0, 0), mv.as_ref().subcols(0, 0), seed, prof).ok_or_else(|| no_room(0))?;
+    v.as_mut().subcols_mut(0, b).copy_from(&w);
+    mv.as_mut().subcols_mut(0, b).copy_from(&z);
     let mut k = b;
-    let mut iterations = 0;
     let mut last_check = 0;
     loop {
-        // W = Op X_last.
-        let mut w = mul_m(sys, v.as_ref().subcols(k - b, b));
-        llt.solve_in_place(w.as_mut());
-        iterations += 1;
-        let r = {
-            let hcol = h.as_mut().submatrix_mut(0, k - b, k, b);
-            orthonormalise(sys, v.as_ref().subcols(0, k), &mut w, Some(hcol))
-        };
-        let r = match r {
-            Some(r) => r,
+        // W = Op X_last = (K − σM)⁻¹ (M X_last); the M-image is stored.
+        let mut w = mv.as_ref().subcols(k - b, b).to_owned();
+        fac.solve(w.as_mut(), prof);
+        prof.steps += 1;
+        let mut z = Mat::<f64>::zeros(n, b);
+        mass.apply(w.as_ref(), z.as_mut(), prof);
+        let res = orthonormalise(mass, locked.view(), v.as_ref().subcols(0, k), mv.as_ref().subcols(0, k), &mut w, &mut z, prof);
+        let r = match res {
+            Some((c, r)) => {
+                h.as_mut().submatrix_mut(0, k - b, k, b).copy_from(&c);
+                r
+            }
             None => {
-                // Invariant subspace found: continue with fresh random directions; the
-                // coupling to them is zero.
-                loop {
-                    let mut fresh = random_block(n, b, seed);
-                    seed += 1;
-                    if orthonormalise(sys, v.as_ref().subcols(0, k), &mut fresh, None).is_some() {
-                        w = fresh;
-                        break;
-                    }
-                    if seed > 50 {
-                        return Err(FemError::NotConverged { converged: 0, wanted: nev, basis: k });
-                    }
-                }
+                // Invariant subspace: continue with fresh directions, coupled by zero.
+                let (fw, fz) = fresh(mass, locked, v.as_ref().subcols(0, k), mv.as_ref().subcols(0, k), seed, prof)
+                    .ok_or_else(|| no_room(k))?;
+                w = fw;
+                z = fz;
                 Mat::zeros(b, b)
             }
         };
-        h.as_mut().submatrix_mut(k, k - b, b, b).copy_from(r.as_ref());
-        progress("eigen", (k as f32 / cap as f32).min(1.0));
+        h.as_mut().submatrix_mut(k, k - b, b, b).copy_from(&r);
 
-        // Rayleigh–Ritz costs O(k³): check at ~10 % growth of the basis, not every block.
-        if (k >= nev + b && k >= last_check + (k / 10).max(b)) || k + b > cap {
+        if k + b > cap && cap + b <= goal.cap_max {
+            // Not there yet: grow the basis (keeping all work) up to the memory limit.
+            let new_cap = (cap + cap / 2).div_ceil(b) * b;
+            let new_cap = new_cap.min(goal.cap_max / b * b);
+            let mut v2 = Mat::<f64>::zeros(n, new_cap);
+            let mut mv2 = Mat::<f64>::zeros(n, new_cap);
+            let mut h2 = Mat::<f64>::zeros(new_cap + b, new_cap);
+            v2.as_mut().subcols_mut(0, k).copy_from(v.as_ref().subcols(0, k));
+            mv2.as_mut().subcols_mut(0, k).copy_from(mv.as_ref().subcols(0, k));
+            h2.as_mut().submatrix_mut(0, 0, k + b, k).copy_from(h.as_ref().submatrix(0, 0, k + b, k));
+            (v, mv, h, cap) = (v2, mv2, h2, new_cap);
+        }
+        let full = k + b > cap;
+        let min_k = (goal.need_below + goal.want_above + b).min(cap);
+        if full || (k >= min_k && k >= last_check + (k / 8).max(2 * b)) {
             last_check = k;
-            // Rayleigh–Ritz on the symmetric part of the projected operator.
+            let t = Instant::now();
             let hs = Mat::from_fn(k, k, |i, j| 0.5 * (h[(i, j)] + h[(j, i)]));
             let eig = hs.self_adjoint_eigen(Side::Lower).map_err(|e| {
                 FemError::Factorization(format!("dense eigensolver failed on the projected matrix: {e:?}"))
             })?;
             let s = eig.S().column_vector();
             let u = eig.U();
-            // θ ascending from faer; the wanted λ are the largest θ.
-            let order: Vec<usize> = (0..k).rev().collect();
-            let lam = |i: usize| sigma + 1.0 / s[order[i]];
-            let mut want = nev;
-            if let Some(lmax) = opts.lambda_max {
-                let below = (0..k).take_while(|&i| s[order[i]] > 0.0 && lam(i) <= lmax).count();
-                want = want.min(below + 1);
-            }
-            // Residuals are measured against the largest θ (‖Op‖): rounding puts a floor of
-            // about ε·‖Op‖ under every residual, so a test relative to each θᵢ could never
-            // pass for modes far above the shift.
-            let theta_max = s[order[0]].abs();
-            // Shift check (once, early): the convergence rate depends on the spacing of the
-            // θᵢ; with the first elastic λ far above |σ| all the wanted θ crowd near zero.
-            if probe && k >= 3 * b && want > RIGID {
-                let l_el = lam(RIGID);
-                if l_el.is_finite() && l_el > 30.0 * sigma.abs() {
-                    return Ok(Outcome::Reshift(-0.3 * l_el));
-                }
-            }
-            let mut converged = 0;
-            for i in 0..want {
-                let col = order[i];
-                let theta = s[col];
-                let mut res2 = 0.0;
-                for rr in 0..b {
-                    let mut acc = 0.0;
-                    for cc in 0..b {
-                        acc += r[(rr, cc)] * u[(k - b + cc, col)];
+            let theta_max = (0..k).map(|i| s[i].abs()).fold(0.0, f64::max);
+            // Residual of Ritz pair i: ‖R · U[k−b..k, i]‖ (M-norm, since the next block is
+            // M-orthonormal). Rounding leaves a floor of about ε‖Op‖ under every residual.
+            let conv: Vec<bool> = (0..k)
+                .map(|i| {
+                    let mut res2 = 0.0;
+                    for rr in 0..b {
+                        let mut acc = 0.0;
+                        for cc in 0..b {
+                            acc += r[(rr, cc)] * u[(k - b + cc, i)];
+                        }
+                        res2 += acc * acc;
                     }
-                    res2 += acc * acc;
-                }
-                if theta > 0.0 && res2.sqrt() <= opts.tol * theta + 1e-3 * opts.tol * theta_max {
-                    converged += 1;
-                } else {
+                    // The floor may at most double the tolerance: a pair far from σ
+                    // (|θ| ≪ θ_max) must not pass on rounding alone.
+                    let floor = (1e3 * f64::EPSILON * theta_max).min(tol * s[i].abs());
+                    s[i] != 0.0 && res2.sqrt() <= tol * s[i].abs() + floor
+                })
+                .collect();
+            // θ ascending: negative θ (λ below σ) first, positive θ descending = λ ascending.
+            let below: Vec<usize> = (0..k).filter(|&i| s[i] < 0.0 && conv[i]).collect();
+            let mut chain = Vec::new();
+            let mut first_unconv = k;
+            for i in (0..k).rev() {
+                if s[i] <= 0.0 {
                     break;
                 }
+                if !conv[i] {
+                    first_unconv = i;
+                    break;
+                }
+                chain.push(i);
             }
-            if converged >= want {
-                let sel: Vec<usize> = order[..want].to_vec();
-                let y = Mat::from_fn(k, want, |i, j| u[(i, sel[j])]);
-                let mut phi = Mat::<f64>::zeros(n, want);
-                matmul(phi.as_mut(), Accum::Replace, v.as_ref().subcols(0, k), y.as_ref(), 1.0, par());
-                let lambdas = (0..want).map(lam).collect();
-                return Ok(Outcome::Done(EigenResult {
-                    lambdas,
-                    vectors: phi,
-                    iterations,
-                    basis: k,
-                    factor_seconds,
-                    sigma,
-                }));
-            }
-            if k + b > cap {
-                return Err(FemError::NotConverged { converged, wanted: want, basis: k });
+            let lam = |i: usize| sigma + 1.0 / s[i];
+            let chain_done = chain.len() >= goal.want_above || chain.last().is_some_and(|&i| lam(i) > goal.lambda_stop);
+            prof.ritz_seconds += t.elapsed().as_secs_f64();
+            if (below.len() >= goal.need_below && chain_done) || full {
+                prof.max_basis = prof.max_basis.max(k);
+                let t = Instant::now();
+                // Lock every converged pair (also those above the chain): each is a true
+                // eigenpair, and deflating it speeds up the next run at this shift.
+                let sel: Vec<usize> = (0..k).filter(|&i| conv[i]).collect();
+                let y = Mat::from_fn(k, sel.len(), |i, j| u[(i, sel[j])]);
+                let mut phi = Mat::<f64>::zeros(n, sel.len());
+                matmul(phi.as_mut(), Accum::Replace, v.as_ref().subcols(0, k), y.as_ref(), 1.0, STEP_PAR);
+                for (j, &i) in sel.iter().enumerate() {
+                    locked.push(lam(i), phi.as_ref().subcols(j, 1));
+                }
+                prof.lock_seconds += t.elapsed().as_secs_f64();
+                let ritz_above =
+                    if first_unconv < k { (0..=first_unconv).rev().filter(|&i| s[i] > 0.0).map(lam).collect() } else { Vec::new() };
+                return Ok(RunOut { below: below.len(), ritz_above });
             }
         }
-        v.as_mut().subcols_mut(k, b).copy_from(w.as_ref());
+        v.as_mut().subcols_mut(k, b).copy_from(&w);
+        mv.as_mut().subcols_mut(k, b).copy_from(&z);
         k += b;
     }
+}
+
+/// A point in the widest relative gap between consecutive values of `sorted` (ascending)
+/// near index `i`, so a shift there keeps K − σM well away from singular.
+fn gap_point(sorted: &[f64], i: usize) -> f64 {
+    let mut best = (f64::MIN, 0.5 * (sorted[i] + sorted[i + 1]));
+    for j in i..(i + 4).min(sorted.len() - 1) {
+        let g = (sorted[j + 1] - sorted[j]) / sorted[j].abs().max(1e-300);
+        if g > best.0 {
+            best = (g, 0.5 * (sorted[j] + sorted[j + 1]));
+        }
+        if g > 1e-3 {
+            break;
+        }
+    }
+    best.1
+}
+
+/// Spectrum slicing: a sequence of shifts σ₀ < σ₁ < …, each verified by its Sturm count
+/// (Grimes, Lewis & Simon 1994), with a block shift-invert Lanczos run per shift that locks
+/// what it converges. Used by [`solve`] above [`DENSE_MAX`] DOFs; public so tests can force
+/// it on small meshes.
+///
+/// # Errors
+/// As [`solve`].
+pub fn solve_sliced(sys: &System, opts: &EigenOptions, progress: &dyn Fn(&str, f32)) -> Result<EigenResult, FemError> {
+    let t0 = Instant::now();
+    let n = sys.n;
+    let mut prof = Profile::default();
+    let b = opts.block.clamp(1, n.max(1));
+    let nev = opts.nev.min(n / 2);
+    let lmax = opts.lambda_max.unwrap_or(f64::INFINITY);
+    let cap_max = (opts.max_basis.min(n / 2) / b * b).max(4 * b);
+    if 4 * b > n / 2 || nev == 0 {
+        return Err(FemError::Mesh(format!(
+            "the mesh has only {n} degrees of freedom; too few for {} modes, use a finer resolution",
+            opts.nev
+        )));
+    }
+    let slice = opts.slice.max(2 * b);
+    let mut fac = Factor::new(sys, &mut prof)?;
+    let mut mass = Mass { sys, xr: Vec::new(), yr: Vec::new() };
+    let mut locked = Locked { lambdas: Vec::new(), vecs: Mat::zeros(n, nev + slice) };
+    progress("factorise", 0.0);
+    fac.factor(opts.sigma, &mut prof)?;
+    progress("eigen", 0.0);
+    let mut seed = 1u64;
+    let mut first = true;
+    let mut verifying = false;
+    let mut ran_here = false;
+    let mut last: Option<RunOut> = None;
+    let mut stalls = 0;
+    let max_runs = 8 + 4 * nev.div_ceil(slice / 2);
+    loop {
+        let sigma = fac.sigma;
+        let nu = fac.negative;
+        let below = locked.count_below(sigma);
+        let need = nu.saturating_sub(below);
+        // A verification shift sits just above the last wanted eigenvalue.
+        if need == 0 && (nu >= nev || sigma >= lmax || verifying) {
+            break;
+        }
+        let want_above = if verifying {
+            0
+        } else if first {
+            // The first shift sits below the whole spectrum (one-sided): take the rigid
+            // modes and the first few elastic ones, enough to measure the density.
+            (slice / 2).min(nev - nu + 2)
+        } else {
+            (slice / 2).min(nev.saturating_sub(nu) + 2)
+        };
+        if need > 0 || (!ran_here && want_above > 0) {
+            if prof.runs >= max_runs {
+                return Err(FemError::NotConverged { converged: locked.count_below(lmax).min(nev), wanted: nev, basis: prof.max_basis });
+            }
+            // Eigenvalues as close above σ as the needed ones below converge alongside them.
+            // A repeated run at the same shift gets a larger basis.
+            // Eigenvalues as close above σ as the needed ones below converge alongside them;
+            // the basis grows past this first allocation if needed.
+            let cap = ((5 * (need + want_above.max(need)) / 2 + 4 * b).div_ceil(b) * b).clamp(6 * b, cap_max);
+            let goal = Goal { need_below: need, want_above, lambda_stop: lmax, cap, cap_max };
+            let before = locked.len();
+            let out = run(&fac, &mut mass, &mut locked, &goal, b, opts.tol, &mut seed, &mut prof)?;
+            if debug() {
+                eprintln!(
+                    "eigen: run {} sigma {sigma:.4e} nu {nu} locked-below {below} need {need} want {want_above} cap {cap} -> found below {} locked {} ritz_above {:?} steps {} t {:.1}s",
+                    prof.runs, out.below, locked.len(), &out.ritz_above[..out.ritz_above.len().min(3)], prof.steps, t0.elapsed().as_secs_f64()
+                );
+            }
+            stalls = if locked.len() == before && out.below == 0 { stalls + 1 } else { 0 };
+            if stalls >= 3 {
+                return Err(FemError::NotConverged { converged: locked.len().min(nev), wanted: nev, basis: prof.max_basis });
+            }
+            ran_here = true;
+            last = Some(out);
+            progress("eigen", (locked.len() as f32 / nev as f32).min(1.0));
+            continue;
+        }
+        // Everything below σ is locked; move the shift up.
+        let out = last.take().unwrap_or(RunOut { below: 0, ritz_above: Vec::new() });
+        let mut above: Vec<f64> = locked.lambdas.iter().copied().filter(|&l| l >= sigma).collect();
+        above.sort_by(f64::total_cmp);
+        // The chain's end: locked values above σ that lie below the first unconverged Ritz
+        // value are complete as far as this run can tell (the next Sturm count checks it).
+        let r_min = out.ritz_above.first().copied().unwrap_or(f64::INFINITY);
+        let chain: Vec<f64> = above.iter().copied().filter(|&l| l < r_min).collect();
+        let c = chain.len();
+        let next = if nu + c > nev || chain.last().is_some_and(|&l| l >= lmax) {
+            // Verification shift between the last wanted eigenvalue and the next one.
+            verifying = true;
+            let idx = (nev - nu - 1).min(c - 1);
+            let idx = match chain.iter().position(|&l| l > lmax) {
+                Some(0) => usize::MAX,
+                Some(p) if p - 1 < idx => p - 1,
+                _ => idx,
+            };
+            if idx == usize::MAX {
+                // Every eigenvalue up to λ_max lies below σ or in the gap before the chain.
+                0.5 * (sigma + chain[0])
+            } else if idx + 1 < c {
+                gap_point(&chain, idx)
+            } else if r_min.is_finite() {
+                0.5 * (chain[idx] + r_min)
+            } else {
+                chain[idx] + 1e-3 * chain[idx].abs()
+            }
+        } else if c >= 4 {
+            // Density from the upper half of the chain; place the shift so about half a
+            // slice lies between the chain's end and the shift.
+            let u = chain[c - 1];
+            let lo = chain[c / 2];
+            let rho = (c - c / 2 - 1).max(1) as f64 / (u - lo).max(1e-300);
+            let target = u + 0.5 * slice as f64 / rho;
+            // Prefer the midpoint of the widest Ritz-value gap near the target, so σ stays
+            // well away from every eigenvalue (a σ inside a near-degenerate pair would make
+            // K − σM nearly singular).
+            let mut est: Vec<f64> = out.ritz_above.iter().copied().filter(|&l| l > u).collect();
+            est.insert(0, u);
+            let mut best = target;
+            let mut widest = 0.0;
+            for win in est.windows(2) {
+                let m = 0.5 * (win[0] + win[1]);
+                if (m - target).abs() < 0.25 * (target - u) && win[1] - win[0] > widest {
+                    widest = win[1] - win[0];
+                    best = m;
+                }
+            }
+            best
+        } else {
+            let u = chain.last().copied().unwrap_or(sigma);
+            u + (u - sigma).abs().max(sigma.abs())
+        };
+        if !(next > sigma) {
+            return Err(FemError::NotConverged { converged: locked.len().min(nev), wanted: nev, basis: prof.max_basis });
+        }
+        first = false;
+        ran_here = false;
+        fac.factor(next, &mut prof)?;
+    }
+
+    // The lowest `want` locked pairs, ascending.
+    let t = Instant::now();
+    let mut order: Vec<usize> = (0..locked.len()).collect();
+    order.sort_by(|&i, &j| locked.lambdas[i].total_cmp(&locked.lambdas[j]));
+    let want = order.iter().take_while(|&&i| locked.lambdas[i] <= lmax).count().saturating_add(1).min(nev).min(order.len());
+    let lambdas: Vec<f64> = order[..want].iter().map(|&i| locked.lambdas[i]).collect();
+    let mut vectors = Mat::<f64>::zeros(n, want);
+    for (j, &i) in order[..want].iter().enumerate() {
+        vectors.as_mut().col_mut(j).copy_from(locked.vecs.col(i));
+    }
+    drop(locked);
+    drop(fac);
+    prof.lock_seconds += t.elapsed().as_secs_f64();
+    // Residual check on the original problem (guards the unpivoted LDLᵀ of indefinite
+    // K − σM: an inaccurate solve would show here).
+    let t = Instant::now();
+    let (res, rq) = residual(sys, &lambdas, vectors.as_ref(), opts.sigma.abs(), b);
+    prof.max_residual = res;
+    prof.max_rayleigh_error = rq;
+    prof.check_seconds = t.elapsed().as_secs_f64();
+    prof.total_seconds = t0.elapsed().as_secs_f64();
+    if !(rq < 1e-6) {
+        return Err(FemError::Factorization(format!(
+            "eigenpairs failed the Rayleigh-quotient check ({rq:.1e}); the shifted factorisation was inaccurate, try another resolution"
+        )));
+    }
+    LAST_PROFILE.with(|p| *p.borrow_mut() = prof.clone());
+    Ok(EigenResult {
+        lambdas,
+        vectors,
+        iterations: prof.steps,
+        basis: prof.max_basis,
+        factor_seconds: prof.symbolic_seconds + prof.numeric_seconds,
+        sigma: opts.sigma,
+        profile: prof,
+    })
+}
+
+/// Over all columns: the largest ‖Kφ − λMφ‖₂ / ((|λ| + s)‖Mφ‖₂) and the largest
+/// |φᵀKφ − λ·φᵀMφ| / (|λ| + s) (the Rayleigh quotient; an inaccurate factorisation would
+/// move it at first order, a merely unconverged vector only at second order).
+fn residual(sys: &System, lambdas: &[f64], phi: MatRef<'_, f64>, s: f64, b: usize) -> (f64, f64) {
+    let n = sys.n;
+    let mut worst = 0.0f64;
+    let mut worst_rq = 0.0f64;
+    let mut x = vec![0.0; n * b];
+    let mut kx = vec![0.0; n * b];
+    let mut mx = vec![0.0; n * b];
+    for c0 in (0..lambdas.len()).step_by(b) {
+        let bb = b.min(lambdas.len() - c0);
+        x.resize(n * bb, 0.0);
+        kx.resize(n * bb, 0.0);
+        mx.resize(n * bb, 0.0);
+        for c in 0..bb {
+            for r in 0..n {
+                x[r * bb + c] = phi[(r, c0 + c)];
+            }
+        }
+        sym_matvec_rows(sys, &sys.k, &x, &mut kx, bb);
+        sym_matvec_rows(sys, &sys.m, &x, &mut mx, bb);
+        for c in 0..bb {
+            let l = lambdas[c0 + c];
+            let (mut rr, mut mm, mut q) = (0.0, 0.0, 0.0);
+            for r in 0..n {
+                let d = kx[r * bb + c] - l * mx[r * bb + c];
+                rr += d * d;
+                mm += mx[r * bb + c] * mx[r * bb + c];
+                q += x[r * bb + c] * d;
+            }
+            worst = worst.max(rr.sqrt() / ((l.abs() + s) * mm.sqrt()).max(1e-300));
+            worst_rq = worst_rq.max(q.abs() / (l.abs() + s));
+            if debug() && q.abs() / (l.abs() + s) > 1e-9 {
+                eprintln!("eigen: check pair {} lambda {l:.6e} rq err {:.1e} residual {:.1e}", c0 + c, q.abs() / (l.abs() + s), rr.sqrt() / ((l.abs() + s) * mm.sqrt()));
+            }
+        }
+    }
+    (worst, worst_rq)
 }
