@@ -1,6 +1,7 @@
 //! `struck bank build | info | shapes`: the FEM bank builder on the command line.
 
 use crate::cli::outln;
+use presets::fem::import::{build_bank_from_import, import_mesh_file, ImportOptions};
 use presets::fem::{self, BuildOptions, Shape};
 use presets::Bank;
 use std::path::{Path, PathBuf};
@@ -12,12 +13,15 @@ pub enum BankCommand {
         shape: Option<String>,
         dims: Option<String>,
         mesh: Option<PathBuf>,
+        /// Mesh file units to metres (`None`: 1; only with `mesh`).
+        scale: Option<f64>,
         modes: usize,
         max_freq: Option<f64>,
         young: f64,
         density: f64,
         poisson: f64,
-        resolution: usize,
+        /// `None`: 40 for shapes, chosen by [`fem::voxel::auto_resolution`] for surfaces.
+        resolution: Option<usize>,
         points: usize,
         id: Option<String>,
         name: Option<String>,
@@ -108,26 +112,42 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
             Ok(())
         }
         BankCommand::Info { bank, json } => info(&bank, json),
-        BankCommand::Build { shape, dims, mesh, modes, max_freq, young, density, poisson, resolution, points, id, name, out } => {
+        BankCommand::Build { shape, dims, mesh, scale, modes, max_freq, young, density, poisson, resolution, points, id, name, out } => {
             let material = fem::Material { young, density, poisson };
             material.validate().map_err(|e| e.to_string())?;
             if modes == 0 || modes > presets::MAX_BANK_MODES {
                 return Err(format!("--modes must be 1..={}", presets::MAX_BANK_MODES));
             }
-            let opts = BuildOptions { max_modes: modes, max_freq_hz: max_freq, resolution, strike_points: points.clamp(1, presets::MAX_BANK_POINTS) };
+            let opts = BuildOptions {
+                max_modes: modes,
+                max_freq_hz: max_freq,
+                resolution: resolution.unwrap_or(BuildOptions::default().resolution),
+                strike_points: points.clamp(1, presets::MAX_BANK_POINTS),
+            };
             let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("bank");
             let id = kebab(id.as_deref().unwrap_or(stem));
             let name = name.unwrap_or_else(|| id.clone());
             let (bank, report) = match (shape, mesh) {
+                (Some(_), None) if scale.is_some() => return Err("--scale applies to --mesh files only; give --dims in metres".into()),
                 (Some(s), None) => {
                     let dims = dims.ok_or("--shape needs --dims (see `struck bank shapes`)")?;
                     let shape = parse_shape(&s, &dims)?;
                     fem::build_bank(&id, &name, &shape, &material, &opts, &progress()).map_err(|e| e.to_string())?
                 }
                 (None, Some(path)) => {
-                    let text = std::fs::read_to_string(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-                    let mesh = fem::read_gmsh(&text).map_err(|e| format!("{}: {e}", path.display()))?;
-                    fem::build_bank_from_mesh(&id, &name, &path.display().to_string(), &mesh, &material, &opts, &progress()).map_err(|e| e.to_string())?
+                    let iopts = ImportOptions { scale: scale.unwrap_or(1.0), resolution, snap: true };
+                    let show = progress();
+                    let imported = import_mesh_file(&path, &iopts, &show).map_err(|e| {
+                        eprintln!(); // end the progress line
+                        format!("{}: {e}", path.display())
+                    })?;
+                    eprintln!();
+                    eprintln!("{}", imported.summary);
+                    for w in &imported.warnings {
+                        eprintln!("warning: {w}");
+                    }
+                    let source = path.file_name().map_or_else(|| path.display().to_string(), |f| f.to_string_lossy().into_owned());
+                    build_bank_from_import(&id, &name, &source, &imported, &material, &opts, &show).map_err(|e| e.to_string())?
                 }
                 _ => return Err("give either --shape with --dims, or --mesh".into()),
             };

@@ -113,7 +113,7 @@ enum Command {
 
 #[derive(Subcommand)]
 enum BankCommand {
-    /// Modal analysis (10-node tetrahedra) of a built-in shape or a Gmsh mesh into a bank.
+    /// Modal analysis (10-node tetrahedra) of a built-in shape or a mesh file into a bank.
     Build {
         /// Built-in shape: bar, plate, block, circular-plate, tube, bowl, cup, bell, sphere-shell.
         #[arg(long, conflicts_with = "mesh", required_unless_present = "mesh")]
@@ -122,9 +122,13 @@ enum BankCommand {
         /// `struck bank shapes` (e.g. bar: length,width,thickness).
         #[arg(long, requires = "shape")]
         dims: Option<String>,
-        /// A Gmsh .msh 2.2 ASCII tetrahedral mesh (metres).
+        /// A mesh file: Gmsh .msh 2.2/4.1 ASCII tetrahedra, or a closed surface in .obj or
+        /// .stl (ASCII or binary), which is voxelised (see --resolution).
         #[arg(long)]
         mesh: Option<PathBuf>,
+        /// Factor from the mesh file's units to metres (e.g. 0.001 for millimetres; default 1).
+        #[arg(long, requires = "mesh")]
+        scale: Option<f64>,
         /// Number of modes (above the six rigid ones).
         #[arg(long, default_value_t = 100)]
         modes: usize,
@@ -140,9 +144,11 @@ enum BankCommand {
         /// Poisson's ratio.
         #[arg(long, default_value_t = 0.3)]
         poisson: f64,
-        /// Mesh resolution: elements along the largest dimension (built-in shapes).
-        #[arg(long, default_value_t = 40)]
-        resolution: usize,
+        /// Mesh resolution: elements along the largest dimension (built-in shapes, default
+        /// 40), or voxels along the longest side (.obj/.stl; default: the highest giving
+        /// about 3000 vertices, e.g. 16 for a sphere, 60 for a rod of length 10 diameters).
+        #[arg(long)]
+        resolution: Option<usize>,
         /// Number of strike points.
         #[arg(long, default_value_t = 64)]
         points: usize,
@@ -229,8 +235,8 @@ impl From<BankCommand> for struck::banks::BankCommand {
     fn from(c: BankCommand) -> Self {
         use struck::banks::BankCommand as B;
         match c {
-            BankCommand::Build { shape, dims, mesh, modes, max_freq, young, density, poisson, resolution, points, id, name, out } => {
-                B::Build { shape, dims, mesh, modes, max_freq, young, density, poisson, resolution, points, id, name, out }
+            BankCommand::Build { shape, dims, mesh, scale, modes, max_freq, young, density, poisson, resolution, points, id, name, out } => {
+                B::Build { shape, dims, mesh, scale, modes, max_freq, young, density, poisson, resolution, points, id, name, out }
             }
             BankCommand::Info { bank, json } => B::Info { bank, json },
             BankCommand::Shapes => B::Shapes,

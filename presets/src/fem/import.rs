@@ -1,5 +1,11 @@
-//! Banks from user meshes (Gmsh `.msh` 2.2 tetrahedral meshes): modal analysis as for the
-//! built-in shapes, with strike points chosen on the mesh's own outer surface.
+//! Banks from user meshes: modal analysis as for the built-in shapes, with strike points
+//! chosen on the mesh's own outer surface.
+//!
+//! Inputs ([`import_mesh_file`]): Gmsh `.msh` 2.2 or 4.1 ASCII tetrahedral meshes
+//! ([`super::gmsh`]), or closed triangle surfaces in Wavefront `.obj` or `.stl`
+//! ([`super::surface`]), which are checked and voxelised into tetrahedra
+//! ([`super::voxel`]). For voxelised surfaces the strike gains use the normal of the nearest
+//! input triangle, not the voxel face's.
 //!
 //! Strike points: the corner nodes on the boundary (faces used by one tetrahedron only) are
 //! sampled by farthest-point sampling (Eldar et al. 1997), so they spread evenly over the
@@ -7,13 +13,156 @@
 //! close (the plugin interpolates along that order). Drawing coordinates project the points
 //! on the bounding box's two largest axes.
 
-use super::{analyse, finish_bank, strike_gains, today, BuildOptions, BuildReport, FemError, Material, TetMesh};
+use super::surface::{check_surface, read_obj, read_stl, TriGrid, TriSurface};
+use super::voxel::{auto_resolution, voxelise, VoxelOptions, DEFAULT_VERTEX_BUDGET};
+use super::{analyse, finish_bank, strike, strike_gains, today, BuildOptions, BuildReport, FemError, Material, Modes, TetMesh};
 use crate::{Bank, BankReference, StrikePoint};
 use std::collections::HashMap;
+use std::path::Path;
 use std::time::Instant;
 
 /// Largest mesh accepted, in corner vertices (a bound on time and memory; see the README).
 pub const MAX_IMPORT_VERTICES: usize = 60_000;
+/// Largest mesh file read, bytes.
+pub const MAX_MESH_FILE_BYTES: u64 = 1 << 30;
+
+/// How to read and mesh a file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImportOptions {
+    /// Factor from file units to metres (e.g. 0.001 for millimetres).
+    pub scale: f64,
+    /// Voxels along the longest side (surfaces only); `None` picks one by
+    /// [`auto_resolution`] for [`DEFAULT_VERTEX_BUDGET`] vertices.
+    pub resolution: Option<usize>,
+    /// Move voxel boundary vertices onto the surface (surfaces only; see [`super::voxel`]).
+    pub snap: bool,
+}
+
+impl Default for ImportOptions {
+    fn default() -> Self {
+        ImportOptions { scale: 1.0, resolution: None, snap: true }
+    }
+}
+
+/// A file's kind, from its extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MeshFileKind {
+    /// Gmsh `.msh` (2.2 or 4.1 ASCII).
+    Gmsh,
+    /// Wavefront `.obj`.
+    Obj,
+    /// `.stl`, ASCII or binary.
+    Stl,
+}
+
+impl MeshFileKind {
+    /// The kind for `path`'s extension (case-insensitive).
+    ///
+    /// # Errors
+    /// [`FemError::InvalidOptions`] for another or no extension.
+    pub fn of(path: &Path) -> Result<MeshFileKind, FemError> {
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+        match ext.as_str() {
+            "msh" => Ok(MeshFileKind::Gmsh),
+            "obj" => Ok(MeshFileKind::Obj),
+            "stl" => Ok(MeshFileKind::Stl),
+            _ => Err(FemError::InvalidOptions(format!(
+                "cannot tell the mesh format of {}: use a .msh (Gmsh 2.2/4.1 ASCII tetrahedra), .obj or .stl (closed surface) file",
+                path.display()
+            ))),
+        }
+    }
+}
+
+/// A tetrahedral mesh ready for [`build_bank_from_import`], with what was done to get it.
+#[derive(Clone, Debug)]
+pub struct ImportedMesh {
+    /// The mesh (m).
+    pub mesh: TetMesh,
+    /// The checked input surface, if the mesh was voxelised from one.
+    pub surface: Option<TriSurface>,
+    /// Warnings from the checks and the voxeliser.
+    pub warnings: Vec<String>,
+    /// One line on how the mesh was made (goes into the bank's provenance).
+    pub summary: String,
+}
+
+/// Reads a mesh file (kind by extension, see [`MeshFileKind`]), scales it to metres and,
+/// for a surface, checks and voxelises it. `progress` gets `"read"`, `"check"`,
+/// `"voxelise"` and `"snap"`.
+///
+/// # Errors
+/// [`FemError::InvalidOptions`] (extension, scale), [`FemError::MeshFile`] (parse errors with
+/// the line) or [`FemError::Mesh`] (unreadable or too large file, failed surface checks,
+/// voxel limits).
+pub fn import_mesh_file(path: &Path, opts: &ImportOptions, progress: &dyn Fn(&str, f32)) -> Result<ImportedMesh, FemError> {
+    let kind = MeshFileKind::of(path)?;
+    validate_scale(opts.scale)?;
+    progress("read", 0.0);
+    let io = |e: std::io::Error| FemError::Mesh(format!("cannot read {}: {e}", path.display()));
+    let len = std::fs::metadata(path).map_err(io)?.len();
+    if len > MAX_MESH_FILE_BYTES {
+        return Err(FemError::Mesh(format!("{} is {len} bytes, over the limit of {MAX_MESH_FILE_BYTES}; simplify the mesh", path.display())));
+    }
+    let bytes = std::fs::read(path).map_err(io)?;
+    match kind {
+        MeshFileKind::Gmsh => {
+            let text = String::from_utf8_lossy(&bytes);
+            let mut mesh = super::read_gmsh(&text)?;
+            for p in &mut mesh.nodes {
+                for c in p.iter_mut() {
+                    *c *= opts.scale;
+                }
+            }
+            let summary = format!("Gmsh tetrahedral mesh, scale {}", opts.scale);
+            Ok(ImportedMesh { mesh, surface: None, warnings: Vec::new(), summary })
+        }
+        MeshFileKind::Obj => import_surface(read_obj(&String::from_utf8_lossy(&bytes))?, "OBJ", opts, progress),
+        MeshFileKind::Stl => import_surface(read_stl(&bytes)?, "STL", opts, progress),
+    }
+}
+
+fn validate_scale(scale: f64) -> Result<(), FemError> {
+    if !(scale.is_finite() && scale > 0.0) {
+        return Err(FemError::InvalidOptions(format!("the scale must be a finite factor > 0 (e.g. 0.001 for millimetres), found {scale}")));
+    }
+    Ok(())
+}
+
+/// Scales, checks ([`check_surface`]) and voxelises ([`voxelise`]) a triangle surface
+/// (`format` names it in the summary).
+///
+/// # Errors
+/// As [`check_surface`] and [`voxelise`]; [`FemError::InvalidOptions`] for a bad scale.
+pub fn import_surface(mut surface: TriSurface, format: &str, opts: &ImportOptions, progress: &dyn Fn(&str, f32)) -> Result<ImportedMesh, FemError> {
+    validate_scale(opts.scale)?;
+    if opts.scale != 1.0 {
+        surface.scale(opts.scale);
+    }
+    progress("check", 0.0);
+    let check = check_surface(&mut surface)?;
+    let resolution = opts.resolution.unwrap_or_else(|| auto_resolution(&surface, DEFAULT_VERTEX_BUDGET));
+    let (mesh, vox) = voxelise(&surface, &VoxelOptions { resolution, snap: opts.snap }, progress)?;
+    let mut warnings = check.warnings;
+    warnings.extend(vox.warnings.iter().cloned());
+    let summary = format!(
+        "{format} surface of {} triangles (scale {}), voxelised at resolution {}{} (h = {:.3e} m, {} x {} x {} grid, {} voxels, 5 tetrahedra each; boundary vertices moved onto the surface: {} fully, {} partly); volume {:.4e} m^3 vs {:.4e} m^3 enclosed",
+        check.triangles,
+        opts.scale,
+        resolution,
+        if opts.resolution.is_none() { ", chosen for the vertex budget" } else { "" },
+        vox.h,
+        vox.dims[0],
+        vox.dims[1],
+        vox.dims[2],
+        vox.voxels,
+        vox.snapped,
+        vox.snap_partial,
+        vox.mesh_volume,
+        vox.surface_volume
+    );
+    Ok(ImportedMesh { mesh, surface: Some(surface), warnings, summary })
+}
 
 /// Corner nodes on the boundary of `mesh`.
 fn boundary_corners(mesh: &TetMesh) -> Vec<u32> {
@@ -96,6 +245,81 @@ pub fn build_bank_from_mesh(
     opts: &BuildOptions,
     progress: &dyn Fn(&str, f32),
 ) -> Result<(Bank, BuildReport), FemError> {
+    build(id, name, source, mesh, None, "", material, opts, progress)
+}
+
+/// Builds a bank from an [`ImportedMesh`]: as [`build_bank_from_mesh`], with the gains of a
+/// voxelised surface taken along the nearest input triangle's normal.
+///
+/// # Errors
+/// As [`build_bank_from_mesh`].
+pub fn build_bank_from_import(
+    id: &str,
+    name: &str,
+    source: &str,
+    imported: &ImportedMesh,
+    material: &Material,
+    opts: &BuildOptions,
+    progress: &dyn Fn(&str, f32),
+) -> Result<(Bank, BuildReport), FemError> {
+    build(id, name, source, &imported.mesh, imported.surface.as_ref(), &imported.summary, material, opts, progress)
+}
+
+/// Surface-normal gains like [`strike_gains`], with the normal of the nearest triangle of
+/// `surface` instead of the mesh face's.
+fn gains_with_surface_normals(mesh: &TetMesh, modes: &Modes, points: &[[f64; 3]], surface: &TriSurface) -> Vec<Vec<f64>> {
+    let tris: Vec<u32> = (0..surface.triangles.len() as u32).collect();
+    let diag = surface.diagonal();
+    let grid = TriGrid::new(surface, &tris, 1e-3 * diag);
+    let faces = strike::Surface::new(mesh);
+    points
+        .iter()
+        .map(|&p| {
+            let Some((nodes, w, mesh_normal)) = faces.locate(mesh, p) else {
+                return vec![0.0; modes.lambdas.len()];
+            };
+            // Growing search radius: a few rounds reach the whole bounding box.
+            let mut r = grid.h;
+            let mut nrm = mesh_normal;
+            while r < 4.0 * diag {
+                if let Some((_, _, t)) = grid.closest(surface, p, r) {
+                    let n = surface.normal(t);
+                    if n != [0.0; 3] {
+                        nrm = n;
+                    }
+                    break;
+                }
+                r *= 2.0;
+            }
+            (0..modes.lambdas.len())
+                .map(|m| {
+                    let v = modes.mode(m);
+                    nodes
+                        .iter()
+                        .enumerate()
+                        .map(|(k, &nd)| {
+                            let d = 3 * nd as usize;
+                            w[k] * (v[d] * nrm[0] + v[d + 1] * nrm[1] + v[d + 2] * nrm[2])
+                        })
+                        .sum()
+                })
+                .collect()
+        })
+        .collect()
+}
+
+#[allow(clippy::too_many_arguments)]
+fn build(
+    id: &str,
+    name: &str,
+    source: &str,
+    mesh: &TetMesh,
+    surface: Option<&TriSurface>,
+    how: &str,
+    material: &Material,
+    opts: &BuildOptions,
+    progress: &dyn Fn(&str, f32),
+) -> Result<(Bank, BuildReport), FemError> {
     let t0 = Instant::now();
     material.validate()?;
     opts.validate()?;
@@ -111,7 +335,10 @@ pub fn build_bank_from_mesh(
     let modes = analyse(mesh, material, opts, progress)?;
     progress("strike", 0.0);
     let points = surface_strike_points(mesh, opts.strike_points)?;
-    let gains = strike_gains(mesh, &modes, &points);
+    let gains = match surface {
+        Some(surf) => gains_with_surface_normals(mesh, &modes, &points, surf),
+        None => strike_gains(mesh, &modes, &points),
+    };
     let (lo, hi) = mesh.bounds();
     let ext = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
     let mut axes = [0usize, 1, 2];
@@ -127,7 +354,9 @@ pub fn build_bank_from_mesh(
             ext[0], ext[1], ext[2], material.young, material.density, material.poisson
         ),
         provenance: format!(
-            "FEM (struck-presets fem) of {source}: {} 10-node tetrahedra, {} nodes ({} corner vertices), {} DOFs; block shift-invert Lanczos on a faer sparse Cholesky; 6 rigid modes removed; built {}",
+            "FEM (struck-presets fem) of {source}{}{how}{}: {} 10-node tetrahedra, {} nodes ({} corner vertices), {} DOFs; spectrum slicing with block shift-invert Lanczos and Sturm-count checks on faer sparse LDL^T factorisations; 6 rigid modes removed; built {}",
+            if how.is_empty() { "" } else { " (" },
+            if how.is_empty() { "" } else { ")" },
             mesh.tets.len(),
             mesh.nodes.len(),
             mesh.corners,

@@ -29,6 +29,8 @@ pub mod gmsh;
 pub mod import;
 pub mod mesh;
 pub mod strike;
+pub mod surface;
+pub mod voxel;
 
 use std::time::Instant;
 
@@ -38,6 +40,8 @@ pub use assembly::{assemble, System};
 pub use gmsh::read_gmsh;
 pub use import::{build_bank_from_mesh, surface_strike_points};
 pub use mesh::TetMesh;
+pub use surface::{check_surface, read_obj, read_stl, SurfaceReport, TriSurface};
+pub use voxel::{voxelise, VoxelOptions, VoxelReport};
 
 /// A built-in solid. All lengths in metres.
 #[derive(Clone, Debug, PartialEq)]
