@@ -2,8 +2,8 @@
 //!
 //! `cargo run -p struck-presets --release --example fem_timing [-- SHAPE [RESOLUTION [MODES]]]`
 //! SHAPE is a kind name (`bar`, `plate`, `circular-plate`, `tube`, `bowl`, `cup`, `bell`,
-//! `block`, `sphere-shell`), `all` (default), or `factory` (the factory banks of
-//! `cargo xtask banks`, with their resolutions, mode counts and the 20 kHz limit).
+//! `block`, `sphere-shell`) or `all` (default). (The factory banks are timed by
+//! `cargo xtask banks`, which prints each one's time and peak memory.)
 //! Prints one line per shape: corner vertices, nodes, DOFs, modes, wall seconds (total,
 //! symbolic + numeric factorisation, solves, M products, orthogonalisation, Rayleigh–Ritz,
 //! locking, residual check), CPU seconds of the process, shifts, Lanczos runs and steps,
@@ -26,23 +26,6 @@ fn shapes() -> Vec<(Shape, Material, usize)> {
     ]
 }
 
-/// The factory banks (copied from `xtask/src/main.rs` `FEM_BANKS`): id, shape, E, ρ, ν,
-/// resolution, modes; all with a 20 kHz limit.
-fn factory() -> Vec<(&'static str, Shape, Material, usize, usize)> {
-    let m = |young, density, poisson| Material { young, density, poisson };
-    vec![
-        ("fem-bar", Shape::Bar { length: 0.3, width: 0.04, thickness: 0.01 }, m(69e9, 2700.0, 0.33), 36, 100),
-        ("fem-plate", Shape::Plate { length: 0.4, width: 0.3, thickness: 0.004 }, m(200e9, 7850.0, 0.3), 28, 100),
-        ("fem-circular-plate", Shape::CircularPlate { radius: 0.15, thickness: 0.003 }, m(105e9, 8600.0, 0.34), 28, 100),
-        ("fem-tube", Shape::Tube { length: 0.6, outer_radius: 0.016, wall: 0.0015 }, m(69e9, 2700.0, 0.33), 40, 100),
-        ("fem-bowl", Shape::Bowl { radius: 0.08, wall: 0.004 }, m(70e9, 2500.0, 0.22), 24, 100),
-        ("fem-cup", Shape::Cup { radius: 0.04, height: 0.09, wall: 0.003 }, m(100e9, 2400.0, 0.22), 18, 80),
-        ("fem-bell", Shape::Bell { radius: 0.1, height: 0.14, wall: 0.006 }, m(105e9, 8600.0, 0.34), 16, 80),
-        ("fem-block", Shape::Block { length: 0.2, width: 0.08, height: 0.05 }, m(12e9, 650.0, 0.3), 12, 60),
-        ("fem-sphere-shell", Shape::SphereShell { radius: 0.1, wall: 0.004 }, m(200e9, 7850.0, 0.3), 16, 80),
-    ]
-}
-
 /// User + system CPU seconds of this process so far (Linux `/proc/self/stat`, 100 Hz ticks).
 fn cpu_seconds() -> f64 {
     let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
@@ -61,15 +44,11 @@ fn main() {
     let which = args.first().cloned().unwrap_or_else(|| "all".into());
     let res_override: Option<usize> = args.get(1).and_then(|s| s.parse().ok());
     let modes_override: Option<usize> = args.get(2).and_then(|s| s.parse().ok());
-    let jobs: Vec<(String, Shape, Material, usize, usize, Option<f64>)> = if which == "factory" {
-        factory().into_iter().map(|(id, s, m, r, n)| (id.to_string(), s, m, r, n, Some(20_000.0))).collect()
-    } else {
-        shapes()
-            .into_iter()
-            .filter(|(s, _, _)| which == "all" || which == s.kind())
-            .map(|(s, m, r)| (s.kind().to_string(), s, m, res_override.unwrap_or(r), modes_override.unwrap_or(200), None))
-            .collect()
-    };
+    let jobs: Vec<(String, Shape, Material, usize, usize, Option<f64>)> = shapes()
+        .into_iter()
+        .filter(|(s, _, _)| which == "all" || which == s.kind())
+        .map(|(s, m, r)| (s.kind().to_string(), s, m, res_override.unwrap_or(r), modes_override.unwrap_or(200), None))
+        .collect();
     println!("| object | res | vertices | nodes | DOFs | modes | f1 Hz | f_last Hz | total s | factor s (sym+num) | solve s | M s | orth s | RR s | lock s | check s | CPU s | shifts | runs | steps | basis | residual / RQ err | peak MiB | load |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for (name, shape, mat, res, modes, fmax) in jobs {
