@@ -72,16 +72,17 @@ impl EditorUi {
         self.capture.poll(&self.params);
         self.poll_ab();
         self.capture.take_dropped_files(ui.ctx());
-        ui.horizontal(|ui| {
-            ui.heading("Struck");
+        // The status line (voices, sounding modes) is a bottom panel, so it is always whole
+        // on screen; the views scroll above it.
+        egui::Panel::bottom("struck-status").show(ui, |ui| self.status_line(ui));
+        egui::CentralPanel::default().show(ui, |ui| {
+            ui.horizontal(|ui| {
+                ui.heading("Struck");
+                ui.separator();
+                ui.selectable_value(&mut self.tab, Tab::Play, "Play & shape");
+                ui.selectable_value(&mut self.tab, Tab::Capture, "Capture");
+            });
             ui.separator();
-            ui.selectable_value(&mut self.tab, Tab::Play, "Play & shape");
-            ui.selectable_value(&mut self.tab, Tab::Capture, "Capture");
-        });
-        ui.separator();
-        let status_height = 22.0;
-        let body = egui::vec2(ui.available_width(), (ui.available_height() - status_height).max(100.0));
-        ui.allocate_ui(body, |ui| {
             egui::ScrollArea::vertical().auto_shrink([false, false]).show(ui, |ui| match self.tab {
                 Tab::Play => {
                     ui.columns(2, |cols| {
@@ -92,8 +93,6 @@ impl EditorUi {
                 Tab::Capture => self.capture_panel(ui, setter),
             });
         });
-        ui.separator();
-        self.status_line(ui);
         if self.capture.is_running() || self.object_gesture.is_some() || self.ab_busy() {
             ui.ctx().request_repaint();
         } else {
