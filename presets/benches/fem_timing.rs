@@ -1,6 +1,6 @@
 //! Times the FEM bank builder on each built-in shape, with the eigensolver's phases.
 //!
-//! `cargo run -p struck-presets --release --example fem_timing [-- SHAPE [RESOLUTION [MODES]]]`
+//! `cargo bench -p struck-presets --bench fem_timing [-- SHAPE [RESOLUTION [MODES]]]`
 //! SHAPE is a kind name (`bar`, `plate`, `circular-plate`, `tube`, `bowl`, `cup`, `bell`,
 //! `block`, `sphere-shell`) or `all` (default). (The factory banks are timed by
 //! `cargo xtask banks`, which prints each one's time and peak memory.)
@@ -40,7 +40,8 @@ fn load() -> String {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+    // `cargo bench` adds `--bench`; flags are not ours.
+    let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();
     let which = args.first().cloned().unwrap_or_else(|| "all".into());
     let res_override: Option<usize> = args.get(1).and_then(|s| s.parse().ok());
     let modes_override: Option<usize> = args.get(2).and_then(|s| s.parse().ok());
