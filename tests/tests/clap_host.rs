@@ -13,8 +13,9 @@
 //!   extension: a second instance loading the saved state plays identically to the first, and
 //!   differently from a fresh instance;
 //! - the editor, through the CLAP `gui` extension, embeds in a real X11 window (Xvfb when there
-//!   is no `$DISPLAY`) at its default size, paints, follows a host resize and reopens at the size
-//!   it was left at (the host serves `request_callback`, as hosts do).
+//!   is no `$DISPLAY`) at its default size, paints, follows a host resize, reopens at the size
+//!   it was left at and scales with the host's `set_scale` (the host serves
+//!   `request_callback`, as hosts do).
 //!
 //! Which binary: `$STRUCK_CLAP` if set (`cargo xtask test` bundles the debug plugin and sets
 //! it to `target/bundled/Struck.clap`), else `target/debug/libstruck.so` (built by `cargo test`
@@ -293,7 +294,7 @@ fn x_server() -> XServer {
     }
     // `-displayfd 1`: Xvfb picks a free display number and writes it to stdout when ready.
     let mut child = std::process::Command::new("Xvfb")
-        .args(["-displayfd", "1", "-screen", "0", "1600x1200x24", "-nolisten", "tcp"])
+        .args(["-displayfd", "1", "-screen", "0", "2400x1600x24", "-nolisten", "tcp"])
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::null())
         .spawn()
@@ -331,7 +332,7 @@ fn wait_for<T>(plugin: &mut PluginInstance<TestHost>, what: &str, mut f: impl Fn
 /// The editor in a real X11 window, as a CLAP host embeds it: the built binary's `gui`
 /// extension creates the editor at its default size, embeds it in the host's window and
 /// paints it (OpenGL through Mesa); the host resizes it; it reopens at the size it was left
-/// at. A screenshot of the host window is saved to
+/// at; the host's scale factor scales it. A screenshot of the host window is saved to
 /// `target/tmp/editor-screenshots/clap-host-window.png`.
 #[test]
 fn the_editor_opens_in_a_host_window_resizes_and_reopens_at_its_size() {
@@ -344,7 +345,7 @@ fn the_editor_opens_in_a_host_window_resizes_and_reopens_at_its_size() {
     let screen = &conn.setup().roots[screen_num];
     let (depth, root, black) = (screen.root_depth, screen.root, screen.black_pixel);
     let host_window = conn.generate_id().expect("x id");
-    conn.create_window(depth, host_window, root, 0, 0, 1400, 1000, 0, WindowClass::INPUT_OUTPUT, 0, &CreateWindowAux::new().background_pixel(black))
+    conn.create_window(depth, host_window, root, 0, 0, 2000, 1400, 0, WindowClass::INPUT_OUTPUT, 0, &CreateWindowAux::new().background_pixel(black))
         .expect("create the host window");
     conn.map_window(host_window).expect("map");
     conn.flush().expect("flush");
@@ -396,6 +397,18 @@ fn the_editor_opens_in_a_host_window_resizes_and_reopens_at_its_size() {
     gui.create(&plugin.plugin_handle(), cfg).expect("create again");
     let size = gui.get_size(&plugin.plugin_handle()).expect("editor size");
     assert_eq!((size.width, size.height), (1200, 800), "the editor reopens at its last size");
+
+    // Scaled by the host (X11 has no system scale: hosts call set_scale): the window and the
+    // reported size grow by the factor, the logical size stays.
+    // SAFETY: as above.
+    unsafe { gui.set_parent(&plugin.plugin_handle(), ClapWindow::from_x11_handle(host_window.into())) }.expect("embed again");
+    gui.show(&plugin.plugin_handle()).expect("show again");
+    let editor = wait_for(&mut plugin, "the reopened editor's window", || children(&conn).first().copied());
+    assert_eq!(geometry(&conn, editor), (1200, 800));
+    assert!(gui.set_scale(&plugin.plugin_handle(), 1.5).is_ok(), "set_scale refused");
+    wait_for(&mut plugin, "the editor window to scale by 1.5", || (geometry(&conn, editor) == (1800, 1200)).then_some(()));
+    let size = gui.get_size(&plugin.plugin_handle()).expect("editor size");
+    assert_eq!((size.width, size.height), (1800, 1200), "get_size after set_scale(1.5)");
     gui.destroy(&plugin.plugin_handle());
     drop(plugin);
     conn.destroy_window(host_window).expect("destroy");
