@@ -278,7 +278,7 @@ fn gmsh_two_cubes_and_disconnected_mesh() {
 
 /// Eigen options as `fem::analyse` uses them, with a small slice to force several shifts.
 fn sliced_options(nev: usize, sigma: f64) -> fem::eigen::EigenOptions {
-    fem::eigen::EigenOptions { nev, lambda_max: None, sigma, block: 8, tol: 1e-8, max_basis: 320, slice: 16 }
+    fem::eigen::EigenOptions { nev, lambda_max: None, sigma, block: 8, tol: 1e-8, max_basis: 320, slice: 16, max_factor_bytes: fem::eigen::MAX_FACTOR_BYTES }
 }
 
 #[test]
@@ -343,4 +343,21 @@ fn chunky_block_converges_all_requested_modes() {
     for (a, b) in modes.lambdas.iter().zip(&r.lambdas[6..]) {
         assert!((a - b).abs() <= 1e-8 * b, "{a} vs {b}");
     }
+}
+
+#[test]
+fn a_mesh_whose_factor_exceeds_the_memory_limit_is_refused_before_factoring() {
+    let shape = Shape::Block { length: 0.2, width: 0.08, height: 0.05 };
+    let mesh = fem::mesh_shape(&shape, 8).unwrap();
+    let sys = fem::assemble(&mesh, &Material::STEEL).unwrap();
+    let sigma = -1e-2 * Material::STEEL.specific_modulus() / (0.2f64.powi(2) + 0.08f64.powi(2) + 0.05f64.powi(2));
+    // The same solve passes with the build's limit (see chunky_block_converges_all_requested_modes)
+    // and is refused, with the factor's size, under a 1 MiB limit.
+    let mut opts = sliced_options(20, sigma);
+    opts.max_factor_bytes = 1 << 20;
+    let e = match fem::eigen::solve_sliced(&sys, &opts, &quiet) {
+        Ok(_) => panic!("a 1 MiB factor limit was not enforced"),
+        Err(e) => e.to_string(),
+    };
+    assert!(e.contains("too large") && e.contains("GiB") && e.contains(&format!("{} DOFs", sys.n)), "{e}");
 }

@@ -57,6 +57,9 @@ pub struct EigenOptions {
     /// Eigenvalues each shift after the first aims to converge (about half below it, half
     /// above). Fewer means more factorisations and smaller bases.
     pub slice: usize,
+    /// Largest sparse factor accepted, bytes ([`MAX_FACTOR_BYTES`] for bank builds): a
+    /// larger mesh is refused after the symbolic analysis, before any large allocation.
+    pub max_factor_bytes: usize,
 }
 
 /// Result of [`solve`].
@@ -124,6 +127,11 @@ pub fn last_profile() -> Profile {
 }
 
 /// `STRUCK_EIGEN_DEBUG` set: one line per Lanczos run on stderr.
+/// Largest sparse LDLᵀ factor a bank build accepts, bytes. With the Lanczos basis, the
+/// matrices and the mode shapes a build then stays within 4 GiB (measured: a 118k-DOF bowl
+/// has a 492 MiB factor and peaks at 2.0 GiB; a 660k-DOF block needed 17 GiB).
+pub const MAX_FACTOR_BYTES: usize = 3 << 29; // 1.5 GiB
+
 fn debug() -> bool {
     std::env::var_os("STRUCK_EIGEN_DEBUG").is_some()
 }
@@ -262,7 +270,7 @@ struct Factor<'a> {
 }
 
 impl<'a> Factor<'a> {
-    fn new(sys: &'a System, prof: &mut Profile) -> Result<Self, FemError> {
+    fn new(sys: &'a System, max_bytes: usize, prof: &mut Profile) -> Result<Self, FemError> {
         let t = Instant::now();
         let n = sys.n;
         let pattern = SymbolicSparseColMatRef::new_checked(n, n, &sys.col_ptr, None, &sys.row_idx);
@@ -276,6 +284,18 @@ impl<'a> Factor<'a> {
         let len = symbolic.len_val();
         prof.symbolic_seconds += t.elapsed().as_secs_f64();
         prof.factor_nnz = len;
+        let bytes = len as f64 * 8.0;
+        if debug() {
+            eprintln!("eigen: {n} DOFs, sparse factor {len} values ({:.0} MiB)", bytes / f64::from(1 << 20));
+        }
+        // Refuse before allocating: the fill of the factor grows much faster than the mesh.
+        if bytes > max_bytes as f64 {
+            return Err(FemError::Mesh(format!(
+                "the mesh is too large: {n} DOFs, whose sparse factor would take {:.2} GiB (limit {:.2} GiB, to keep the build within 4 GiB); coarsen the mesh or lower --resolution",
+                bytes / f64::from(1 << 30),
+                max_bytes as f64 / f64::from(1 << 30)
+            )));
+        }
         Ok(Factor { sys, symbolic, values: vec![0.0; len], shifted: vec![0.0; sys.k.len()], sigma: f64::NAN, negative: 0 })
     }
 
@@ -692,7 +712,7 @@ pub fn solve_sliced(sys: &System, opts: &EigenOptions, progress: &dyn Fn(&str, f
         )));
     }
     let slice = opts.slice.max(2 * b);
-    let mut fac = Factor::new(sys, &mut prof)?;
+    let mut fac = Factor::new(sys, opts.max_factor_bytes, &mut prof)?;
     let mut mass = Mass { sys, xr: Vec::new(), yr: Vec::new() };
     let mut locked = Locked { lambdas: Vec::new(), vecs: Mat::zeros(n, nev + slice) };
     progress("factorise", 0.0);

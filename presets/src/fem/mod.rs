@@ -413,6 +413,7 @@ pub fn analyse(mesh: &TetMesh, material: &Material, opts: &BuildOptions, progres
         tol: 1e-8,
         max_basis: SLICE_BASIS,
         slice: SLICE,
+        max_factor_bytes: eigen::MAX_FACTOR_BYTES,
     };
     progress("factorise", 0.0);
     let res = eigen::solve(&sys, &eopts, progress)?;
