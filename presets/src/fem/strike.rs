@@ -130,7 +130,7 @@ impl Surface {
 
 /// Barycentric coordinates of the point of triangle (a, b, c) closest to p, and that point
 /// (Ericson, *Real-Time Collision Detection* §5.1.5).
-fn closest_on_triangle(p: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+pub(crate) fn closest_on_triangle(p: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> ([f64; 3], [f64; 3]) {
     let ab = sub(b, a);
     let ac = sub(c, a);
     let ap = sub(p, a);

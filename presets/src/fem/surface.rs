@@ -486,7 +486,7 @@ impl TriGrid {
                 for x in a[0]..=b[0] {
                     for &t in self.cell(x, y, z) {
                         let [ta, tb, tc] = s.corners(t as usize);
-                        let q = closest_on_triangle(p, ta, tb, tc);
+                        let (_, q) = super::strike::closest_on_triangle(p, ta, tb, tc);
                         let d = norm(sub(p, q));
                         if d <= radius && best.is_none_or(|(_, bd, _)| d < bd) {
                             best = Some((q, d, t as usize));
@@ -499,49 +499,6 @@ impl TriGrid {
     }
 }
 
-/// The point of triangle (a, b, c) closest to p (Ericson, *Real-Time Collision Detection*
-/// §5.1.5).
-pub(crate) fn closest_on_triangle(p: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> [f64; 3] {
-    let ab = sub(b, a);
-    let ac = sub(c, a);
-    let ap = sub(p, a);
-    let d1 = dot(ab, ap);
-    let d2 = dot(ac, ap);
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return a;
-    }
-    let bp = sub(p, b);
-    let d3 = dot(ab, bp);
-    let d4 = dot(ac, bp);
-    if d3 >= 0.0 && d4 <= d3 {
-        return b;
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        let v = d1 / (d1 - d3);
-        return [a[0] + v * ab[0], a[1] + v * ab[1], a[2] + v * ab[2]];
-    }
-    let cp = sub(p, c);
-    let d5 = dot(ab, cp);
-    let d6 = dot(ac, cp);
-    if d6 >= 0.0 && d5 <= d6 {
-        return c;
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        let w = d2 / (d2 - d6);
-        return [a[0] + w * ac[0], a[1] + w * ac[1], a[2] + w * ac[2]];
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-        return [b[0] + w * (c[0] - b[0]), b[1] + w * (c[1] - b[1]), b[2] + w * (c[2] - b[2])];
-    }
-    let denom = 1.0 / (va + vb + vc);
-    let v = vb * denom;
-    let w = vc * denom;
-    [a[0] + ab[0] * v + ac[0] * w, a[1] + ab[1] * v + ac[1] * w, a[2] + ab[2] * v + ac[2] * w]
-}
 
 /// Whether segment p→q crosses the interior of triangle (a, b, c), away from its edges and
 /// the segment's ends by a relative margin (touching contacts are not intersections).
