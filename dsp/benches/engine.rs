@@ -14,13 +14,19 @@ const SR: f64 = 48_000.0;
 /// An object with `n` modes spread from 50 Hz to 20 kHz and 8 strike points.
 fn object(n: usize) -> ObjectModes {
     let lambdas: Vec<f64> = (0..n).map(|i| (2.0 * PI * 50.0 * (400.0f64).powf(i as f64 / n as f64)).powi(2)).collect();
-    let gains: Vec<Vec<f32>> = (0..8).map(|p| (0..n).map(|i| (((i * 7 + p * 13) % 17) as f32 / 17.0 - 0.4).max(0.05)).collect()).collect();
+    let gains: Vec<Vec<f32>> =
+        (0..8).map(|p| (0..n).map(|i| (((i * 7 + p * 13) % 17) as f32 / 17.0 - 0.4).max(0.05)).collect()).collect();
     ObjectModes::new(lambdas, &gains)
 }
 
 fn quiet_params() -> SoundParams {
     // Light damping and full quality so no mode is culled and nothing ends during the bench.
-    SoundParams { damping: Damping::Rayleigh { alpha1: 0.01, alpha2: 0.0 }, quality_db: 200.0, hardness: 1.0, ..SoundParams::default() }
+    SoundParams {
+        damping: Damping::Rayleigh { alpha1: 0.01, alpha2: 0.0 },
+        quality_db: 200.0,
+        hardness: 1.0,
+        ..SoundParams::default()
+    }
 }
 
 fn kernel(c: &mut Criterion) {
@@ -51,7 +57,10 @@ fn engine_16_voices(c: &mut Criterion) {
     e.set_params(quiet_params());
     e.reset();
     for v in 0..16u8 {
-        e.note_on(NoteId { voice_id: None, channel: 0, key: 40 + v }, Strike { velocity: 1.0, position: f32::from(v) / 16.0, lambda_factor: 1.0 });
+        e.note_on(
+            NoteId { voice_id: None, channel: 0, key: 40 + v },
+            Strike { velocity: 1.0, position: f32::from(v) / 16.0, lambda_factor: 1.0 },
+        );
     }
     let mut out = vec![0.0f32; 512];
     e.render(&mut out);
@@ -76,7 +85,10 @@ fn engine_16_voices(c: &mut Criterion) {
             },
             |mut e| {
                 for v in 0..32u8 {
-                    e.note_on(NoteId { voice_id: None, channel: 0, key: 30 + v }, Strike { velocity: 0.8, position: 0.3, lambda_factor: 1.0 });
+                    e.note_on(
+                        NoteId { voice_id: None, channel: 0, key: 30 + v },
+                        Strike { velocity: 0.8, position: 0.3, lambda_factor: 1.0 },
+                    );
                 }
                 let mut out = [0.0f32; 512];
                 e.render(&mut out);

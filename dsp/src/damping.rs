@@ -67,7 +67,9 @@ impl Damping {
             Damping::Rayleigh { alpha1, alpha2 } => Damping::Rayleigh { alpha1: alpha1 * k, alpha2: alpha2 * k },
             Damping::Caughey { coeffs, order } => Damping::Caughey { coeffs: coeffs.map(|a| a * k), order },
             Damping::Power { alpha1, alpha2 } => Damping::Power { alpha1: alpha1 * k, alpha2 },
-            Damping::Hybrid { alpha1, alpha2, alpha3 } => Damping::Hybrid { alpha1: alpha1 * k, alpha2: alpha2 * k, alpha3 },
+            Damping::Hybrid { alpha1, alpha2, alpha3 } => {
+                Damping::Hybrid { alpha1: alpha1 * k, alpha2: alpha2 * k, alpha3 }
+            }
         }
     }
 

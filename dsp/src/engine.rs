@@ -53,11 +53,9 @@ impl ObjectModes {
         }
         // Sound level of a strike ~ sqrt(Σ gain²) (random phases); normalise its mean over
         // the strike points to a comfortable level.
-        let mean_rms: f64 = gains
-            .iter()
-            .map(|row| row.iter().map(|g| f64::from(*g).powi(2)).sum::<f64>().sqrt())
-            .sum::<f64>()
-            / gains.len() as f64;
+        let mean_rms: f64 =
+            gains.iter().map(|row| row.iter().map(|g| f64::from(*g).powi(2)).sum::<f64>().sqrt()).sum::<f64>()
+                / gains.len() as f64;
         let norm = if mean_rms > 0.0 { (0.7 / mean_rms) as f32 } else { 1.0 };
         ObjectModes { lambdas, gains: flat, num_points: gains.len(), norm }
     }
@@ -354,7 +352,11 @@ impl Engine {
         self.strikes = 0;
         self.num_terminated = 0;
         self.params = self.target;
-        self.glide = Glide { modulus_ratio: self.target.modulus_ratio, size: self.target.size, decay_scale: self.target.decay_scale };
+        self.glide = Glide {
+            modulus_ratio: self.target.modulus_ratio,
+            size: self.target.size,
+            decay_scale: self.target.decay_scale,
+        };
     }
 
     /// Sets the sound controls; glided ones move there smoothly, the damping law changes at
@@ -368,7 +370,10 @@ impl Engine {
         p.pressure_damping = p.pressure_damping.clamp(0.0, 1e5);
         p.quality_db = p.quality_db.clamp(6.0, 200.0);
         if p != self.target {
-            if p.damping != self.target.damping || p.release_damping != self.target.release_damping || p.pressure_damping != self.target.pressure_damping {
+            if p.damping != self.target.damping
+                || p.release_damping != self.target.release_damping
+                || p.pressure_damping != self.target.pressure_damping
+            {
                 for v in &mut self.voices {
                     v.dirty = true;
                 }
@@ -527,7 +532,9 @@ impl Engine {
         for m in 0..n {
             let lambda = obj.lambdas[m] * scale;
             self.amps[m] = match mode_pole(lambda, &damping, extra, fs) {
-                Some((_, omega)) => (f64::from(self.gains[m]) * exciter::pulse_spectrum(omega / (2.0 * PI), contact)) as f32,
+                Some((_, omega)) => {
+                    (f64::from(self.gains[m]) * exciter::pulse_spectrum(omega / (2.0 * PI), contact)) as f32
+                }
                 None => 0.0,
             };
             peak = peak.max(self.amps[m].abs());
@@ -615,7 +622,11 @@ impl Engine {
             let g = Glide {
                 modulus_ratio: step(self.glide.modulus_ratio, t.modulus_ratio),
                 size: step(self.glide.size, t.size),
-                decay_scale: if t.decay_scale <= 0.0 || self.glide.decay_scale <= 0.0 { t.decay_scale } else { step(self.glide.decay_scale, t.decay_scale) },
+                decay_scale: if t.decay_scale <= 0.0 || self.glide.decay_scale <= 0.0 {
+                    t.decay_scale
+                } else {
+                    step(self.glide.decay_scale, t.decay_scale)
+                },
             };
             global = g != self.glide || self.params.damping != t.damping;
             self.glide = g;
@@ -742,7 +753,10 @@ mod tests {
     #[test]
     fn voices_end_and_report_it() {
         let mut e = Engine::new(vec![two_point_object()], 4, 48_000.0);
-        e.set_params(SoundParams { damping: Damping::Rayleigh { alpha1: 200.0, alpha2: 0.0 }, ..SoundParams::default() });
+        e.set_params(SoundParams {
+            damping: Damping::Rayleigh { alpha1: 200.0, alpha2: 0.0 },
+            ..SoundParams::default()
+        });
         e.reset();
         let note = NoteId { voice_id: None, channel: 0, key: 60 };
         e.note_on(note, Strike { velocity: 1.0, position: 0.0, lambda_factor: 1.0 });
@@ -761,7 +775,10 @@ mod tests {
         let mut e = Engine::new(vec![two_point_object()], 4, 48_000.0);
         let mut out = vec![0.0; 64];
         for k in 0..10u8 {
-            e.note_on(NoteId { voice_id: None, channel: 0, key: 40 + k }, Strike { velocity: 0.5, position: 0.2, lambda_factor: 1.0 });
+            e.note_on(
+                NoteId { voice_id: None, channel: 0, key: 40 + k },
+                Strike { velocity: 0.5, position: 0.2, lambda_factor: 1.0 },
+            );
             e.render(&mut out);
         }
         assert_eq!(e.active_voices(), 4);

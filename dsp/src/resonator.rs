@@ -333,7 +333,11 @@ mod avx2 {
                         let mut a = _mm256_loadu_ps(ap);
                         for v in 0..V {
                             // Same operation order as the portable kernel.
-                            let nr = _mm256_fmadd_ps(cr[v], r[v], _mm256_sub_ps(_mm256_setzero_ps(), _mm256_mul_ps(ci[v], i[v])));
+                            let nr = _mm256_fmadd_ps(
+                                cr[v],
+                                r[v],
+                                _mm256_sub_ps(_mm256_setzero_ps(), _mm256_mul_ps(ci[v], i[v])),
+                            );
                             let ni = _mm256_fmadd_ps(cr[v], i[v], _mm256_mul_ps(ci[v], r[v]));
                             r[v] = nr;
                             i[v] = ni;
@@ -359,7 +363,11 @@ mod avx2 {
                         for v in 0..V {
                             // The input is added before the advance, like `excite`.
                             r[v] = _mm256_fmadd_ps(b[v], xs, r[v]);
-                            let nr = _mm256_fmadd_ps(cr[v], r[v], _mm256_sub_ps(_mm256_setzero_ps(), _mm256_mul_ps(ci[v], i[v])));
+                            let nr = _mm256_fmadd_ps(
+                                cr[v],
+                                r[v],
+                                _mm256_sub_ps(_mm256_setzero_ps(), _mm256_mul_ps(ci[v], i[v])),
+                            );
                             let ni = _mm256_fmadd_ps(cr[v], i[v], _mm256_mul_ps(ci[v], r[v]));
                             r[v] = nr;
                             i[v] = ni;
@@ -386,8 +394,11 @@ mod tests {
     #[test]
     fn impulse_response_matches_direct_sum() {
         let fs = 48_000.0;
-        let modes: Vec<(f64, f64, f32)> =
-            (0..37).map(|k| (2.0 + 3.0 * k as f64, 2.0 * std::f64::consts::PI * (100.0 + 411.0 * k as f64), 0.1 + 0.02 * k as f32)).collect();
+        let modes: Vec<(f64, f64, f32)> = (0..37)
+            .map(|k| {
+                (2.0 + 3.0 * k as f64, 2.0 * std::f64::consts::PI * (100.0 + 411.0 * k as f64), 0.1 + 0.02 * k as f32)
+            })
+            .collect();
         let mut bank = ResonatorBank::new(64);
         for &(d, w, a) in &modes {
             let k = bank.push(ModeCoeffs::new(d, w, fs)).unwrap();

@@ -26,9 +26,13 @@ fn fits(c: &mut Criterion) {
     for n in [1_000usize, 10_000] {
         let p = points(n, 7);
         for (model, name) in [(ModelKind::Rayleigh, "rayleigh"), (ModelKind::Hybrid, "hybrid")] {
-            g.bench_function(format!("EMG {name}, {n} points"), |b| b.iter(|| fit_damping(black_box(&p), model, Method::Emg).unwrap()));
+            g.bench_function(format!("EMG {name}, {n} points"), |b| {
+                b.iter(|| fit_damping(black_box(&p), model, Method::Emg).unwrap())
+            });
         }
-        g.bench_function(format!("LSQ rayleigh, {n} points"), |b| b.iter(|| fit_damping(black_box(&p), ModelKind::Rayleigh, Method::Lsq).unwrap()));
+        g.bench_function(format!("LSQ rayleigh, {n} points"), |b| {
+            b.iter(|| fit_damping(black_box(&p), ModelKind::Rayleigh, Method::Lsq).unwrap())
+        });
     }
     g.finish();
 }

@@ -5,18 +5,15 @@ use std::time::Instant;
 
 use estimator::features::{extract_impact, ExtractOptions};
 use estimator::synth::{
-    add_noise, mixture_modes, mixture_stats, ren_test, render, render_session, validate_points,
-    write_wav_f32, Rng,
+    add_noise, mixture_modes, mixture_stats, ren_test, render, render_session, validate_points, write_wav_f32, Rng,
 };
 use estimator::{estimate, fit_damping, Method, ModelKind, Options};
 
 fn main() {
     println!("## Ren §4 single-sinusoid test (100 draws)");
-    for (label, snr, seed) in [
-        ("noiseless (f32)", None, 2013),
-        ("60 dB SNR", Some(60.0), 2014),
-        ("40 dB SNR", Some(40.0), 2015),
-    ] {
+    for (label, snr, seed) in
+        [("noiseless (f32)", None, 2013), ("60 dB SNR", Some(60.0), 2014), ("40 dB SNR", Some(40.0), 2015)]
+    {
         let (ef, ed, wf, wd, miss) = ren_test(100, seed, snr);
         println!("{label:16} mean rel err f {:.2e} ({:.5} %), d {:.2e} ({:.4} %); worst f {wf:.1e} d {wd:.1e}; missing {miss}", ef, 100.0 * ef, ed, 100.0 * ed);
     }
@@ -30,9 +27,7 @@ fn main() {
         );
     }
 
-    println!(
-        "\n## Thesis §4.3.3 synthetic validation (Rayleigh, 30 draws per N): mean relative error"
-    );
+    println!("\n## Thesis §4.3.3 synthetic validation (Rayleigh, 30 draws per N): mean relative error");
     println!("| N | EMG α1 | EMG α2 | EMG curve | LSQ α1 | LSQ α2 | LSQ curve | LB α1 | LB α2 | LB curve |");
     println!("|---|---|---|---|---|---|---|---|---|---|");
     for n in [1usize, 2, 5, 10, 20, 40] {
@@ -60,11 +55,7 @@ fn main() {
             let cancel = std::sync::atomic::AtomicBool::new(false);
             let rep = estimate(&[path], &Options::default(), &|_| {}, &cancel).unwrap();
             let curve = |f: &estimator::FitResult| {
-                lambdas
-                    .iter()
-                    .map(|&l| (f.c(l) / (a1 + a2 * l) - 1.0).abs())
-                    .sum::<f64>()
-                    / lambdas.len() as f64
+                lambdas.iter().map(|&l| (f.c(l) / (a1 + a2 * l) - 1.0).abs()).sum::<f64>() / lambdas.len() as f64
             };
             let get = |m: Method| rep.fits.iter().find(|f| f.method == m).unwrap();
             ce += curve(get(Method::Emg));
@@ -90,10 +81,7 @@ fn main() {
     println!("\n## Timings (this machine, release)");
     for n in [1_000usize, 10_000] {
         let mut rng = Rng::new(n as u64);
-        let truth = dsp::Damping::Rayleigh {
-            alpha1: 8.0,
-            alpha2: 5e-8,
-        };
+        let truth = dsp::Damping::Rayleigh { alpha1: 8.0, alpha2: 5e-8 };
         let pts: Vec<(f64, f64)> = (0..n)
             .map(|_| {
                 let l = (std::f64::consts::TAU * rng.log_uniform(100.0, 10_000.0)).powi(2);

@@ -7,9 +7,7 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum EstimateError {
     /// The file could not be opened or decoded as WAV.
-    #[error(
-        "{path}: cannot read as WAV ({reason}); export the recording as a PCM or float WAV file"
-    )]
+    #[error("{path}: cannot read as WAV ({reason}); export the recording as a PCM or float WAV file")]
     Wav {
         /// The file.
         path: PathBuf,
@@ -33,9 +31,7 @@ pub enum EstimateError {
         channels: usize,
     },
     /// Sample rate outside 8–192 kHz.
-    #[error(
-        "{path}: sample rate {sample_rate} Hz is not supported; resample to between 8 and 192 kHz"
-    )]
+    #[error("{path}: sample rate {sample_rate} Hz is not supported; resample to between 8 and 192 kHz")]
     SampleRate {
         /// The file.
         path: PathBuf,

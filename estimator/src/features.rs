@@ -172,49 +172,30 @@ impl Spectra {
         let mut w = n;
         while w >= MIN_LEVEL.min(n) && w > 0 {
             let m = w.next_power_of_two().max(2 * w.min(64));
-            let window: Vec<f64> = (0..w)
-                .map(|i| 0.5 + 0.5 * (std::f64::consts::PI * i as f64 / w as f64).cos())
-                .collect();
+            let window: Vec<f64> =
+                (0..w).map(|i| 0.5 + 0.5 * (std::f64::consts::PI * i as f64 / w as f64).cos()).collect();
             let sw2 = window.iter().map(|v| v * v).sum();
             let theta = |k: usize| -std::f64::consts::TAU * k as f64 / m as f64;
-            let ek = (0..=m / 2)
-                .map(|k| C64::from_polar(1.0, theta(k)))
-                .collect();
+            let ek = (0..=m / 2).map(|k| C64::from_polar(1.0, theta(k))).collect();
             // kW mod M keeps the angle small and exact.
-            let ekw = (0..=m / 2)
-                .map(|k| C64::from_polar(1.0, theta((k * w) % m)))
-                .collect();
-            levels.push(Level {
-                w,
-                m,
-                ek,
-                ekw,
-                sw2,
-                window,
-                spec: vec![C64::new(0.0, 0.0); m / 2 + 1],
-            });
+            let ekw = (0..=m / 2).map(|k| C64::from_polar(1.0, theta((k * w) % m))).collect();
+            levels.push(Level { w, m, ek, ekw, sw2, window, spec: vec![C64::new(0.0, 0.0); m / 2 + 1] });
             if w / 2 < MIN_LEVEL {
                 break;
             }
             w /= 2;
         }
-        Self {
-            planner: RealFftPlanner::new(),
-            levels,
-            scratch_in: Vec::new(),
-        }
+        Self { planner: RealFftPlanner::new(), levels, scratch_in: Vec::new() }
     }
 
     fn compute(&mut self, l: usize, r: &[f64]) {
         let lev = &mut self.levels[l];
         let fft = self.planner.plan_fft_forward(lev.m);
         self.scratch_in.clear();
-        self.scratch_in
-            .extend(r[..lev.w].iter().zip(&lev.window).map(|(a, b)| a * b));
+        self.scratch_in.extend(r[..lev.w].iter().zip(&lev.window).map(|(a, b)| a * b));
         self.scratch_in.resize(lev.m, 0.0);
         // PANIC: buffer lengths match the plan by construction.
-        fft.process(&mut self.scratch_in, &mut lev.spec)
-            .expect("fft sizes");
+        fft.process(&mut self.scratch_in, &mut lev.spec).expect("fft sizes");
     }
 }
 
@@ -302,10 +283,7 @@ struct ZPow {
 fn zpow(ev: &ModelEval, omega: f64, d: f64) -> ZPow {
     let z = C64::from_polar((-d / ev.fs).exp(), omega / ev.fs);
     // z^W directly (exact) rather than by repeated multiplication.
-    let zw = C64::from_polar(
-        (-d * ev.w as f64 / ev.fs).exp(),
-        (omega * ev.w as f64 / ev.fs) % std::f64::consts::TAU,
-    );
+    let zw = C64::from_polar((-d * ev.w as f64 / ev.fs).exp(), (omega * ev.w as f64 / ev.fs) % std::f64::consts::TAU);
     ZPow { z, zw, d }
 }
 
@@ -408,21 +386,15 @@ fn lm_fit_multi(
 ) -> (Vec<(f64, f64, C64)>, f64) {
     let km = init.len();
     let np = 4 * km;
-    let mut p: Vec<f64> = init
-        .iter()
-        .flat_map(|&(w, d, b)| [w, d.max(1e-4).ln(), b.re, b.im])
-        .collect();
+    let mut p: Vec<f64> = init.iter().flat_map(|&(w, d, b)| [w, d.max(1e-4).ln(), b.re, b.im]).collect();
     let cost_of = |p: &[f64]| -> f64 {
-        let zs: Vec<ZPow> = (0..km)
-            .map(|m| zpow(ev, p[4 * m], p[4 * m + 1].exp()))
-            .collect();
+        let zs: Vec<ZPow> = (0..km).map(|m| zpow(ev, p[4 * m], p[4 * m + 1].exp())).collect();
         target
             .iter()
             .enumerate()
             .map(|(j, t)| {
-                let s: C64 = (0..km)
-                    .map(|m| mode_value(ev, &zs[m], C64::new(p[4 * m + 2], p[4 * m + 3]), k0 + j))
-                    .sum();
+                let s: C64 =
+                    (0..km).map(|m| mode_value(ev, &zs[m], C64::new(p[4 * m + 2], p[4 * m + 3]), k0 + j)).sum();
                 (t - s).norm_sqr()
             })
             .sum()
@@ -436,14 +408,11 @@ fn lm_fit_multi(
     for _ in 0..max_it {
         jtj.iter_mut().for_each(|v| *v = 0.0);
         jtr.iter_mut().for_each(|v| *v = 0.0);
-        let zs: Vec<ZPow> = (0..km)
-            .map(|m| zpow(ev, p[4 * m], p[4 * m + 1].exp()))
-            .collect();
+        let zs: Vec<ZPow> = (0..km).map(|m| zpow(ev, p[4 * m], p[4 * m + 1].exp())).collect();
         for (j, t) in target.iter().enumerate() {
             let mut s = C64::new(0.0, 0.0);
             for m in 0..km {
-                let (sm, jm) =
-                    mode_spectrum(ev, &zs[m], C64::new(p[4 * m + 2], p[4 * m + 3]), k0 + j);
+                let (sm, jm) = mode_spectrum(ev, &zs[m], C64::new(p[4 * m + 2], p[4 * m + 3]), k0 + j);
                 s += sm;
                 jac[4 * m..4 * m + 4].copy_from_slice(&jm);
             }
@@ -499,29 +468,11 @@ fn lm_fit_multi(
             break;
         }
     }
-    (
-        (0..km)
-            .map(|m| {
-                (
-                    p[4 * m],
-                    p[4 * m + 1].exp(),
-                    C64::new(p[4 * m + 2], p[4 * m + 3]),
-                )
-            })
-            .collect(),
-        cost,
-    )
+    ((0..km).map(|m| (p[4 * m], p[4 * m + 1].exp(), C64::new(p[4 * m + 2], p[4 * m + 3]))).collect(), cost)
 }
 
 /// Single-mode [`lm_fit_multi`].
-fn lm_fit(
-    ev: &ModelEval,
-    target: &[C64],
-    k0: usize,
-    omega0: f64,
-    d0: f64,
-    b0: C64,
-) -> (f64, f64, C64, f64) {
+fn lm_fit(ev: &ModelEval, target: &[C64], k0: usize, omega0: f64, d0: f64, b0: C64) -> (f64, f64, C64, f64) {
     let (m, c) = lm_fit_multi(ev, target, k0, &[(omega0, d0, b0)], 200, 1e-13);
     (m[0].0, m[0].1, m[0].2, c)
 }
@@ -577,19 +528,12 @@ pub fn extract_impact(
             for k in 0..sp.len() {
                 let p = sp[k].norm_sqr();
                 let left = if k > 0 { sp[k - 1].norm_sqr() } else { 0.0 };
-                let right = if k + 1 < sp.len() {
-                    sp[k + 1].norm_sqr()
-                } else {
-                    0.0
-                };
+                let right = if k + 1 < sp.len() { sp[k + 1].norm_sqr() } else { 0.0 };
                 if p < left || p < right || p < opts.peak_snr_min * noise {
                     continue;
                 }
                 let f = k as f64 * fs / lev.m as f64;
-                if excluded
-                    .iter()
-                    .any(|&(el, a, b)| el == l && f >= a && f <= b)
-                {
+                if excluded.iter().any(|&(el, a, b)| el == l && f >= a && f <= b) {
                     continue;
                 }
                 cands.push((p / noise, l, k));
@@ -614,10 +558,7 @@ pub fn extract_impact(
             let (_, hw) = peak_shape(&lev.spec, k);
             let f = k as f64 * bin_hz;
             let span = (3.0 * hw).max(8.0) * bin_hz;
-            if batch
-                .iter()
-                .all(|&(_, _, f2, s2)| (f - f2).abs() > 2.0 * (span + s2))
-            {
+            if batch.iter().all(|&(_, _, f2, s2)| (f - f2).abs() > 2.0 * (span + s2)) {
                 batch.push((l, k, f, span));
             }
         }
@@ -637,20 +578,15 @@ pub fn extract_impact(
                 let (kf, hw) = peak_shape(&lev.spec, k);
                 let bin = fs / lev.m as f64;
                 let (f_est, hw_hz) = (kf * bin, hw * bin);
-                let lf = (0..=l)
-                    .find(|&j| hw_hz * spectra.levels[j].m as f64 / fs <= 12.0)
-                    .unwrap_or(l);
+                let lf = (0..=l).find(|&j| hw_hz * spectra.levels[j].m as f64 / fs <= 12.0).unwrap_or(l);
                 if lf == l {
                     (l, k)
                 } else {
                     let sp = &spectra.levels[lf].spec;
-                    let kc = ((f_est * spectra.levels[lf].m as f64 / fs).round() as usize)
-                        .min(sp.len() - 1);
+                    let kc = ((f_est * spectra.levels[lf].m as f64 / fs).round() as usize).min(sp.len() - 1);
                     let a = kc.saturating_sub(3);
                     let b = (kc + 3).min(sp.len() - 1);
-                    let kb = (a..=b)
-                        .max_by(|&x, &y| sp[x].norm_sqr().total_cmp(&sp[y].norm_sqr()))
-                        .unwrap_or(kc);
+                    let kb = (a..=b).max_by(|&x, &y| sp[x].norm_sqr().total_cmp(&sp[y].norm_sqr())).unwrap_or(kc);
                     (lf, kb)
                 }
             };
@@ -673,9 +609,7 @@ pub fn extract_impact(
             let omegas: Vec<f64> = if hw_rad > 0.3 * omega0 {
                 let lo = std::f64::consts::TAU * 2.0;
                 let hi = omega0 + 3.0 * hw_rad;
-                (0..=16)
-                    .map(|i| lo * (hi / lo).powf(i as f64 / 16.0))
-                    .collect()
+                (0..=16).map(|i| lo * (hi / lo).powf(i as f64 / 16.0)).collect()
             } else {
                 vec![omega0]
             };
@@ -692,31 +626,18 @@ pub fn extract_impact(
             }
             let (omega, d, b, cost) = lm_fit(&ev, &target, k0, best_d.0, best_d.1, best_d.2);
             let band: f64 = target.iter().map(|t| t.norm_sqr()).sum();
-            let band_noise = sigma2
-                * lev.sw2
-                * target.len() as f64
-                * (2.0 * lev.w as f64 / lev.m as f64).min(1.0);
-            let ok = omega.is_finite()
-                && d.is_finite()
-                && (cost < opts.max_fit_error * band || cost < 3.0 * band_noise);
+            let band_noise = sigma2 * lev.sw2 * target.len() as f64 * (2.0 * lev.w as f64 / lev.m as f64).min(1.0);
+            let ok =
+                omega.is_finite() && d.is_finite() && (cost < opts.max_fit_error * band || cost < 3.0 * band_noise);
             let dist_hz = omega / std::f64::consts::TAU;
             if !ok || dist_hz > 0.5 * fs {
                 rejected += 1;
                 let f0 = kf * bin_hz;
                 let hw_hz = (hw_bins * bin_hz).max(excl_hw);
-                excluded.push((
-                    l_det,
-                    (f0 - hw_hz).min(f_det - excl_hw),
-                    (f0 + hw_hz).max(f_det + excl_hw),
-                ));
+                excluded.push((l_det, (f0 - hw_hz).min(f_det - excl_hw), (f0 + hw_hz).max(f_det + excl_hw)));
                 continue;
             }
-            let mode = Mode {
-                omega,
-                d,
-                b,
-                level: l,
-            };
+            let mode = Mode { omega, d, b, level: l };
             let before = residual;
             residual = subtract(&mut r, &mode, fs, -1.0);
             if residual >= before {
@@ -725,25 +646,16 @@ pub fn extract_impact(
                 rejected += 1;
                 let f0 = kf * bin_hz;
                 let hw_hz = (hw_bins * bin_hz).max(excl_hw);
-                excluded.push((
-                    l_det,
-                    (f0 - hw_hz).min(f_det - excl_hw),
-                    (f0 + hw_hz).max(f_det + excl_hw),
-                ));
+                excluded.push((l_det, (f0 - hw_hz).min(f_det - excl_hw), (f0 + hw_hz).max(f_det + excl_hw)));
                 continue;
             }
             // Joint refit with already-found modes whose spectra overlap this band (Ren §4:
             // the trial mode is added to all modes collected so far before comparing).
             let band_lo = (k0 as f64 * bin_hz - 0.0) * std::f64::consts::TAU;
             let band_hi = (k1 as f64 * bin_hz) * std::f64::consts::TAU;
-            let mut near: Vec<usize> = (0..modes.len())
-                .filter(|&j| modes[j].omega > band_lo && modes[j].omega < band_hi)
-                .collect();
-            near.sort_by(|&a, &b| {
-                (modes[a].omega - omega)
-                    .abs()
-                    .total_cmp(&(modes[b].omega - omega).abs())
-            });
+            let mut near: Vec<usize> =
+                (0..modes.len()).filter(|&j| modes[j].omega > band_lo && modes[j].omega < band_hi).collect();
+            near.sort_by(|&a, &b| (modes[a].omega - omega).abs().total_cmp(&(modes[b].omega - omega).abs()));
             near.truncate(3);
             if !near.is_empty() {
                 let before = residual;
@@ -770,30 +682,16 @@ pub fn extract_impact(
                 let a1 = (kmax + 8).min(k1 + 8).min(lev.spec.len() - 1);
                 let target: Vec<C64> = lev.spec[a0..=a1].to_vec();
                 let mut init = vec![(mode.omega, mode.d, mode.b)];
-                init.extend(
-                    near.iter()
-                        .map(|&j| (modes[j].omega, modes[j].d, modes[j].b)),
-                );
+                init.extend(near.iter().map(|&j| (modes[j].omega, modes[j].d, modes[j].b)));
                 let (fitted, _) = lm_fit_multi(&ev, &target, a0, &init, 60, 1e-13);
-                let new: Vec<Mode> = fitted
-                    .iter()
-                    .map(|&(omega, d, b)| Mode {
-                        omega,
-                        d,
-                        b,
-                        level: l,
-                    })
-                    .collect();
+                let new: Vec<Mode> = fitted.iter().map(|&(omega, d, b)| Mode { omega, d, b, level: l }).collect();
                 for m in &new {
                     residual = subtract(&mut r, m, fs, -1.0);
                 }
                 if residual <= before {
                     modes.push(new[0]);
                     for (i, &j) in near.iter().enumerate() {
-                        modes[j] = Mode {
-                            level: modes[j].level,
-                            ..new[i + 1]
-                        };
+                        modes[j] = Mode { level: modes[j].level, ..new[i + 1] };
                     }
                 } else {
                     for m in &new {
@@ -838,31 +736,22 @@ pub fn extract_impact(
             let ev = ModelEval::new(lev, fs);
             let bin_hz = fs / lev.m as f64;
             let kc = (m.omega / std::f64::consts::TAU / bin_hz).round() as usize;
-            let hw_bins =
-                (m.d / std::f64::consts::TAU / bin_hz).max(1.0) + lev.m as f64 / lev.w as f64;
+            let hw_bins = (m.d / std::f64::consts::TAU / bin_hz).max(1.0) + lev.m as f64 / lev.w as f64;
             let half = (3.0 * hw_bins).ceil().clamp(8.0, 1500.0) as usize;
             let (lo_w, hi_w) = (
                 kc.saturating_sub(half) as f64 * bin_hz * std::f64::consts::TAU,
                 (kc + half) as f64 * bin_hz * std::f64::consts::TAU,
             );
-            let mut near: Vec<usize> = (0..modes.len())
-                .filter(|&j| j != i && modes[j].omega > lo_w && modes[j].omega < hi_w)
-                .collect();
-            near.sort_by(|&a, &b| {
-                (modes[a].omega - m.omega)
-                    .abs()
-                    .total_cmp(&(modes[b].omega - m.omega).abs())
-            });
+            let mut near: Vec<usize> =
+                (0..modes.len()).filter(|&j| j != i && modes[j].omega > lo_w && modes[j].omega < hi_w).collect();
+            near.sort_by(|&a, &b| (modes[a].omega - m.omega).abs().total_cmp(&(modes[b].omega - m.omega).abs()));
             near.truncate(3);
             let mut group = vec![i];
             group.extend(&near);
             let kj = |j: usize| (modes[j].omega / std::f64::consts::TAU / bin_hz).round() as usize;
             let kmin = group.iter().map(|&j| kj(j)).min().unwrap_or(kc);
             let kmax = group.iter().map(|&j| kj(j)).max().unwrap_or(kc);
-            let k0 = kc
-                .saturating_sub(half)
-                .min(kmin.saturating_sub(8))
-                .min(lev.spec.len() - 1);
+            let k0 = kc.saturating_sub(half).min(kmin.saturating_sub(8)).min(lev.spec.len() - 1);
             let k1 = (kmax + 8).max(kc + half).min(lev.spec.len() - 1);
             // Target: residual spectrum at sweep start, corrected for this sweep's changes,
             // plus the group's own current models.
@@ -876,18 +765,14 @@ pub fn extract_impact(
                 let zb = zpow(&ev, base[j].omega, base[j].d);
                 for (t, k) in target.iter_mut().zip(k0..) {
                     if changed[j] {
-                        *t += mode_value(&ev, &zb, base[j].b, k)
-                            - mode_value(&ev, &zc, modes[j].b, k);
+                        *t += mode_value(&ev, &zb, base[j].b, k) - mode_value(&ev, &zc, modes[j].b, k);
                     }
                     if in_group {
                         *t += mode_value(&ev, &zc, modes[j].b, k);
                     }
                 }
             }
-            let init: Vec<(f64, f64, C64)> = group
-                .iter()
-                .map(|&j| (modes[j].omega, modes[j].d, modes[j].b))
-                .collect();
+            let init: Vec<(f64, f64, C64)> = group.iter().map(|&j| (modes[j].omega, modes[j].d, modes[j].b)).collect();
             let (fitted, _) = lm_fit_multi(&ev, &target, k0, &init, 15, 1e-9);
             // Accept only if the time-domain residual does not grow (a fit can trade a
             // smaller band error for broadband junk outside the band).
@@ -897,42 +782,17 @@ pub fn extract_impact(
             }
             let mut after = before;
             for (gi, &(omega, d, b)) in fitted.iter().enumerate() {
-                after = subtract(
-                    &mut r,
-                    &Mode {
-                        omega,
-                        d,
-                        b,
-                        level: modes[group[gi]].level,
-                    },
-                    fs,
-                    -1.0,
-                );
+                after = subtract(&mut r, &Mode { omega, d, b, level: modes[group[gi]].level }, fs, -1.0);
             }
             if after.is_finite() && after <= before * (1.0 + 1e-12) {
                 for (gi, &(omega, d, b)) in fitted.iter().enumerate() {
-                    modes[group[gi]] = Mode {
-                        omega,
-                        d,
-                        b,
-                        level: modes[group[gi]].level,
-                    };
+                    modes[group[gi]] = Mode { omega, d, b, level: modes[group[gi]].level };
                     changed[group[gi]] = true;
                 }
                 residual = after;
             } else {
                 for (gi, &(omega, d, b)) in fitted.iter().enumerate() {
-                    subtract(
-                        &mut r,
-                        &Mode {
-                            omega,
-                            d,
-                            b,
-                            level: modes[group[gi]].level,
-                        },
-                        fs,
-                        1.0,
-                    );
+                    subtract(&mut r, &Mode { omega, d, b, level: modes[group[gi]].level }, fs, 1.0);
                 }
                 for &j in &group {
                     residual = subtract(&mut r, &modes[j], fs, -1.0);
@@ -943,11 +803,7 @@ pub fn extract_impact(
     let fitted = modes.len();
     let mut features: Vec<Feature> = modes
         .iter()
-        .map(|m| Feature {
-            freq_hz: m.omega / std::f64::consts::TAU,
-            decay_per_s: m.d,
-            amplitude: 2.0 * m.b.norm(),
-        })
+        .map(|m| Feature { freq_hz: m.omega / std::f64::consts::TAU, decay_per_s: m.d, amplitude: 2.0 * m.b.norm() })
         .filter(|f| {
             f.freq_hz >= opts.min_freq_hz
                 && f.freq_hz < 0.49 * fs
@@ -976,11 +832,7 @@ pub fn extract_impact(
 fn peak_shape(sp: &[C64], k: usize) -> (f64, f64) {
     let pk = sp[k].norm_sqr().max(1e-300);
     let kf = if k > 0 && k + 1 < sp.len() {
-        let (a, b, c) = (
-            sp[k - 1].norm_sqr().max(1e-300).ln(),
-            pk.ln(),
-            sp[k + 1].norm_sqr().max(1e-300).ln(),
-        );
+        let (a, b, c) = (sp[k - 1].norm_sqr().max(1e-300).ln(), pk.ln(), sp[k + 1].norm_sqr().max(1e-300).ln());
         let den = a - 2.0 * b + c;
         if den < 0.0 {
             k as f64 + (0.5 * (a - c) / den).clamp(-0.5, 0.5)
@@ -1011,11 +863,7 @@ fn subtract(r: &mut [f64], m: &Mode, fs: f64, sign: f64) -> f64 {
     let mut e = 0.0;
     for (ci, chunk) in r.chunks_mut(1024).enumerate() {
         let n0 = (ci * 1024) as f64;
-        let p0 = b2
-            * C64::from_polar(
-                (-m.d * n0 / fs).exp(),
-                (m.omega * n0 / fs) % std::f64::consts::TAU,
-            );
+        let p0 = b2 * C64::from_polar((-m.d * n0 / fs).exp(), (m.omega * n0 / fs) % std::f64::consts::TAU);
         let mut p = [p0, p0 * z, p0 * z * z, p0 * z * z * z];
         let mut quads = chunk.chunks_exact_mut(4);
         for q in &mut quads {

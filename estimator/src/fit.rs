@@ -121,23 +121,10 @@ impl FitResult {
 pub fn to_damping(model: ModelKind, p: &[f64]) -> dsp::Damping {
     let g = |i: usize| p.get(i).copied().unwrap_or(0.0);
     match model {
-        ModelKind::Rayleigh => dsp::Damping::Rayleigh {
-            alpha1: g(0),
-            alpha2: g(1),
-        },
-        ModelKind::Caughey => dsp::Damping::Caughey {
-            coeffs: [g(0), g(1), g(2), 0.0],
-            order: 3,
-        },
-        ModelKind::Power => dsp::Damping::Power {
-            alpha1: g(0),
-            alpha2: g(1),
-        },
-        ModelKind::Hybrid => dsp::Damping::Hybrid {
-            alpha1: g(0),
-            alpha2: g(1),
-            alpha3: g(2),
-        },
+        ModelKind::Rayleigh => dsp::Damping::Rayleigh { alpha1: g(0), alpha2: g(1) },
+        ModelKind::Caughey => dsp::Damping::Caughey { coeffs: [g(0), g(1), g(2), 0.0], order: 3 },
+        ModelKind::Power => dsp::Damping::Power { alpha1: g(0), alpha2: g(1) },
+        ModelKind::Hybrid => dsp::Damping::Hybrid { alpha1: g(0), alpha2: g(1), alpha3: g(2) },
     }
 }
 
@@ -184,19 +171,12 @@ struct Data {
 fn normalise(points: &[(f64, f64)], model: ModelKind) -> Result<Data, EstimateError> {
     for (i, &(l, c)) in points.iter().enumerate() {
         if !(l.is_finite() && c.is_finite() && l > 0.0) {
-            return Err(EstimateError::InvalidPoint {
-                index: i,
-                lambda: l,
-                c,
-            });
+            return Err(EstimateError::InvalidPoint { index: i, lambda: l, c });
         }
     }
     let needed = model.n_params() + 2;
     if points.len() < needed {
-        return Err(EstimateError::TooFewFeatures {
-            found: points.len(),
-            needed,
-        });
+        return Err(EstimateError::TooFewFeatures { found: points.len(), needed });
     }
     let ls = points.iter().fold(0.0f64, |m, p| m.max(p.0));
     let lmin = points.iter().fold(f64::INFINITY, |m, p| m.min(p.0));
@@ -207,13 +187,7 @@ fn normalise(points: &[(f64, f64)], model: ModelKind) -> Result<Data, EstimateEr
     cs.sort_by(f64::total_cmp);
     let cs = cs[cs.len() / 2].max(1e-12);
     let x: Vec<f64> = points.iter().map(|p| p.0 / ls).collect();
-    Ok(Data {
-        lnx: x.iter().map(|v| v.ln()).collect(),
-        x,
-        c: points.iter().map(|p| p.1 / cs).collect(),
-        ls,
-        cs,
-    })
+    Ok(Data { lnx: x.iter().map(|v| v.ln()).collect(), x, c: points.iter().map(|p| p.1 / cs).collect(), ls, cs })
 }
 
 /// Normalised curve parameters → SI parameters.
@@ -423,12 +397,7 @@ fn sse_hess(kind: ModelKind, d: &Data, a: &[f64], g: &mut [f64], h: &mut [f64]) 
 }
 
 /// Linear least squares c ≈ Σ aⱼ bⱼ(x) with basis xʲ (j < k).
-fn linear_lsq(
-    d: &Data,
-    k: usize,
-    xs: impl Fn(usize) -> f64,
-    ys: impl Fn(usize) -> f64,
-) -> Option<Vec<f64>> {
+fn linear_lsq(d: &Data, k: usize, xs: impl Fn(usize) -> f64, ys: impl Fn(usize) -> f64) -> Option<Vec<f64>> {
     let mut a = vec![0.0; k * k];
     let mut b = vec![0.0; k];
     for i in 0..d.x.len() {
@@ -501,10 +470,7 @@ fn lb_fit(kind: ModelKind, d: &Data) -> Option<Vec<f64>> {
             // For fixed a₂ the LP in (a₀, a₁) is a hull line of c − a₂x²; its optimal value is
             // concave in a₂ (partial maximisation of a linear objective over a convex set), so
             // a golden-section search on a₂ finds the LP optimum.
-            let cmax = cs_sorted
-                .iter()
-                .fold(0.0f64, |m, v| m.max(v.abs()))
-                .max(1.0);
+            let cmax = cs_sorted.iter().fold(0.0f64, |m, v| m.max(v.abs())).max(1.0);
             let value = |a2: f64, ys: &mut Vec<f64>| -> Option<(f64, Vec<f64>)> {
                 for i in 0..xs_sorted.len() {
                     ys[i] = cs_sorted[i] - a2 * xs_sorted[i] * xs_sorted[i];
@@ -587,33 +553,17 @@ fn golden(
 /// LSQ in normalised units: closed form for linear models, BFGS for power/hybrid.
 fn lsq_fit(kind: ModelKind, d: &Data) -> (Vec<f64>, usize, bool) {
     match kind {
-        ModelKind::Rayleigh => (
-            linear_lsq(d, 2, |i| d.x[i], |i| d.c[i]).unwrap_or(vec![1.0, 0.0]),
-            0,
-            true,
-        ),
-        ModelKind::Caughey => (
-            linear_lsq(d, 3, |i| d.x[i], |i| d.c[i]).unwrap_or(vec![1.0, 0.0, 0.0]),
-            0,
-            true,
-        ),
+        ModelKind::Rayleigh => (linear_lsq(d, 2, |i| d.x[i], |i| d.c[i]).unwrap_or(vec![1.0, 0.0]), 0, true),
+        ModelKind::Caughey => (linear_lsq(d, 3, |i| d.x[i], |i| d.c[i]).unwrap_or(vec![1.0, 0.0, 0.0]), 0, true),
         ModelKind::Power | ModelKind::Hybrid => {
             let pos = d.c.iter().all(|&c| c > 0.0);
-            let loglog = if pos {
-                linear_lsq(d, 2, |i| d.lnx[i], |i| d.c[i].ln())
-            } else {
-                None
-            };
+            let loglog = if pos { linear_lsq(d, 2, |i| d.lnx[i], |i| d.c[i].ln()) } else { None };
             let (la, p) = loglog.map(|v| (v[0], v[1])).unwrap_or((0.0, 1.0));
             let starts: Vec<Vec<f64>> = if kind == ModelKind::Power {
                 vec![vec![la.exp(), p], vec![1.0, 1.0], vec![1.0, 0.5]]
             } else {
                 let ray = linear_lsq(d, 2, |i| d.x[i], |i| d.c[i]).unwrap_or(vec![1.0, 0.0]);
-                vec![
-                    vec![ray[0], ray[1], 1.0],
-                    vec![0.0, la.exp(), p],
-                    vec![0.5 * ray[0], ray[1], 0.5],
-                ]
+                vec![vec![ray[0], ray[1], 1.0], vec![0.0, la.exp(), p], vec![0.5 * ray[0], ray[1], 0.5]]
             };
             let mut best: Option<(f64, Vec<f64>)> = None;
             let mut its = 0;
@@ -626,11 +576,7 @@ fn lsq_fit(kind: ModelKind, d: &Data) -> (Vec<f64>, usize, bool) {
                     best = Some((r.f, r.x));
                 }
             }
-            (
-                best.map(|b| b.1).unwrap_or(starts_fallback(kind)),
-                its,
-                conv,
-            )
+            (best.map(|b| b.1).unwrap_or(starts_fallback(kind)), its, conv)
         }
     }
 }
@@ -698,31 +644,21 @@ fn delta_std(to_si: impl Fn(&[f64]) -> Vec<f64>, x: &[f64], cov: &[f64]) -> Vec<
 /// [`EstimateError::TooFewFeatures`] with fewer than (model parameters + 2) points,
 /// [`EstimateError::Degenerate`] if all λ are equal, [`EstimateError::NoConvergence`] if no
 /// finite fit was found.
-pub fn fit_damping(
-    points: &[(f64, f64)],
-    model: ModelKind,
-    method: Method,
-) -> Result<FitResult, EstimateError> {
+pub fn fit_damping(points: &[(f64, f64)], model: ModelKind, method: Method) -> Result<FitResult, EstimateError> {
     let d = normalise(points, model)?;
     let n = d.x.len();
     let nf = n as f64;
     let k = model.n_params();
     let (ls, cs) = (d.ls, d.cs);
-    let no_conv = |reason: &str| EstimateError::NoConvergence {
-        method: method.name(),
-        reason: reason.to_string(),
-    };
+    let no_conv = |reason: &str| EstimateError::NoConvergence { method: method.name(), reason: reason.to_string() };
     let rms = |a: &[f64]| -> f64 {
         let mut mg = [0.0; 4];
-        let s: f64 = (0..n)
-            .map(|i| (model_eval(model, a, d.x[i], d.lnx[i], &mut mg) - d.c[i]).powi(2))
-            .sum();
+        let s: f64 = (0..n).map(|i| (model_eval(model, a, d.x[i], d.lnx[i], &mut mg) - d.c[i]).powi(2)).sum();
         (s / nf).sqrt()
     };
     match method {
         Method::Lb => {
-            let a =
-                lb_fit(model, &d).ok_or_else(|| no_conv("no lower hull edge spans the data"))?;
+            let a = lb_fit(model, &d).ok_or_else(|| no_conv("no lower hull edge spans the data"))?;
             let params = denorm(model, &a, ls, cs);
             Ok(FitResult {
                 model,
@@ -785,9 +721,7 @@ pub fn fit_damping(
             let mut starts: Vec<Vec<f64>> = Vec::new();
             let mut mg = [0.0; 4];
             let resid = |a: &[f64], mg: &mut [f64; 4]| -> Vec<f64> {
-                (0..n)
-                    .map(|i| d.c[i] - model_eval(model, a, d.x[i], d.lnx[i], mg))
-                    .collect()
+                (0..n).map(|i| d.c[i] - model_eval(model, a, d.x[i], d.lnx[i], mg)).collect()
             };
             if let Some(lb) = lb_fit(model, &d) {
                 let r = resid(&lb, &mut mg);
@@ -803,17 +737,11 @@ pub fn fit_damping(
                 let v = (r.iter().map(|e| (e - m).powi(2)).sum::<f64>() / nf).max(1e-12);
                 let sk = r.iter().map(|e| (e - m).powi(3)).sum::<f64>() / nf / v.powf(1.5);
                 // EMG moments: var = σ² + τ², skewness = 2τ³/var^1.5 (τ = 1/η).
-                let tau = if sk > 0.0 {
-                    v.sqrt() * (0.5 * sk).min(0.99).cbrt()
-                } else {
-                    0.2 * v.sqrt()
-                };
+                let tau = if sk > 0.0 { v.sqrt() * (0.5 * sk).min(0.99).cbrt() } else { 0.2 * v.sqrt() };
                 let sig = (v - tau * tau).max(0.01 * v).sqrt();
                 let mut s = lsq.clone();
                 match model {
-                    ModelKind::Power => {
-                        s[0] *= (1.0 - tau / (d.c.iter().sum::<f64>() / nf)).max(0.1)
-                    }
+                    ModelKind::Power => s[0] *= (1.0 - tau / (d.c.iter().sum::<f64>() / nf)).max(0.1),
                     _ => s[0] -= tau,
                 }
                 s.push(sig.ln());
@@ -955,10 +883,7 @@ mod tests {
     #[test]
     fn sse_gradient_matches_finite_differences() {
         let d = data();
-        for (kind, p) in [
-            (ModelKind::Power, vec![1.1, 0.4]),
-            (ModelKind::Hybrid, vec![0.5, 0.6, 0.8]),
-        ] {
+        for (kind, p) in [(ModelKind::Power, vec![1.1, 0.4]), (ModelKind::Hybrid, vec![0.5, 0.6, 0.8])] {
             let mut g = vec![0.0; p.len()];
             sse(kind, &d, &p, &mut g);
             let mut tmp = vec![0.0; p.len()];
@@ -985,11 +910,7 @@ mod tests {
             (3.0, -10.720_363_041_981_113),
             (30.0, -903.974_117_110_643_9),
         ] {
-            assert!(
-                (ln_erfc(s) - v).abs() <= 1e-12 * v.abs().max(1.0),
-                "s={s}: {} vs {v}",
-                ln_erfc(s)
-            );
+            assert!((ln_erfc(s) - v).abs() <= 1e-12 * v.abs().max(1.0), "s={s}: {} vs {v}", ln_erfc(s));
         }
         // erfcx itself.
         assert!((1.0f64.erfcx() - 0.427_583_576_155_807).abs() < 1e-15);

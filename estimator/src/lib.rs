@@ -132,10 +132,7 @@ pub struct FeaturesReport {
 impl FeaturesReport {
     /// All features as (λ, c) points (rad²/s², s⁻¹).
     pub fn points(&self) -> Vec<(f64, f64)> {
-        self.impacts
-            .iter()
-            .flat_map(|i| i.features.iter().map(|f| (f.lambda(), f.c())))
-            .collect()
+        self.impacts.iter().flat_map(|i| i.features.iter().map(|f| (f.lambda(), f.c()))).collect()
     }
 }
 
@@ -233,13 +230,7 @@ pub fn extract_features(
             if cancel.load(Ordering::Relaxed) {
                 return Err(EstimateError::Cancelled);
             }
-            let fit = features::extract_impact(
-                &rec.samples[s.start..s.end],
-                fs,
-                seg.noise_var,
-                &opts.extract,
-                cancel,
-            )?;
+            let fit = features::extract_impact(&rec.samples[s.start..s.end], fs, seg.noise_var, &opts.extract, cancel)?;
             if fit.features.is_empty() {
                 report.skipped.push(SkippedImpact {
                     file: name.clone(),
@@ -262,9 +253,7 @@ pub fn extract_features(
             progress((fi as f32 + (ii + 1) as f32 / nimp as f32) / nfiles as f32);
         }
         if seg.impacts.is_empty() {
-            report.warnings.push(format!(
-                "{name}: no impacts found; taps must rise well above the background noise"
-            ));
+            report.warnings.push(format!("{name}: no impacts found; taps must rise well above the background noise"));
         }
         report.files.push(FileSummary {
             file: name,
@@ -301,10 +290,7 @@ pub fn estimate(
     let mut warnings = feats.warnings.clone();
     let mut fits = Vec::new();
     let mut chosen = None;
-    for (i, m) in [Method::Emg, Method::Lsq, Method::Lb]
-        .into_iter()
-        .enumerate()
-    {
+    for (i, m) in [Method::Emg, Method::Lsq, Method::Lb].into_iter().enumerate() {
         if cancel.load(Ordering::Relaxed) {
             return Err(EstimateError::Cancelled);
         }
@@ -326,31 +312,18 @@ pub fn estimate(
         Ok(ray) => {
             let hyb = fit_damping(&points, ModelKind::Hybrid, Method::Emg).ok();
             let delta = hyb.as_ref().and_then(|h| Some(h.bic? - ray.bic?));
-            let recommended = if delta.is_some_and(|d| d < 0.0) {
-                ModelKind::Hybrid
-            } else {
-                ModelKind::Rayleigh
-            };
-            Some(ModelComparison {
-                rayleigh: ray,
-                hybrid: hyb,
-                recommended,
-                delta_bic: delta,
-            })
+            let recommended = if delta.is_some_and(|d| d < 0.0) { ModelKind::Hybrid } else { ModelKind::Rayleigh };
+            Some(ModelComparison { rayleigh: ray, hybrid: hyb, recommended, delta_bic: delta })
         }
         Err(_) => None,
     };
-    let all: Vec<Feature> = feats
-        .impacts
-        .iter()
-        .flat_map(|i| i.features.iter().copied())
-        .collect();
-    let object = opts
-        .object_lambdas
-        .as_deref()
-        .and_then(|l| object::match_object(&all, l, opts.object_gains.as_deref()));
+    let all: Vec<Feature> = feats.impacts.iter().flat_map(|i| i.features.iter().copied()).collect();
+    let object =
+        opts.object_lambdas.as_deref().and_then(|l| object::match_object(&all, l, opts.object_gains.as_deref()));
     if opts.object_lambdas.is_some() && object.as_ref().is_none_or(|o| o.matched == 0) {
-        warnings.push("the object's modes did not match any recorded feature; check that the right object was chosen".into());
+        warnings.push(
+            "the object's modes did not match any recorded feature; check that the right object was chosen".into(),
+        );
     }
     progress(1.0);
     Ok(EstimateReport {

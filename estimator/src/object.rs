@@ -32,11 +32,7 @@ const TOL: f64 = 0.01;
 
 /// Matches `features` to bank eigenvalues `lambdas0` (rad²/s²); `gains0` are optional
 /// per-mode gains for the amplitude scale. Returns `None` when either list is empty.
-pub fn match_object(
-    features: &[Feature],
-    lambdas0: &[f64],
-    gains0: Option<&[f64]>,
-) -> Option<ObjectMatch> {
+pub fn match_object(features: &[Feature], lambdas0: &[f64], gains0: Option<&[f64]>) -> Option<ObjectMatch> {
     let mut bank: Vec<(f64, usize)> = lambdas0
         .iter()
         .enumerate()
@@ -48,10 +44,7 @@ pub fn match_object(
     }
     bank.sort_by(|a, b| a.0.total_cmp(&b.0));
     // ln ω of each feature (ω² = λ); weight by amplitude.
-    let feats: Vec<(f64, f64)> = features
-        .iter()
-        .map(|f| (0.5 * f.lambda().ln(), f.amplitude))
-        .collect();
+    let feats: Vec<(f64, f64)> = features.iter().map(|f| (0.5 * f.lambda().ln(), f.amplitude)).collect();
     let wsum: f64 = feats.iter().map(|f| f.1).sum::<f64>().max(1e-300);
     let tol = (1.0 + TOL).ln();
     // Nearest bank mode (in ln ω) to `v`.
@@ -127,11 +120,7 @@ pub fn match_object(
         amplitude_scale: if gg > 0.0 { ag / gg } else { 0.0 },
         matched,
         features: feats.len(),
-        rms_cents: if wm > 0.0 {
-            (ss / wm).sqrt() * 1200.0 / std::f64::consts::LN_2
-        } else {
-            0.0
-        },
+        rms_cents: if wm > 0.0 { (ss / wm).sqrt() * 1200.0 / std::f64::consts::LN_2 } else { 0.0 },
     })
 }
 
@@ -154,11 +143,7 @@ mod tests {
                 decay_per_s: 3.0,
                 amplitude: 0.1,
             })
-            .chain([Feature {
-                freq_hz: 777.0,
-                decay_per_s: 50.0,
-                amplitude: 0.05,
-            }])
+            .chain([Feature { freq_hz: 777.0, decay_per_s: 50.0, amplitude: 0.05 }])
             .collect();
         let m = match_object(&feats, &l0, None).unwrap();
         assert!((m.gamma_ratio / r - 1.0).abs() < 0.005, "{m:?}");

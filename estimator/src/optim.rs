@@ -19,23 +19,13 @@ pub struct OptResult {
 
 /// Minimises `f` from `x0`; `f(x, g)` returns the value and writes the gradient into `g`.
 /// Stops when `‖g‖∞ ≤ gtol` or after `max_iter` iterations.
-pub fn bfgs<F: FnMut(&[f64], &mut [f64]) -> f64>(
-    mut f: F,
-    x0: &[f64],
-    max_iter: usize,
-    gtol: f64,
-) -> OptResult {
+pub fn bfgs<F: FnMut(&[f64], &mut [f64]) -> f64>(mut f: F, x0: &[f64], max_iter: usize, gtol: f64) -> OptResult {
     let n = x0.len();
     let mut x = x0.to_vec();
     let mut g = vec![0.0; n];
     let mut fx = f(&x, &mut g);
     if !fx.is_finite() {
-        return OptResult {
-            x,
-            f: fx,
-            iterations: 0,
-            converged: false,
-        };
+        return OptResult { x, f: fx, iterations: 0, converged: false };
     }
     let mut h = vec![0.0; n * n];
     for i in 0..n {
@@ -136,8 +126,7 @@ pub fn bfgs<F: FnMut(&[f64], &mut [f64]) -> f64>(
             let yhy: f64 = y.iter().zip(&hy).map(|(a, b)| a * b).sum();
             for i in 0..n {
                 for j in 0..n {
-                    h[i * n + j] += -rho * (hy[i] * s[j] + s[i] * hy[j])
-                        + (rho * rho * yhy + rho) * s[i] * s[j];
+                    h[i * n + j] += -rho * (hy[i] * s[j] + s[i] * hy[j]) + (rho * rho * yhy + rho) * s[i] * s[j];
                 }
             }
         }
@@ -148,12 +137,7 @@ pub fn bfgs<F: FnMut(&[f64], &mut [f64]) -> f64>(
             break;
         }
     }
-    OptResult {
-        x,
-        f: fx,
-        iterations: it,
-        converged,
-    }
+    OptResult { x, f: fx, iterations: it, converged }
 }
 
 /// Cholesky factorisation in place (lower triangle); false if not positive definite.
@@ -215,12 +199,7 @@ pub fn newton<F: FnMut(&[f64], &mut [f64], &mut [f64]) -> f64>(
     let mut hn = vec![0.0; n * n];
     let mut fx = f(&x, &mut g, &mut h);
     if !fx.is_finite() {
-        return OptResult {
-            x,
-            f: fx,
-            iterations: 0,
-            converged: false,
-        };
+        return OptResult { x, f: fx, iterations: 0, converged: false };
     }
     let mut xn = vec![0.0; n];
     let mut it = 0;
@@ -232,10 +211,7 @@ pub fn newton<F: FnMut(&[f64], &mut [f64], &mut [f64]) -> f64>(
             converged = true;
             break;
         }
-        let scale = (0..n)
-            .map(|i| h[i * n + i].abs())
-            .fold(0.0f64, f64::max)
-            .max(1e-12);
+        let scale = (0..n).map(|i| h[i * n + i].abs()).fold(0.0f64, f64::max).max(1e-12);
         let mut shift = 0.0;
         let mut p = vec![0.0; n];
         for _ in 0..60 {
@@ -248,11 +224,7 @@ pub fn newton<F: FnMut(&[f64], &mut [f64], &mut [f64]) -> f64>(
                 chol_solve(&a, &mut p, n);
                 break;
             }
-            shift = if shift == 0.0 {
-                1e-8 * scale
-            } else {
-                shift * 10.0
-            };
+            shift = if shift == 0.0 { 1e-8 * scale } else { shift * 10.0 };
         }
         let slope: f64 = p.iter().zip(&g).map(|(a, b)| a * b).sum();
         if slope.is_nan() || slope >= 0.0 {
@@ -289,12 +261,7 @@ pub fn newton<F: FnMut(&[f64], &mut [f64], &mut [f64]) -> f64>(
             break;
         }
     }
-    OptResult {
-        x,
-        f: fx,
-        iterations: it,
-        converged,
-    }
+    OptResult { x, f: fx, iterations: it, converged }
 }
 
 #[cfg(test)]
@@ -314,9 +281,6 @@ mod tests {
             500,
             1e-10,
         );
-        assert!(
-            (r.x[0] - 1.0).abs() < 1e-6 && (r.x[1] - 1.0).abs() < 1e-6,
-            "{r:?}"
-        );
+        assert!((r.x[0] - 1.0).abs() < 1e-6 && (r.x[1] - 1.0).abs() < 1e-6, "{r:?}");
     }
 }

@@ -24,14 +24,7 @@ pub struct SegmentOptions {
 
 impl Default for SegmentOptions {
     fn default() -> Self {
-        Self {
-            onset_db: 15.0,
-            rise_db: 6.0,
-            min_snr_db: 20.0,
-            min_impact_s: 0.03,
-            max_impact_s: 6.0,
-            min_gap_s: 0.05,
-        }
+        Self { onset_db: 15.0, rise_db: 6.0, min_snr_db: 20.0, min_impact_s: 0.03, max_impact_s: 6.0, min_gap_s: 0.05 }
     }
 }
 
@@ -61,22 +54,12 @@ pub struct Segmentation {
 pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
     let hop = ((fs * 0.0025).round() as usize).max(8);
     let frame = 2 * hop;
-    let nfr = if x.len() >= frame {
-        (x.len() - frame) / hop + 1
-    } else {
-        0
-    };
+    let nfr = if x.len() >= frame { (x.len() - frame) / hop + 1 } else { 0 };
     if nfr == 0 {
         return Segmentation::default();
     }
     let e: Vec<f64> = (0..nfr)
-        .map(|j| {
-            x[j * hop..j * hop + frame]
-                .iter()
-                .map(|&v| f64::from(v) * f64::from(v))
-                .sum::<f64>()
-                / frame as f64
-        })
+        .map(|j| x[j * hop..j * hop + frame].iter().map(|&v| f64::from(v) * f64::from(v)).sum::<f64>() / frame as f64)
         .collect();
     let mut sorted = e.clone();
     sorted.sort_by(f64::total_cmp);
@@ -101,10 +84,7 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
             let a = j.saturating_sub(1) * hop;
             let b = ((j + 3) * hop + frame).min(x.len());
             let pk = x[a..b].iter().fold(0.0f32, |m, v| m.max(v.abs()));
-            let s = a + x[a..b]
-                .iter()
-                .position(|v| v.abs() >= 0.3 * pk)
-                .unwrap_or(0);
+            let s = a + x[a..b].iter().position(|v| v.abs() >= 0.3 * pk).unwrap_or(0);
             if onsets.last().is_none_or(|&o| s > o) {
                 onsets.push(s);
             }
@@ -113,10 +93,7 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
         }
         j += 1;
     }
-    let mut out = Segmentation {
-        noise_var: noise,
-        ..Default::default()
-    };
+    let mut out = Segmentation { noise_var: noise, ..Default::default() };
     let end_thr = noise * 2.0;
     let max_len = (opts.max_impact_s * fs) as usize;
     for (i, &s) in onsets.iter().enumerate() {
@@ -140,26 +117,16 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
             jf += 1;
         }
         snr = snr.max(e[(s / hop).min(nfr - 1)]);
-        let seg = Segment {
-            start: s,
-            end,
-            snr_db: 10.0 * (snr / noise).log10(),
-        };
+        let seg = Segment { start: s, end, snr_db: 10.0 * (snr / noise).log10() };
         if ((end - s) as f64) < opts.min_impact_s * fs {
             out.skipped.push((
                 seg,
-                format!(
-                    "too short ({:.0} ms); leave more time between taps",
-                    1e3 * (end - s) as f64 / fs
-                ),
+                format!("too short ({:.0} ms); leave more time between taps", 1e3 * (end - s) as f64 / fs),
             ));
         } else if seg.snr_db < opts.min_snr_db {
             out.skipped.push((
                 seg,
-                format!(
-                    "too quiet ({:.0} dB above the noise); tap harder or reduce background noise",
-                    seg.snr_db
-                ),
+                format!("too quiet ({:.0} dB above the noise); tap harder or reduce background noise", seg.snr_db),
             ));
         } else {
             out.impacts.push(seg);

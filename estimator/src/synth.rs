@@ -81,12 +81,8 @@ pub fn add_noise(x: &mut [f64], snr_db: f64, ref_len: usize, rng: &mut Rng) -> f
 
 /// Writes a mono 32-bit float WAV file.
 pub fn write_wav_f32(path: &std::path::Path, x: &[f64], fs: u32) -> Result<(), hound::Error> {
-    let spec = hound::WavSpec {
-        channels: 1,
-        sample_rate: fs,
-        bits_per_sample: 32,
-        sample_format: hound::SampleFormat::Float,
-    };
+    let spec =
+        hound::WavSpec { channels: 1, sample_rate: fs, bits_per_sample: 32, sample_format: hound::SampleFormat::Float };
     let mut w = hound::WavWriter::create(path, spec)?;
     for &v in x {
         w.write_sample(v as f32)?;
@@ -122,9 +118,8 @@ pub fn validate_points(n_sounds: usize, draws: usize, seed: u64) -> [ValidationR
     for _ in 0..draws {
         let a1 = rng.log_uniform(2.0, 30.0);
         let a2 = rng.log_uniform(5e-9, 2e-7);
-        let lambdas: Vec<f64> = (0..40)
-            .map(|_| (std::f64::consts::TAU * rng.log_uniform(150.0, 12_000.0)).powi(2))
-            .collect();
+        let lambdas: Vec<f64> =
+            (0..40).map(|_| (std::f64::consts::TAU * rng.log_uniform(150.0, 12_000.0)).powi(2)).collect();
         let ctrue = |l: f64| a1 + a2 * l;
         let cmean = lambdas.iter().map(|&l| ctrue(l)).sum::<f64>() / lambdas.len() as f64;
         let supports: Vec<f64> = (0..10).map(|_| rng.range(0.05, 0.5)).collect();
@@ -138,19 +133,13 @@ pub fn validate_points(n_sounds: usize, draws: usize, seed: u64) -> [ValidationR
                 }
             }
         }
-        for (mi, m) in [Method::Emg, Method::Lsq, Method::Lb]
-            .into_iter()
-            .enumerate()
-        {
+        for (mi, m) in [Method::Emg, Method::Lsq, Method::Lb].into_iter().enumerate() {
             match fit_damping(&pts, ModelKind::Rayleigh, m) {
                 Ok(f) => {
                     rows[mi].alpha1 += (f.params[0] / a1 - 1.0).abs();
                     rows[mi].alpha2 += (f.params[1] / a2 - 1.0).abs();
-                    rows[mi].curve += pts
-                        .iter()
-                        .map(|&(l, _)| (f.c(l) / ctrue(l) - 1.0).abs())
-                        .sum::<f64>()
-                        / pts.len() as f64;
+                    rows[mi].curve +=
+                        pts.iter().map(|&(l, _)| (f.c(l) / ctrue(l) - 1.0).abs()).sum::<f64>() / pts.len() as f64;
                     counts[mi] += 1;
                 }
                 Err(_) => rows[mi].failures += 1,
@@ -177,11 +166,7 @@ pub fn ren_test(trials: usize, seed: u64, snr_db: Option<f64>) -> (f64, f64, f64
     let n = 44_100;
     let mut rng = Rng::new(seed);
     let cancel = std::sync::atomic::AtomicBool::new(false);
-    let opts = ExtractOptions {
-        min_decay_per_s: 0.0,
-        min_freq_hz: 1.0,
-        ..Default::default()
-    };
+    let opts = ExtractOptions { min_decay_per_s: 0.0, min_freq_hz: 1.0, ..Default::default() };
     let (mut ef, mut ed, mut wf, mut wd, mut missing) = (0.0, 0.0, 0.0f64, 0.0f64, 0);
     for _ in 0..trials {
         let f = rng.log_uniform(20.0, 20_000.0);
@@ -194,10 +179,7 @@ pub fn ren_test(trials: usize, seed: u64, snr_db: Option<f64>) -> (f64, f64, f64
         let xf: Vec<f32> = x.iter().map(|&v| v as f32).collect();
         // PANIC: the flag is never set here.
         let fit = extract_impact(&xf, fs, nv, &opts, &cancel).expect("not cancelled");
-        let best = fit
-            .features
-            .iter()
-            .min_by(|a, b| (a.freq_hz - f).abs().total_cmp(&(b.freq_hz - f).abs()));
+        let best = fit.features.iter().min_by(|a, b| (a.freq_hz - f).abs().total_cmp(&(b.freq_hz - f).abs()));
         match best {
             Some(b) => {
                 let rf = (b.freq_hz / f - 1.0).abs();
@@ -269,10 +251,7 @@ pub fn mixture_stats(snr_db: f64, impacts: usize, seed: u64, fs: f64) -> Mixture
         ntrue += modes.len();
         for m in &modes {
             // The strongest feature within 0.5 % stands for the mode.
-            let near = fit
-                .features
-                .iter()
-                .filter(|f| (f.freq_hz / m.0 - 1.0).abs() < 0.005);
+            let near = fit.features.iter().filter(|f| (f.freq_hz / m.0 - 1.0).abs() < 0.005);
             if let Some(f) = near.max_by(|a, b| a.amplitude.total_cmp(&b.amplitude)) {
                 tp += 1;
                 derr.push((f.decay_per_s / m.1 - 1.0).abs());
@@ -297,16 +276,8 @@ pub fn mixture_stats(snr_db: f64, impacts: usize, seed: u64, fs: f64) -> Mixture
 /// each mode with probability 0.7 (amplitude log-uniform in [0.01, 0.1]) and adds
 /// exponential support damping to c (mean uniform in [1, 6] s⁻¹ per tap); white noise
 /// `snr_db` under the session's mean power. Returns (samples, λ of the modes).
-pub fn render_session(
-    rng: &mut Rng,
-    alpha: (f64, f64),
-    taps: usize,
-    fs: f64,
-    snr_db: f64,
-) -> (Vec<f64>, Vec<f64>) {
-    let lambdas: Vec<f64> = (0..20)
-        .map(|_| (std::f64::consts::TAU * rng.log_uniform(200.0, 8000.0)).powi(2))
-        .collect();
+pub fn render_session(rng: &mut Rng, alpha: (f64, f64), taps: usize, fs: f64, snr_db: f64) -> (Vec<f64>, Vec<f64>) {
+    let lambdas: Vec<f64> = (0..20).map(|_| (std::f64::consts::TAU * rng.log_uniform(200.0, 8000.0)).powi(2)).collect();
     let gap = (0.7 * fs) as usize;
     let lead = (0.2 * fs) as usize;
     let mut x = vec![0.0; lead + taps * gap];
@@ -317,11 +288,7 @@ pub fn render_session(
             if rng.uniform() < 0.7 {
                 let c = alpha.0 + alpha.1 * l + rng.exponential(extra_mean);
                 let d = 0.5 * c;
-                modes.push((
-                    (l - d * d).sqrt() / std::f64::consts::TAU,
-                    d,
-                    rng.log_uniform(0.01, 0.1),
-                ));
+                modes.push(((l - d * d).sqrt() / std::f64::consts::TAU, d, rng.log_uniform(0.01, 0.1)));
             }
         }
         let y = render(&modes, fs, gap);

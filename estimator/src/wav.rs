@@ -52,26 +52,16 @@ impl Recording {
 /// [`EstimateError::NoSuchChannel`], [`EstimateError::Silent`] if it has no samples or only
 /// zeros. Clipping, DC offset, very low level and truncation only add warnings.
 pub fn load_wav(path: &Path, channel: Option<usize>) -> Result<Recording, EstimateError> {
-    let wav_err = |reason: String| EstimateError::Wav {
-        path: path.to_path_buf(),
-        reason,
-    };
+    let wav_err = |reason: String| EstimateError::Wav { path: path.to_path_buf(), reason };
     let reader = hound::WavReader::open(path).map_err(|e| wav_err(e.to_string()))?;
     let spec = reader.spec();
     if !(MIN_RATE..=MAX_RATE).contains(&spec.sample_rate) {
-        return Err(EstimateError::SampleRate {
-            path: path.to_path_buf(),
-            sample_rate: spec.sample_rate,
-        });
+        return Err(EstimateError::SampleRate { path: path.to_path_buf(), sample_rate: spec.sample_rate });
     }
     let channels = usize::from(spec.channels.max(1));
     if let Some(ch) = channel {
         if ch >= channels {
-            return Err(EstimateError::NoSuchChannel {
-                path: path.to_path_buf(),
-                channel: ch,
-                channels,
-            });
+            return Err(EstimateError::NoSuchChannel { path: path.to_path_buf(), channel: ch, channels });
         }
     }
     let max_frames = ((MAX_SECONDS * f64::from(spec.sample_rate)) as usize).min(MAX_SAMPLES);
@@ -130,11 +120,7 @@ pub fn load_wav(path: &Path, channel: Option<usize>) -> Result<Recording, Estima
         }
         hound::SampleFormat::Int => {
             let scale = 1.0 / f64::from(1u32 << (spec.bits_per_sample.clamp(8, 32) - 1)).max(1.0);
-            let scale = if spec.bits_per_sample >= 32 {
-                1.0 / 2_147_483_648.0
-            } else {
-                scale
-            };
+            let scale = if spec.bits_per_sample >= 32 { 1.0 / 2_147_483_648.0 } else { scale };
             let mut r = reader;
             for s in r.samples::<i32>() {
                 match s {
@@ -162,9 +148,7 @@ pub fn load_wav(path: &Path, channel: Option<usize>) -> Result<Recording, Estima
         ));
     }
     if mono.is_empty() || mono.iter().all(|&v| v == 0.0) {
-        return Err(EstimateError::Silent {
-            path: path.to_path_buf(),
-        });
+        return Err(EstimateError::Silent { path: path.to_path_buf() });
     }
     let n = mono.len() as f64;
     let mean = mono.iter().map(|&v| f64::from(v)).sum::<f64>() / n;

@@ -13,33 +13,19 @@ fn thesis_synthetic_validation_small() {
             emg.alpha1, emg.alpha2, emg.curve, lsq.alpha1, lsq.alpha2, lsq.curve, lb.alpha1, lb.alpha2, lb.curve
         );
         assert_eq!(emg.failures + lsq.failures + lb.failures, 0);
-        assert!(
-            emg.curve < 0.6 * lsq.curve,
-            "N={n}: EMG {} vs LSQ {}",
-            emg.curve,
-            lsq.curve
-        );
+        assert!(emg.curve < 0.6 * lsq.curve, "N={n}: EMG {} vs LSQ {}", emg.curve, lsq.curve);
         if n >= 20 {
             assert!(emg.curve <= 0.05, "N={n}: EMG curve error {}", emg.curve);
         }
     }
 }
 
-fn emg_points(
-    seed: u64,
-    n: usize,
-    model: dsp::Damping,
-    sigma: f64,
-    mean_exp: f64,
-) -> Vec<(f64, f64)> {
+fn emg_points(seed: u64, n: usize, model: dsp::Damping, sigma: f64, mean_exp: f64) -> Vec<(f64, f64)> {
     let mut rng = Rng::new(seed);
     (0..n)
         .map(|_| {
             let l = (std::f64::consts::TAU * rng.log_uniform(100.0, 10_000.0)).powi(2);
-            (
-                l,
-                model.c(l) + sigma * rng.normal() + rng.exponential(mean_exp),
-            )
+            (l, model.c(l) + sigma * rng.normal() + rng.exponential(mean_exp))
         })
         .collect()
 }
@@ -47,74 +33,30 @@ fn emg_points(
 #[test]
 fn emg_recovers_each_model() {
     let cases = [
-        (
-            ModelKind::Rayleigh,
-            dsp::Damping::Rayleigh {
-                alpha1: 8.0,
-                alpha2: 5e-8,
-            },
-        ),
-        (
-            ModelKind::Hybrid,
-            dsp::Damping::Hybrid {
-                alpha1: 5.0,
-                alpha2: 2e-3,
-                alpha3: 0.6,
-            },
-        ),
-        (
-            ModelKind::Power,
-            dsp::Damping::Power {
-                alpha1: 1e-2,
-                alpha2: 0.5,
-            },
-        ),
-        (
-            ModelKind::Caughey,
-            dsp::Damping::Caughey {
-                coeffs: [6.0, 4e-8, 1e-17, 0.0],
-                order: 3,
-            },
-        ),
+        (ModelKind::Rayleigh, dsp::Damping::Rayleigh { alpha1: 8.0, alpha2: 5e-8 }),
+        (ModelKind::Hybrid, dsp::Damping::Hybrid { alpha1: 5.0, alpha2: 2e-3, alpha3: 0.6 }),
+        (ModelKind::Power, dsp::Damping::Power { alpha1: 1e-2, alpha2: 0.5 }),
+        (ModelKind::Caughey, dsp::Damping::Caughey { coeffs: [6.0, 4e-8, 1e-17, 0.0], order: 3 }),
     ];
     for (kind, truth) in cases {
         let pts = emg_points(11, 3000, truth, 0.5, 6.0);
         let f = fit_damping(&pts, kind, Method::Emg).unwrap();
-        let err = pts
-            .iter()
-            .map(|&(l, _)| (f.c(l) / truth.c(l) - 1.0).abs())
-            .sum::<f64>()
-            / pts.len() as f64;
+        let err = pts.iter().map(|&(l, _)| (f.c(l) / truth.c(l) - 1.0).abs()).sum::<f64>() / pts.len() as f64;
         eprintln!(
             "{kind:?}: params {:?} sigma {:.3} eta {:?} its {} curve err {:.4} std {:?}",
             f.params, f.sigma, f.eta, f.iterations, err, f.std_errors
         );
         assert!(err < 0.03, "{kind:?}: curve error {err}");
-        assert!(
-            (f.sigma / 0.5 - 1.0).abs() < 0.25,
-            "{kind:?}: sigma {}",
-            f.sigma
-        );
-        assert!(
-            (1.0 / f.eta.unwrap() / 6.0 - 1.0).abs() < 0.15,
-            "{kind:?}: eta {:?}",
-            f.eta
-        );
-        assert!(
-            f.std_errors.iter().all(|s| s.is_some_and(|v| v > 0.0)),
-            "{kind:?}: {:?}",
-            f.std_errors
-        );
+        assert!((f.sigma / 0.5 - 1.0).abs() < 0.25, "{kind:?}: sigma {}", f.sigma);
+        assert!((1.0 / f.eta.unwrap() / 6.0 - 1.0).abs() < 0.15, "{kind:?}: eta {:?}", f.eta);
+        assert!(f.std_errors.iter().all(|s| s.is_some_and(|v| v > 0.0)), "{kind:?}: {:?}", f.std_errors);
         assert!(f.converged, "{kind:?}");
     }
 }
 
 #[test]
 fn lsq_and_lb_on_exact_data() {
-    let truth = dsp::Damping::Rayleigh {
-        alpha1: 3.0,
-        alpha2: 1e-7,
-    };
+    let truth = dsp::Damping::Rayleigh { alpha1: 3.0, alpha2: 1e-7 };
     let pts: Vec<(f64, f64)> = (1..50)
         .map(|i| {
             let l = 1e6 * i as f64 * i as f64;
@@ -135,36 +77,14 @@ fn lsq_and_lb_on_exact_data() {
     assert!(pts.iter().all(|&(l, c)| f.c(l) <= c * (1.0 + 1e-9)));
     for kind in [ModelKind::Power, ModelKind::Hybrid, ModelKind::Caughey] {
         let f = fit_damping(&pts, kind, Method::Lb).unwrap();
-        assert!(
-            pts.iter().all(|&(l, c)| f.c(l) <= c * (1.0 + 1e-6) + 1e-9),
-            "{kind:?} LB above a point"
-        );
+        assert!(pts.iter().all(|&(l, c)| f.c(l) <= c * (1.0 + 1e-6) + 1e-9), "{kind:?} LB above a point");
     }
 }
 
 #[test]
 fn bic_prefers_the_true_model() {
-    let ray = emg_points(
-        21,
-        2000,
-        dsp::Damping::Rayleigh {
-            alpha1: 8.0,
-            alpha2: 5e-8,
-        },
-        0.5,
-        6.0,
-    );
-    let hyb = emg_points(
-        22,
-        2000,
-        dsp::Damping::Hybrid {
-            alpha1: 2.0,
-            alpha2: 1e-3,
-            alpha3: 0.7,
-        },
-        0.5,
-        6.0,
-    );
+    let ray = emg_points(21, 2000, dsp::Damping::Rayleigh { alpha1: 8.0, alpha2: 5e-8 }, 0.5, 6.0);
+    let hyb = emg_points(22, 2000, dsp::Damping::Hybrid { alpha1: 2.0, alpha2: 1e-3, alpha3: 0.7 }, 0.5, 6.0);
     let bic = |p: &[(f64, f64)], k| fit_damping(p, k, Method::Emg).unwrap().bic.unwrap();
     assert!(bic(&hyb, ModelKind::Hybrid) < bic(&hyb, ModelKind::Rayleigh));
     // Nested models: hybrid may tie but must not win by much on Rayleigh data.
@@ -175,10 +95,7 @@ fn bic_prefers_the_true_model() {
 fn fit_errors() {
     assert!(matches!(
         fit_damping(&[(1.0, 1.0); 3], ModelKind::Rayleigh, Method::Emg),
-        Err(EstimateError::TooFewFeatures {
-            found: 3,
-            needed: 4
-        })
+        Err(EstimateError::TooFewFeatures { found: 3, needed: 4 })
     ));
     assert!(matches!(
         fit_damping(&[(1e6, 1.0); 10], ModelKind::Rayleigh, Method::Emg),
@@ -190,22 +107,14 @@ fn fit_errors() {
         fit_damping(&p, ModelKind::Rayleigh, Method::Lsq),
         Err(EstimateError::InvalidPoint { index: 2, .. })
     ));
-    let msg = EstimateError::TooFewFeatures {
-        found: 3,
-        needed: 4,
-    }
-    .to_string();
+    let msg = EstimateError::TooFewFeatures { found: 3, needed: 4 }.to_string();
     assert!(msg.contains("record more taps"), "{msg}");
 }
 
 #[test]
 fn serde_names_are_lowercase() {
-    assert_eq!(
-        serde_json::to_string(&ModelKind::Caughey).unwrap(),
-        "\"caughey\""
-    );
+    assert_eq!(serde_json::to_string(&ModelKind::Caughey).unwrap(), "\"caughey\"");
     assert_eq!(serde_json::to_string(&Method::Lb).unwrap(), "\"lb\"");
-    let o: estimator::Options =
-        serde_json::from_str(r#"{"model":"hybrid","method":"lsq"}"#).unwrap();
+    let o: estimator::Options = serde_json::from_str(r#"{"model":"hybrid","method":"lsq"}"#).unwrap();
     assert_eq!((o.model, o.method), (ModelKind::Hybrid, Method::Lsq));
 }

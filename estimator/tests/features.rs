@@ -12,10 +12,7 @@ fn ren_single_sinusoids() {
     assert!(ef < 0.00040 && ed < 0.0053, "f {ef} d {ed}");
     // With white noise 60 dB under the sinusoid's power.
     let (ef, ed, wf, wd, missing) = ren_test(100, 2014, Some(60.0));
-    eprintln!(
-        "ren 60 dB: mean rel err f {:.2e} d {:.2e}; worst f {wf:.2e} d {wd:.2e}; missing {missing}",
-        ef, ed
-    );
+    eprintln!("ren 60 dB: mean rel err f {:.2e} d {:.2e}; worst f {wf:.2e} d {wd:.2e}; missing {missing}", ef, ed);
     assert_eq!(missing, 0);
     assert!(ef < 0.00040 && ed < 0.0053, "f {ef} d {ed}");
 }
@@ -25,9 +22,6 @@ fn mixtures_40db_and_20db() {
     for (snr, min_p, min_r, max_med) in [(40.0, 0.7, 0.9, 0.02), (20.0, 0.8, 0.8, 0.05)] {
         let s = mixture_stats(snr, 4, 7 + snr as u64, 44_100.0);
         eprintln!("mixture {snr} dB: {s:?}");
-        assert!(
-            s.precision >= min_p && s.recall >= min_r && s.decay_err_median <= max_med,
-            "{snr} dB: {s:?}"
-        );
+        assert!(s.precision >= min_p && s.recall >= min_r && s.decay_err_median <= max_med, "{snr} dB: {s:?}");
     }
 }

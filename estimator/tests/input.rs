@@ -13,12 +13,8 @@ fn tmp(name: &str) -> PathBuf {
 }
 
 fn write_int(path: &Path, bits: u16, channels: u16, fs: u32, frames: &[Vec<f64>]) {
-    let spec = hound::WavSpec {
-        channels,
-        sample_rate: fs,
-        bits_per_sample: bits,
-        sample_format: hound::SampleFormat::Int,
-    };
+    let spec =
+        hound::WavSpec { channels, sample_rate: fs, bits_per_sample: bits, sample_format: hound::SampleFormat::Int };
     let mut w = hound::WavWriter::create(path, spec).unwrap();
     let full = f64::from(1u32 << (bits - 1)) - 1.0;
     for fr in frames {
@@ -37,11 +33,7 @@ fn write_int(path: &Path, bits: u16, channels: u16, fs: u32, frames: &[Vec<f64>]
 #[test]
 fn corrupt_truncated_empty_silent() {
     let p = tmp("corrupt");
-    std::fs::write(
-        &p,
-        b"RIFF\x10\x00\x00\x00garbage bytes that are not a wave file",
-    )
-    .unwrap();
+    std::fs::write(&p, b"RIFF\x10\x00\x00\x00garbage bytes that are not a wave file").unwrap();
     let e = load_wav(&p, None).unwrap_err();
     assert!(matches!(e, EstimateError::Wav { .. }), "{e:?}");
     assert!(e.to_string().contains("export the recording"), "{e}");
@@ -54,60 +46,31 @@ fn corrupt_truncated_empty_silent() {
 
     let p = tmp("empty");
     write_int(&p, 16, 1, 48_000, &[]);
-    assert!(matches!(
-        load_wav(&p, None),
-        Err(EstimateError::Silent { .. })
-    ));
+    assert!(matches!(load_wav(&p, None), Err(EstimateError::Silent { .. })));
 
     let p = tmp("silent");
     write_int(&p, 24, 2, 44_100, &vec![vec![0.0, 0.0]; 48_000]);
     let e = load_wav(&p, None).unwrap_err();
-    assert!(
-        matches!(e, EstimateError::Silent { .. }) && e.to_string().contains("silent"),
-        "{e:?}"
-    );
+    assert!(matches!(e, EstimateError::Silent { .. }) && e.to_string().contains("silent"), "{e:?}");
 
     let p = tmp("rate");
     write_int(&p, 16, 1, 4_000, &vec![vec![0.1]; 100]);
-    assert!(matches!(
-        load_wav(&p, None),
-        Err(EstimateError::SampleRate {
-            sample_rate: 4000,
-            ..
-        })
-    ));
+    assert!(matches!(load_wav(&p, None), Err(EstimateError::SampleRate { sample_rate: 4000, .. })));
 
     let p = tmp("nochan");
     write_int(&p, 16, 2, 48_000, &vec![vec![0.1, 0.2]; 100]);
-    assert!(matches!(
-        load_wav(&p, Some(2)),
-        Err(EstimateError::NoSuchChannel {
-            channel: 2,
-            channels: 2,
-            ..
-        })
-    ));
+    assert!(matches!(load_wav(&p, Some(2)), Err(EstimateError::NoSuchChannel { channel: 2, channels: 2, .. })));
 }
 
 #[test]
 fn data_cut_short_is_a_warning() {
     let p = tmp("cutdata");
     let x = render(&[(440.0, 5.0, 0.5)], 48_000.0, 48_000);
-    write_int(
-        &p,
-        16,
-        1,
-        48_000,
-        &x.iter().map(|&v| vec![v]).collect::<Vec<_>>(),
-    );
+    write_int(&p, 16, 1, 48_000, &x.iter().map(|&v| vec![v]).collect::<Vec<_>>());
     let bytes = std::fs::read(&p).unwrap();
     std::fs::write(&p, &bytes[..bytes.len() / 2 + 1]).unwrap();
     match load_wav(&p, None) {
-        Ok(r) => assert!(
-            r.warnings.iter().any(|w| w.contains("truncated")),
-            "{:?}",
-            r.warnings
-        ),
+        Ok(r) => assert!(r.warnings.iter().any(|w| w.contains("truncated")), "{:?}", r.warnings),
         Err(e) => assert!(matches!(e, EstimateError::Wav { .. }), "{e:?}"),
     }
 }
@@ -118,37 +81,19 @@ fn formats_channels_and_warnings() {
     let x = render(&[(440.0, 5.0, 0.5)], f64::from(fs), 4800);
     for bits in [8u16, 16, 24, 32] {
         let p = tmp(&format!("bits{bits}"));
-        write_int(
-            &p,
-            bits,
-            1,
-            fs,
-            &x.iter().map(|&v| vec![v]).collect::<Vec<_>>(),
-        );
+        write_int(&p, bits, 1, fs, &x.iter().map(|&v| vec![v]).collect::<Vec<_>>());
         let r = load_wav(&p, None).unwrap();
         let tol = if bits == 8 { 2e-2 } else { 1e-4 };
         // The loader removes the DC offset.
         let mean = r.samples.iter().map(|&v| f64::from(v)).sum::<f64>() / r.samples.len() as f64;
         let xm = x.iter().sum::<f64>() / x.len() as f64;
         assert!(mean.abs() < 1e-6);
-        assert!(
-            r.samples
-                .iter()
-                .zip(&x)
-                .all(|(a, b)| (f64::from(*a) - (b - xm)).abs() < tol),
-            "{bits} bit"
-        );
+        assert!(r.samples.iter().zip(&x).all(|(a, b)| (f64::from(*a) - (b - xm)).abs() < tol), "{bits} bit");
         assert_eq!(r.sample_rate, fs);
     }
     // Stereo: channel pick and mono mix.
     let p = tmp("stereo");
-    write_int(
-        &p,
-        16,
-        2,
-        fs,
-        &x.iter().map(|&v| vec![v, 0.0]).collect::<Vec<_>>(),
-    );
+    write_int(&p, 16, 2, fs, &x.iter().map(|&v| vec![v, 0.0]).collect::<Vec<_>>());
     let l = load_wav(&p, Some(0)).unwrap();
     let m = load_wav(&p, None).unwrap();
     let xm = x.iter().sum::<f64>() / x.len() as f64;
@@ -159,36 +104,16 @@ fn formats_channels_and_warnings() {
     let clipped: Vec<f64> = x.iter().map(|v| (v * 4.0).clamp(-1.0, 1.0)).collect();
     write_wav_f32(&p, &clipped, fs).unwrap();
     let r = load_wav(&p, None).unwrap();
-    assert!(
-        r.warnings.iter().any(|w| w.contains("clipping")),
-        "{:?}",
-        r.warnings
-    );
+    assert!(r.warnings.iter().any(|w| w.contains("clipping")), "{:?}", r.warnings);
     let p = tmp("dc");
-    write_wav_f32(
-        &p,
-        &x.iter().map(|v| v * 0.1 + 0.05).collect::<Vec<_>>(),
-        fs,
-    )
-    .unwrap();
+    write_wav_f32(&p, &x.iter().map(|v| v * 0.1 + 0.05).collect::<Vec<_>>(), fs).unwrap();
     let r = load_wav(&p, None).unwrap();
-    assert!(
-        r.warnings.iter().any(|w| w.contains("DC offset")),
-        "{:?}",
-        r.warnings
-    );
-    assert!(
-        r.samples.iter().map(|&v| f64::from(v)).sum::<f64>().abs() / (r.samples.len() as f64)
-            < 1e-4
-    );
+    assert!(r.warnings.iter().any(|w| w.contains("DC offset")), "{:?}", r.warnings);
+    assert!(r.samples.iter().map(|&v| f64::from(v)).sum::<f64>().abs() / (r.samples.len() as f64) < 1e-4);
     let p = tmp("quiet");
     write_wav_f32(&p, &x.iter().map(|v| v * 1e-3).collect::<Vec<_>>(), fs).unwrap();
     let r = load_wav(&p, None).unwrap();
-    assert!(
-        r.warnings.iter().any(|w| w.contains("low level")),
-        "{:?}",
-        r.warnings
-    );
+    assert!(r.warnings.iter().any(|w| w.contains("low level")), "{:?}", r.warnings);
 }
 
 /// A session of `taps` taps on one object (Rayleigh material, random strikes, random
@@ -208,42 +133,17 @@ fn end_to_end_session() {
     let (a1, a2, lambdas) = session(&p, 99, 6, fs);
     let cancel = AtomicBool::new(false);
     let last = std::sync::Mutex::new(0.0f32);
-    let opts = Options {
-        object_lambdas: Some(lambdas.iter().map(|l| l / 1.21).collect()),
-        ..Options::default()
-    };
-    let rep = estimate(
-        std::slice::from_ref(&p),
-        &opts,
-        &|v| *last.lock().unwrap() = v,
-        &cancel,
-    )
-    .unwrap();
-    assert_eq!(
-        rep.files[0].impacts_found, 6,
-        "{:?} {:?}",
-        rep.files, rep.skipped
-    );
+    let opts = Options { object_lambdas: Some(lambdas.iter().map(|l| l / 1.21).collect()), ..Options::default() };
+    let rep = estimate(std::slice::from_ref(&p), &opts, &|v| *last.lock().unwrap() = v, &cancel).unwrap();
+    assert_eq!(rep.files[0].impacts_found, 6, "{:?} {:?}", rep.files, rep.skipped);
     assert_eq!(rep.impacts.len(), 6);
     for (i, imp) in rep.impacts.iter().enumerate() {
-        assert!(
-            (imp.onset_s - (0.2 + 0.7 * i as f64)).abs() < 0.002,
-            "onset {}",
-            imp.onset_s
-        );
+        assert!((imp.onset_s - (0.2 + 0.7 * i as f64)).abs() < 0.002, "onset {}", imp.onset_s);
     }
     let d = rep.damping();
-    let curve = lambdas
-        .iter()
-        .map(|&l| (d.c(l) / (a1 + a2 * l) - 1.0).abs())
-        .sum::<f64>()
-        / lambdas.len() as f64;
+    let curve = lambdas.iter().map(|&l| (d.c(l) / (a1 + a2 * l) - 1.0).abs()).sum::<f64>() / lambdas.len() as f64;
     let lsq = rep.fits.iter().find(|f| f.method == Method::Lsq).unwrap();
-    let lsq_curve = lambdas
-        .iter()
-        .map(|&l| (lsq.c(l) / (a1 + a2 * l) - 1.0).abs())
-        .sum::<f64>()
-        / lambdas.len() as f64;
+    let lsq_curve = lambdas.iter().map(|&l| (lsq.c(l) / (a1 + a2 * l) - 1.0).abs()).sum::<f64>() / lambdas.len() as f64;
     eprintln!(
         "end-to-end: {} points, EMG {:?} curve err {:.3}; LSQ {:?} curve err {:.3}; object {:?}",
         rep.n_points, rep.params, curve, lsq.params, lsq_curve, rep.object
@@ -267,22 +167,12 @@ fn end_to_end_session() {
     );
     let _ = serde_json::to_string(&rep).unwrap();
     // Hybrid/LSQ options are honoured.
-    let o2 = Options {
-        model: ModelKind::Hybrid,
-        method: Method::Lsq,
-        ..Options::default()
-    };
+    let o2 = Options { model: ModelKind::Hybrid, method: Method::Lsq, ..Options::default() };
     let r2 = estimate(std::slice::from_ref(&p), &o2, &|_| {}, &cancel).unwrap();
-    assert_eq!(
-        (r2.model.as_str(), r2.method, r2.params.len()),
-        ("hybrid", Method::Lsq, 3)
-    );
+    assert_eq!((r2.model.as_str(), r2.method, r2.params.len()), ("hybrid", Method::Lsq, 3));
     // Cancellation.
     cancel.store(true, Ordering::Relaxed);
-    assert!(matches!(
-        estimate(&[p], &opts, &|_| {}, &cancel),
-        Err(EstimateError::Cancelled)
-    ));
+    assert!(matches!(estimate(&[p], &opts, &|_| {}, &cancel), Err(EstimateError::Cancelled)));
 }
 
 #[test]
@@ -305,25 +195,14 @@ fn no_impacts_and_send() {
 fn extreme_sample_rates() {
     for fs in [8_000u32, 192_000] {
         let mut rng = Rng::new(u64::from(fs));
-        let (x, _) =
-            estimator::synth::render_session(&mut rng, (5.0, 3e-8), 2, f64::from(fs), 40.0);
+        let (x, _) = estimator::synth::render_session(&mut rng, (5.0, 3e-8), 2, f64::from(fs), 40.0);
         let p = tmp(&format!("rate{fs}"));
         write_wav_f32(&p, &x, fs).unwrap();
         let cancel = AtomicBool::new(false);
-        let rep = extract_features(
-            std::slice::from_ref(&p),
-            &Options::default(),
-            &|_| {},
-            &cancel,
-        )
-        .unwrap();
+        let rep = extract_features(std::slice::from_ref(&p), &Options::default(), &|_| {}, &cancel).unwrap();
         assert_eq!(rep.impacts.len(), 2, "{fs} Hz: {:?}", rep.skipped);
         assert!(rep.impacts.iter().all(|i| i.features.len() >= 5), "{fs} Hz");
-        assert!(rep
-            .impacts
-            .iter()
-            .flat_map(|i| &i.features)
-            .all(|f| f.freq_hz < 0.5 * f64::from(fs)));
+        assert!(rep.impacts.iter().flat_map(|i| &i.features).all(|f| f.freq_hz < 0.5 * f64::from(fs)));
     }
 }
 

@@ -14,7 +14,9 @@ fn sixteen_voices(c: &mut Criterion) {
         set: vec!["quality=120".into(), "hard=1".into()],
         ..SoundOptions::default()
     };
-    let notes: Vec<NoteSpec> = (0..16).map(|i| NoteSpec { key: 30 + i as u8 * 2, velocity: 110, position: Some(i as f32 / 16.0), start_s: 0.0 }).collect();
+    let notes: Vec<NoteSpec> = (0..16)
+        .map(|i| NoteSpec { key: 30 + i as u8 * 2, velocity: 110, position: Some(i as f32 / 16.0), start_s: 0.0 })
+        .collect();
     let mut host = configured_host(&opts, 512).unwrap();
     let events = note_events(&notes, 48_000.0);
     host.render(&events, 512, 512);

@@ -52,16 +52,19 @@ pub const SHAPES: &[(&str, &[&str], &str)] = &[
 /// # Errors
 /// Unknown shape, wrong count or non-positive dimensions.
 pub fn parse_shape(name: &str, dims: &str) -> Result<Shape, String> {
-    let (_, fields, example) = SHAPES
-        .iter()
-        .find(|(n, _, _)| *n == name)
-        .ok_or_else(|| format!("unknown shape '{name}' (known: {})", SHAPES.iter().map(|s| s.0).collect::<Vec<_>>().join(", ")))?;
+    let (_, fields, example) = SHAPES.iter().find(|(n, _, _)| *n == name).ok_or_else(|| {
+        format!("unknown shape '{name}' (known: {})", SHAPES.iter().map(|s| s.0).collect::<Vec<_>>().join(", "))
+    })?;
     let v: Vec<f64> = dims
         .split(',')
         .map(|x| x.trim().parse::<f64>().map_err(|_| format!("--dims: '{x}' is not a number")))
         .collect::<Result<_, _>>()?;
     if v.len() != fields.len() || v.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
-        return Err(format!("--dims for {name} takes {} positive lengths in metres ({}), e.g. {example}", fields.len(), fields.join(",")));
+        return Err(format!(
+            "--dims for {name} takes {} positive lengths in metres ({}), e.g. {example}",
+            fields.len(),
+            fields.join(",")
+        ));
     }
     let shape = match name {
         "bar" => Shape::Bar { length: v[0], width: v[1], thickness: v[2] },
@@ -81,7 +84,11 @@ pub fn parse_shape(name: &str, dims: &str) -> Result<Shape, String> {
 fn kebab(s: &str) -> String {
     let k: String = s.to_lowercase().chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '-' }).collect();
     let k = k.trim_matches('-').to_string();
-    if k.is_empty() { "bank".into() } else { k.chars().take(64).collect() }
+    if k.is_empty() {
+        "bank".into()
+    } else {
+        k.chars().take(64).collect()
+    }
 }
 
 /// A progress line on stderr, redrawn in place.
@@ -112,7 +119,22 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
             Ok(())
         }
         BankCommand::Info { bank, json } => info(&bank, json),
-        BankCommand::Build { shape, dims, mesh, scale, modes, max_freq, young, density, poisson, resolution, points, id, name, out } => {
+        BankCommand::Build {
+            shape,
+            dims,
+            mesh,
+            scale,
+            modes,
+            max_freq,
+            young,
+            density,
+            poisson,
+            resolution,
+            points,
+            id,
+            name,
+            out,
+        } => {
             let material = fem::Material { young, density, poisson };
             material.validate().map_err(|e| e.to_string())?;
             if modes == 0 || modes > presets::MAX_BANK_MODES {
@@ -128,7 +150,9 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
             let id = kebab(id.as_deref().unwrap_or(stem));
             let name = name.unwrap_or_else(|| id.clone());
             let (bank, report) = match (shape, mesh) {
-                (Some(_), None) if scale.is_some() => return Err("--scale applies to --mesh files only; give --dims in metres".into()),
+                (Some(_), None) if scale.is_some() => {
+                    return Err("--scale applies to --mesh files only; give --dims in metres".into())
+                }
                 (Some(s), None) => {
                     let dims = dims.ok_or("--shape needs --dims (see `struck bank shapes`)")?;
                     let shape = parse_shape(&s, &dims)?;
@@ -146,8 +170,11 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
                     for w in &imported.warnings {
                         eprintln!("warning: {w}");
                     }
-                    let source = path.file_name().map_or_else(|| path.display().to_string(), |f| f.to_string_lossy().into_owned());
-                    build_bank_from_import(&id, &name, &source, &imported, &material, &opts, &show).map_err(|e| e.to_string())?
+                    let source = path
+                        .file_name()
+                        .map_or_else(|| path.display().to_string(), |f| f.to_string_lossy().into_owned());
+                    build_bank_from_import(&id, &name, &source, &imported, &material, &opts, &show)
+                        .map_err(|e| e.to_string())?
                 }
                 _ => return Err("give either --shape with --dims, or --mesh".into()),
             };
@@ -184,8 +211,20 @@ fn info(path: &Path, json: bool) -> Result<(), String> {
         outln!("{} ({})", bank.name, bank.id);
         outln!("  {}", bank.description);
         outln!("  provenance: {}", bank.provenance);
-        outln!("  {} modes, {:.2}–{:.0} Hz; {} strike points", bank.num_modes(), f.first().copied().unwrap_or(0.0), f.last().copied().unwrap_or(0.0), bank.num_points());
-        outln!("  reference: γ₀ = {:.4e} m²/s², ν = {}, ρ = {} kg/m³, size {} m", bank.reference.specific_modulus, bank.reference.poisson, bank.reference.density, bank.reference.size_m);
+        outln!(
+            "  {} modes, {:.2}–{:.0} Hz; {} strike points",
+            bank.num_modes(),
+            f.first().copied().unwrap_or(0.0),
+            f.last().copied().unwrap_or(0.0),
+            bank.num_points()
+        );
+        outln!(
+            "  reference: γ₀ = {:.4e} m²/s², ν = {}, ρ = {} kg/m³, size {} m",
+            bank.reference.specific_modulus,
+            bank.reference.poisson,
+            bank.reference.density,
+            bank.reference.size_m
+        );
         let first: Vec<String> = f.iter().take(8).map(|x| format!("{x:.1}")).collect();
         outln!("  lowest modes (Hz): {}", first.join(", "));
     }

@@ -9,7 +9,8 @@ use std::sync::atomic::AtomicBool;
 
 /// Parses a lowercase serde name ("rayleigh", "emg", …) into an estimator enum.
 fn parse_name<T: serde::de::DeserializeOwned>(what: &str, s: &str, known: &str) -> Result<T, String> {
-    serde_json::from_value(serde_json::Value::String(s.to_lowercase())).map_err(|_| format!("unknown {what} '{s}' (known: {known})"))
+    serde_json::from_value(serde_json::Value::String(s.to_lowercase()))
+        .map_err(|_| format!("unknown {what} '{s}' (known: {known})"))
 }
 
 fn progress_printer(label: &'static str) -> impl Fn(f32) {
@@ -36,7 +37,8 @@ pub fn features(files: &[PathBuf], channel: Option<usize>, json: bool) -> Result
     }
     let opts = estimator::Options { channel, ..estimator::Options::default() };
     let cancel = AtomicBool::new(false);
-    let report = estimator::extract_features(files, &opts, &progress_printer("features"), &cancel).map_err(|e| e.to_string())?;
+    let report =
+        estimator::extract_features(files, &opts, &progress_printer("features"), &cancel).map_err(|e| e.to_string())?;
     for w in &report.warnings {
         eprintln!("warning: {w}");
     }
@@ -101,19 +103,23 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
         ..estimator::Options::default()
     };
     let cancel = AtomicBool::new(false);
-    let report = estimator::estimate(&args.files, &opts, &progress_printer("estimate"), &cancel).map_err(|e| e.to_string())?;
+    let report =
+        estimator::estimate(&args.files, &opts, &progress_printer("estimate"), &cancel).map_err(|e| e.to_string())?;
     for w in &report.warnings {
         eprintln!("warning: {w}");
     }
     let damping = report.damping();
     let stem = args.out.file_stem().and_then(|s| s.to_str()).unwrap_or("material");
-    let id: String = stem.to_lowercase().chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '-' }).collect::<String>();
+    let id: String =
+        stem.to_lowercase().chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '-' }).collect::<String>();
     let id = format!("captured-{}", id.trim_matches('-')).chars().take(64).collect::<String>();
     let names: Vec<String> = args.files.iter().map(|f| f.display().to_string()).collect();
     // With a known object the fitted γ/γ₀ gives the material's specific modulus, so
     // "Material sets pitch" plays it at the recording's pitch on that object (Ren §5).
     let specific_modulus = match (bank, &report.object) {
-        (Some(b), Some(m)) if m.gamma_ratio.is_finite() && m.gamma_ratio > 0.0 => Some(m.gamma_ratio * b.reference.specific_modulus),
+        (Some(b), Some(m)) if m.gamma_ratio.is_finite() && m.gamma_ratio > 0.0 => {
+            Some(m.gamma_ratio * b.reference.specific_modulus)
+        }
         _ => None,
     };
     let material = Material {

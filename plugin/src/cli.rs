@@ -71,10 +71,9 @@ fn find(names: &[(&str, &str)], what: &str, query: &str) -> Result<usize, String
         }
     }
     let q = query.to_lowercase();
-    names
-        .iter()
-        .position(|(id, name)| id.to_lowercase() == q || name.to_lowercase() == q)
-        .ok_or_else(|| format!("unknown {what} '{query}' (known: {})", names.iter().map(|(id, _)| *id).collect::<Vec<_>>().join(", ")))
+    names.iter().position(|(id, name)| id.to_lowercase() == q || name.to_lowercase() == q).ok_or_else(|| {
+        format!("unknown {what} '{query}' (known: {})", names.iter().map(|(id, _)| *id).collect::<Vec<_>>().join(", "))
+    })
 }
 
 /// Index of an object given by id, name or index.
@@ -214,7 +213,9 @@ pub struct NoteSpec {
 /// # Errors
 /// A message naming the bad entry and what is expected.
 pub fn parse_notes(text: &str) -> Result<Vec<NoteSpec>, String> {
-    let bad = |entry: &str, why: &str| format!("bad note '{entry}': {why} (expected key:velocity@position+start_seconds, e.g. 60:100@0.25+0.5)");
+    let bad = |entry: &str, why: &str| {
+        format!("bad note '{entry}': {why} (expected key:velocity@position+start_seconds, e.g. 60:100@0.25+0.5)")
+    };
     let mut out = Vec::new();
     for entry in text.split(',').map(str::trim).filter(|e| !e.is_empty()) {
         let (rest, start) = match entry.split_once('+') {
@@ -292,7 +293,13 @@ pub fn note_events(notes: &[NoteSpec], sample_rate: f64) -> Vec<TimedEvent> {
         if let Some(p) = n.position {
             ev.push(TimedEvent {
                 sample,
-                event: NoteEvent::PolyBrightness { timing: 0, voice_id, channel: Channel::Number(0), key: Key::Number(n.key), brightness: p },
+                event: NoteEvent::PolyBrightness {
+                    timing: 0,
+                    voice_id,
+                    channel: Channel::Number(0),
+                    key: Key::Number(n.key),
+                    brightness: p,
+                },
             });
         }
     }
@@ -332,7 +339,9 @@ pub fn render(opts: &RenderOptions) -> Result<String, String> {
     let mut offs: Vec<TimedEvent> = events
         .iter()
         .filter_map(|e| match e.event {
-            NoteEvent::NoteOn { key: Key::Number(k), .. } => Some(TimedEvent { sample: total as u64, event: note_off(k) }),
+            NoteEvent::NoteOn { key: Key::Number(k), .. } => {
+                Some(TimedEvent { sample: total as u64, event: note_off(k) })
+            }
             _ => None,
         })
         .collect();
@@ -341,8 +350,14 @@ pub fn render(opts: &RenderOptions) -> Result<String, String> {
         set_timing(&mut e.event, 0);
     }
     // Check the output is writable before spending time rendering.
-    let spec = hound::WavSpec { channels: 2, sample_rate: opts.sound.sample_rate, bits_per_sample: 32, sample_format: hound::SampleFormat::Float };
-    let mut writer = hound::WavWriter::create(&opts.out, spec).map_err(|e| format!("cannot write {}: {e}", opts.out.display()))?;
+    let spec = hound::WavSpec {
+        channels: 2,
+        sample_rate: opts.sound.sample_rate,
+        bits_per_sample: 32,
+        sample_format: hound::SampleFormat::Float,
+    };
+    let mut writer =
+        hound::WavWriter::create(&opts.out, spec).map_err(|e| format!("cannot write {}: {e}", opts.out.display()))?;
     let (audio, _) = host.render(&events, total, opts.block_size);
     let mut peak = 0.0f32;
     for i in 0..total {
@@ -424,7 +439,14 @@ pub fn print_materials(json: bool) -> Result<(), String> {
     } else {
         for (i, (m, d)) in lib.materials.iter().zip(&lib.dampings).enumerate() {
             let t60 = |f: f64| 6.91 / (0.5 * d.c((2.0 * std::f64::consts::PI * f).powi(2)));
-            outln!("{i:2}  {:28} {:30} T60 {:6.2} s @200 Hz, {:6.3} s @1 kHz, {:6.3} s @5 kHz", m.id, m.name, t60(200.0), t60(1000.0), t60(5000.0));
+            outln!(
+                "{i:2}  {:28} {:30} T60 {:6.2} s @200 Hz, {:6.3} s @1 kHz, {:6.3} s @5 kHz",
+                m.id,
+                m.name,
+                t60(200.0),
+                t60(1000.0),
+                t60(5000.0)
+            );
         }
         outln!("{:2}  custom                       (the damping knobs)", lib.custom_material_index());
     }

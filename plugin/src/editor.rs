@@ -29,7 +29,9 @@ use dsp::engine::NoteId;
 use nice_plug::context::gui::GuiContext;
 use nice_plug::editor::{HostMethods, SpawnedEditor};
 use nice_plug::prelude::*;
-use nice_plug_egui::{create_egui_editor, EguiEditorHandle, EguiEditorState, EguiNiceSettings, NiceEguiApp, RepaintNotifier};
+use nice_plug_egui::{
+    create_egui_editor, EguiEditorHandle, EguiEditorState, EguiNiceSettings, NiceEguiApp, RepaintNotifier,
+};
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 
@@ -248,7 +250,12 @@ impl StruckEditor {
     /// An editor for these parameters and library, talking to the audio thread through `shared`.
     pub fn new(params: Arc<StruckParams>, library: Arc<Library>, shared: Arc<EditorShared>) -> Self {
         let ui = EditorUi::new(params.clone(), library, shared);
-        StruckEditor { params, ui: Arc::new(Mutex::new(ui)), repaint: RepaintNotifier::new(), scale: Arc::new(AtomicF32::new(1.0)) }
+        StruckEditor {
+            params,
+            ui: Arc::new(Mutex::new(ui)),
+            repaint: RepaintNotifier::new(),
+            scale: Arc::new(AtomicF32::new(1.0)),
+        }
     }
 
     fn logical_size(&self) -> [u32; 2] {
@@ -262,7 +269,8 @@ pub fn sanitize_size([w, h]: [u32; 2]) -> [u32; 2] {
 }
 
 fn resize_hint() -> ResizeHint {
-    ResizeHint::resizable().with_min_logical_size(nice_plug::editor::dpi::LogicalSize::new(MIN_SIZE[0] as f32, MIN_SIZE[1] as f32))
+    ResizeHint::resizable()
+        .with_min_logical_size(nice_plug::editor::dpi::LogicalSize::new(MIN_SIZE[0] as f32, MIN_SIZE[1] as f32))
 }
 
 impl Editor for StruckEditor {
@@ -280,7 +288,8 @@ impl Editor for StruckEditor {
         let state = EguiEditorState::from_size(nice_plug::editor::dpi::LogicalSize::new(w as f32, h as f32), 1.0);
         let app = App { ui: self.ui.clone(), params: self.params.clone(), scale: self.scale.clone(), ctx: None };
         let settings = EguiNiceSettings::new().with_tile("Struck").with_resize_hint(resize_hint());
-        let editor = create_egui_editor(state, self.repaint.clone(), settings, app).ok_or("nice-plug-egui could not create the editor")?;
+        let editor = create_egui_editor(state, self.repaint.clone(), settings, app)
+            .ok_or("nice-plug-egui could not create the editor")?;
         editor.spawn(parent, wait_for_parent, fallback_scale_factor, gui_context, host)
     }
 

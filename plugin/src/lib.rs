@@ -118,7 +118,12 @@ impl Struck {
             KeyMode::Pitched => {
                 let semis = if p.key_tuning.value() {
                     // Lowest mode at the key's equal-tempered pitch: λ factor (f_key / f₁)².
-                    let f1 = self.library.banks.get(self.object_index()).and_then(|b| b.lambdas.first()).map_or(1.0, |l| l.sqrt() / (2.0 * std::f64::consts::PI));
+                    let f1 = self
+                        .library
+                        .banks
+                        .get(self.object_index())
+                        .and_then(|b| b.lambdas.first())
+                        .map_or(1.0, |l| l.sqrt() / (2.0 * std::f64::consts::PI));
                     let f_key = 440.0 * 2f64.powf((f64::from(key) - 69.0) / 12.0);
                     12.0 * (f_key / f1).log2()
                 } else {
@@ -155,19 +160,21 @@ impl Struck {
             }
             NoteEvent::NoteOff { voice_id, channel, key, .. } => engine.note_off(note(voice_id, channel, key)),
             NoteEvent::Choke { voice_id, channel, key, .. } => engine.choke(note(voice_id, channel, key)),
-            NoteEvent::PolyPressure { voice_id, channel, key, pressure, .. } => engine.set_pressure(note(voice_id, channel, key), pressure),
+            NoteEvent::PolyPressure { voice_id, channel, key, pressure, .. } => {
+                engine.set_pressure(note(voice_id, channel, key), pressure)
+            }
             // CLAP brightness expression / MPE timbre → strike position of the note.
             NoteEvent::PolyBrightness { voice_id, channel, key, brightness, .. } => {
                 engine.set_note_position(note(voice_id, channel, key), brightness)
             }
-            NoteEvent::MidiChannelPressure { channel, pressure, .. } => {
-                engine.set_channel_pressure(channel, pressure)
-            }
+            NoteEvent::MidiChannelPressure { channel, pressure, .. } => engine.set_channel_pressure(channel, pressure),
             // MPE timbre (CC 74) on a member channel → strike position of that channel's notes.
             NoteEvent::MidiCC { channel, cc: 74, value, .. } => {
                 engine.set_note_position(NoteId { voice_id: None, channel, key: NoteId::ANY }, value)
             }
-            NoteEvent::PolyModulation { voice_id, poly_modulation_id: POSITION_POLY_MOD_ID, normalized_offset, .. } => {
+            NoteEvent::PolyModulation {
+                voice_id, poly_modulation_id: POSITION_POLY_MOD_ID, normalized_offset, ..
+            } => {
                 // The position range is linear 0..1, so the normalised offset is the offset.
                 engine.set_position_offset(voice_id, normalized_offset)
             }
@@ -183,8 +190,11 @@ impl Plugin for Struck {
     const EMAIL: &'static str = "struck@example.invalid";
     const VERSION: &'static str = env!("CARGO_PKG_VERSION");
 
-    const AUDIO_IO_LAYOUTS: &'static [AudioIOLayout] =
-        &[AudioIOLayout { main_input_channels: None, main_output_channels: NonZeroU32::new(2), ..AudioIOLayout::const_default() }];
+    const AUDIO_IO_LAYOUTS: &'static [AudioIOLayout] = &[AudioIOLayout {
+        main_input_channels: None,
+        main_output_channels: NonZeroU32::new(2),
+        ..AudioIOLayout::const_default()
+    }];
     const MIDI_INPUT: MidiConfig = MidiConfig::MidiCCs;
     const SAMPLE_ACCURATE_AUTOMATION: bool = false;
 
@@ -200,7 +210,12 @@ impl Plugin for Struck {
         Some(editor::StruckEditor::new(self.params.clone(), self.library.clone(), self.editor_shared.clone()))
     }
 
-    fn activate(&mut self, _layout: &AudioIOLayout, config: &BufferConfig, context: &mut impl ActivateContext<Self>) -> bool {
+    fn activate(
+        &mut self,
+        _layout: &AudioIOLayout,
+        config: &BufferConfig,
+        context: &mut impl ActivateContext<Self>,
+    ) -> bool {
         self.sample_rate = config.sample_rate;
         self.editor_shared.sample_rate.store(config.sample_rate.to_bits(), std::sync::atomic::Ordering::Relaxed);
         let rebuild = self.engine.as_ref().is_none_or(|e| e.sample_rate() != f64::from(config.sample_rate));
@@ -225,7 +240,12 @@ impl Plugin for Struck {
         }
     }
 
-    fn process(&mut self, buffer: &mut Buffer, _aux: &mut AuxiliaryBuffers, context: &mut impl ProcessContext<Self>) -> ProcessStatus {
+    fn process(
+        &mut self,
+        buffer: &mut Buffer,
+        _aux: &mut AuxiliaryBuffers,
+        context: &mut impl ProcessContext<Self>,
+    ) -> ProcessStatus {
         let _ftz = DenormalGuard::new();
         let total = buffer.samples();
         let outputs = buffer.as_slice();
@@ -319,7 +339,8 @@ impl ClapPlugin for Struck {
     const CLAP_DESCRIPTION: Option<&'static str> = Some("Modal synthesis of struck objects: any object, any material");
     const CLAP_MANUAL_URL: Option<&'static str> = None;
     const CLAP_SUPPORT_URL: Option<&'static str> = None;
-    const CLAP_FEATURES: &'static [ClapFeature] = &[ClapFeature::Instrument, ClapFeature::Synthesizer, ClapFeature::Stereo];
+    const CLAP_FEATURES: &'static [ClapFeature] =
+        &[ClapFeature::Instrument, ClapFeature::Synthesizer, ClapFeature::Stereo];
     const CLAP_POLY_MODULATION_CONFIG: Option<PolyModulationConfig> =
         Some(PolyModulationConfig { max_voice_capacity: MAX_VOICES as u32, supports_overlapping_voices: true });
 }

@@ -47,13 +47,18 @@ impl Library {
         let mut load_errors = Vec::new();
         if let Some(dir) = user_banks {
             if let Ok(entries) = std::fs::read_dir(dir) {
-                let mut files: Vec<PathBuf> = entries.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.extension().is_some_and(|x| x == "json")).collect();
+                let mut files: Vec<PathBuf> = entries
+                    .filter_map(|e| e.ok().map(|e| e.path()))
+                    .filter(|p| p.extension().is_some_and(|x| x == "json"))
+                    .collect();
                 files.sort();
                 for f in files {
                     match Bank::load(&f) {
-                        Ok(b) if banks.iter().any(|x| x.id == b.id) => {
-                            load_errors.push(format!("{}: a bank with id '{}' is already listed; rename its id", f.display(), b.id))
-                        }
+                        Ok(b) if banks.iter().any(|x| x.id == b.id) => load_errors.push(format!(
+                            "{}: a bank with id '{}' is already listed; rename its id",
+                            f.display(),
+                            b.id
+                        )),
                         Ok(b) => banks.push(b),
                         Err(e) => load_errors.push(format!("{}: {e}", f.display())),
                     }
@@ -81,7 +86,12 @@ impl Library {
             Some(i) => banks[i] = bank,
             None => banks.push(bank),
         }
-        Library { banks, materials: self.materials.clone(), dampings: self.dampings.clone(), load_errors: self.load_errors.clone() }
+        Library {
+            banks,
+            materials: self.materials.clone(),
+            dampings: self.dampings.clone(),
+            load_errors: self.load_errors.clone(),
+        }
     }
 
     /// Index of the bank with `id`, if any.

@@ -48,18 +48,27 @@ pub fn read_midi(bytes: &[u8], sample_rate: f64) -> Result<Vec<TimedEvent>, Stri
                         key: Key::Number(key.as_int()),
                         velocity: f32::from(vel.as_int()) / 127.0,
                     }),
-                    midly::MidiMessage::NoteOn { key, .. } | midly::MidiMessage::NoteOff { key, .. } => Some(NoteEvent::NoteOff {
-                        timing: 0,
-                        voice_id: VoiceID::Wildcard,
-                        channel,
-                        key: Key::Number(key.as_int()),
-                        velocity: 0.0,
-                    }),
-                    midly::MidiMessage::ChannelAftertouch { vel } => {
-                        Some(NoteEvent::MidiChannelPressure { timing: 0, channel: ch, pressure: f32::from(vel.as_int()) / 127.0 })
+                    midly::MidiMessage::NoteOn { key, .. } | midly::MidiMessage::NoteOff { key, .. } => {
+                        Some(NoteEvent::NoteOff {
+                            timing: 0,
+                            voice_id: VoiceID::Wildcard,
+                            channel,
+                            key: Key::Number(key.as_int()),
+                            velocity: 0.0,
+                        })
                     }
+                    midly::MidiMessage::ChannelAftertouch { vel } => Some(NoteEvent::MidiChannelPressure {
+                        timing: 0,
+                        channel: ch,
+                        pressure: f32::from(vel.as_int()) / 127.0,
+                    }),
                     midly::MidiMessage::Controller { controller, value } if controller.as_int() == 74 => {
-                        Some(NoteEvent::MidiCC { timing: 0, channel: ch, cc: 74, value: f32::from(value.as_int()) / 127.0 })
+                        Some(NoteEvent::MidiCC {
+                            timing: 0,
+                            channel: ch,
+                            cc: 74,
+                            value: f32::from(value.as_int()) / 127.0,
+                        })
                     }
                     _ => None,
                 };

@@ -41,7 +41,10 @@ impl ProcessContext<Struck> for Context<'_> {
         self.next += 1;
         e
     }
-    fn try_send_event(&mut self, event: NoteEvent<()>) -> Result<(), (NoteEvent<()>, nice_plug::context::process::SendEventError)> {
+    fn try_send_event(
+        &mut self,
+        event: NoteEvent<()>,
+    ) -> Result<(), (NoteEvent<()>, nice_plug::context::process::SendEventError)> {
         if self.sent.len() < self.sent.capacity() {
             self.sent.push(event);
             Ok(())
@@ -132,7 +135,12 @@ impl OfflineHost {
 
     fn activate(&mut self) {
         let layout = Struck::AUDIO_IO_LAYOUTS[0];
-        let config = BufferConfig { sample_rate: self.sample_rate, min_buffer_size: None, max_buffer_size: self.max_block as u32, process_mode: ProcessMode::Offline };
+        let config = BufferConfig {
+            sample_rate: self.sample_rate,
+            min_buffer_size: None,
+            max_buffer_size: self.max_block as u32,
+            process_mode: ProcessMode::Offline,
+        };
         for ptr in self.params.values() {
             // SAFETY: see the Send impl; the pointer targets live parameters.
             unsafe { ptr._internal_update_smoother(self.sample_rate, true) };
@@ -187,7 +195,12 @@ impl OfflineHost {
     /// Renders `num_samples` samples in blocks of `block_size` (the last may be shorter),
     /// applying `events` (sorted by sample) at their exact samples. Returns the stereo output
     /// and the events the plugin sent.
-    pub fn render(&mut self, events: &[TimedEvent], num_samples: usize, block_size: usize) -> ([Vec<f32>; 2], SentEvents) {
+    pub fn render(
+        &mut self,
+        events: &[TimedEvent],
+        num_samples: usize,
+        block_size: usize,
+    ) -> ([Vec<f32>; 2], SentEvents) {
         let block_size = block_size.clamp(1, self.max_block);
         let mut out = [vec![0.0; num_samples], vec![0.0; num_samples]];
         let mut sent_all = Vec::new();
@@ -230,7 +243,12 @@ impl OfflineHost {
             });
         }
         let mut aux = AuxiliaryBuffers { inputs: &mut [], outputs: &mut [] };
-        let mut ctx = Context { events: &self.block_events, next: 0, sent: &mut self.sent, transport: Transport::new(self.sample_rate) };
+        let mut ctx = Context {
+            events: &self.block_events,
+            next: 0,
+            sent: &mut self.sent,
+            transport: Transport::new(self.sample_rate),
+        };
         let plugin = &mut self.plugin;
         let buffer = &mut self.buffer;
         run_guarded(|| {
@@ -276,10 +294,22 @@ pub fn set_timing(e: &mut NoteEvent<()>, t: u32) {
 
 /// A note-on event (timing is set by the host).
 pub fn note_on(key: u8, velocity: f32) -> NoteEvent<()> {
-    NoteEvent::NoteOn { timing: 0, voice_id: nice_plug::midi::VoiceID::Wildcard, channel: nice_plug::midi::Channel::Number(0), key: nice_plug::midi::Key::Number(key), velocity }
+    NoteEvent::NoteOn {
+        timing: 0,
+        voice_id: nice_plug::midi::VoiceID::Wildcard,
+        channel: nice_plug::midi::Channel::Number(0),
+        key: nice_plug::midi::Key::Number(key),
+        velocity,
+    }
 }
 
 /// A note-off event (timing is set by the host).
 pub fn note_off(key: u8) -> NoteEvent<()> {
-    NoteEvent::NoteOff { timing: 0, voice_id: nice_plug::midi::VoiceID::Wildcard, channel: nice_plug::midi::Channel::Number(0), key: nice_plug::midi::Key::Number(key), velocity: 0.0 }
+    NoteEvent::NoteOff {
+        timing: 0,
+        voice_id: nice_plug::midi::VoiceID::Wildcard,
+        channel: nice_plug::midi::Channel::Number(0),
+        key: nice_plug::midi::Key::Number(key),
+        velocity: 0.0,
+    }
 }

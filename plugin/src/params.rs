@@ -162,29 +162,58 @@ impl StruckParams {
         StruckParams {
             object: IntParam::new("Object", 0, IntRange::Linear { min: 0, max: lib.banks.len().max(1) as i32 - 1 })
                 .with_value_to_string(object_name(lib)),
-            material: IntParam::new("Material", default_material, IntRange::Linear { min: 0, max: lib.materials.len() as i32 })
-                .with_value_to_string(material_name(lib)),
+            material: IntParam::new(
+                "Material",
+                default_material,
+                IntRange::Linear { min: 0, max: lib.materials.len() as i32 },
+            )
+            .with_value_to_string(material_name(lib)),
             damping_model: EnumParam::new("Damping model", DampingModelParam::Rayleigh),
-            alpha1_per_s: FloatParam::new("Base damping α₁", 5.0, FloatRange::Skewed { min: 0.0, max: 2000.0, factor: FloatRange::skew_factor(-2.5) })
-                .with_unit(" 1/s")
+            alpha1_per_s: FloatParam::new(
+                "Base damping α₁",
+                5.0,
+                FloatRange::Skewed { min: 0.0, max: 2000.0, factor: FloatRange::skew_factor(-2.5) },
+            )
+            .with_unit(" 1/s")
+            .with_value_to_string(formatters::v2s_f32_rounded(3)),
+            damping_1k_per_s: FloatParam::new(
+                "Damping at 1 kHz",
+                4.0,
+                FloatRange::Skewed { min: 0.0, max: 5000.0, factor: FloatRange::skew_factor(-2.5) },
+            )
+            .with_unit(" 1/s")
+            .with_value_to_string(formatters::v2s_f32_rounded(3)),
+            exponent: FloatParam::new("Exponent", 1.0, FloatRange::Linear { min: 0.05, max: 2.0 })
                 .with_value_to_string(formatters::v2s_f32_rounded(3)),
-            damping_1k_per_s: FloatParam::new("Damping at 1 kHz", 4.0, FloatRange::Skewed { min: 0.0, max: 5000.0, factor: FloatRange::skew_factor(-2.5) })
-                .with_unit(" 1/s")
-                .with_value_to_string(formatters::v2s_f32_rounded(3)),
-            exponent: FloatParam::new("Exponent", 1.0, FloatRange::Linear { min: 0.05, max: 2.0 }).with_value_to_string(formatters::v2s_f32_rounded(3)),
-            caughey_10k_per_s: FloatParam::new("Caughey c at 10 kHz", 0.0, FloatRange::Skewed { min: 0.0, max: 1e5, factor: FloatRange::skew_factor(-2.5) })
-                .with_unit(" 1/s")
-                .with_value_to_string(formatters::v2s_f32_rounded(2)),
-            decay_scale: FloatParam::new("Decay scale", 1.0, FloatRange::Skewed { min: 0.05, max: 20.0, factor: FloatRange::skew_factor(-2.0) })
-                .with_value_to_string(Arc::new(|v| format!("×{v:.3}"))),
-            modulus_ratio: FloatParam::new("Stiffness γ/γ₀", 1.0, FloatRange::Skewed { min: 0.001, max: 1000.0, factor: FloatRange::skew_factor(-2.6) })
-                .with_value_to_string(ratio_with_semitones(true)),
+            caughey_10k_per_s: FloatParam::new(
+                "Caughey c at 10 kHz",
+                0.0,
+                FloatRange::Skewed { min: 0.0, max: 1e5, factor: FloatRange::skew_factor(-2.5) },
+            )
+            .with_unit(" 1/s")
+            .with_value_to_string(formatters::v2s_f32_rounded(2)),
+            decay_scale: FloatParam::new(
+                "Decay scale",
+                1.0,
+                FloatRange::Skewed { min: 0.05, max: 20.0, factor: FloatRange::skew_factor(-2.0) },
+            )
+            .with_value_to_string(Arc::new(|v| format!("×{v:.3}"))),
+            modulus_ratio: FloatParam::new(
+                "Stiffness γ/γ₀",
+                1.0,
+                FloatRange::Skewed { min: 0.001, max: 1000.0, factor: FloatRange::skew_factor(-2.6) },
+            )
+            .with_value_to_string(ratio_with_semitones(true)),
             material_pitch: BoolParam::new("Material sets pitch", false),
             root_note: IntParam::new("Root note", 60, IntRange::Linear { min: 0, max: 127 }),
             key_tuning: BoolParam::new("Keys tune the object", true),
             key_mode: EnumParam::new("Key mode", KeyMode::Pitched),
-            size: FloatParam::new("Size", 1.0, FloatRange::Skewed { min: 0.05, max: 20.0, factor: FloatRange::skew_factor(-2.0) })
-                .with_value_to_string(ratio_with_semitones(false)),
+            size: FloatParam::new(
+                "Size",
+                1.0,
+                FloatRange::Skewed { min: 0.05, max: 20.0, factor: FloatRange::skew_factor(-2.0) },
+            )
+            .with_value_to_string(ratio_with_semitones(false)),
             strike_position: FloatParam::new("Strike position", 0.3, FloatRange::Linear { min: 0.0, max: 1.0 })
                 .with_poly_modulation_id(POSITION_POLY_MOD_ID)
                 .with_value_to_string(formatters::v2s_f32_percentage(1))
@@ -198,16 +227,28 @@ impl StruckParams {
                 .with_value_to_string(formatters::v2s_f32_percentage(0))
                 .with_unit("%")
                 .with_string_to_value(formatters::s2v_f32_percentage()),
-            velocity_sensitivity: FloatParam::new("Velocity sensitivity", 0.7, FloatRange::Linear { min: 0.0, max: 1.0 })
-                .with_value_to_string(formatters::v2s_f32_percentage(0))
-                .with_unit("%")
-                .with_string_to_value(formatters::s2v_f32_percentage()),
-            release_damping_per_s: FloatParam::new("Release damping", 0.0, FloatRange::Skewed { min: 0.0, max: 500.0, factor: FloatRange::skew_factor(-2.0) })
-                .with_unit(" 1/s")
-                .with_value_to_string(formatters::v2s_f32_rounded(2)),
-            pressure_damping_per_s: FloatParam::new("Pressure damping", 40.0, FloatRange::Skewed { min: 0.0, max: 500.0, factor: FloatRange::skew_factor(-2.0) })
-                .with_unit(" 1/s")
-                .with_value_to_string(formatters::v2s_f32_rounded(2)),
+            velocity_sensitivity: FloatParam::new(
+                "Velocity sensitivity",
+                0.7,
+                FloatRange::Linear { min: 0.0, max: 1.0 },
+            )
+            .with_value_to_string(formatters::v2s_f32_percentage(0))
+            .with_unit("%")
+            .with_string_to_value(formatters::s2v_f32_percentage()),
+            release_damping_per_s: FloatParam::new(
+                "Release damping",
+                0.0,
+                FloatRange::Skewed { min: 0.0, max: 500.0, factor: FloatRange::skew_factor(-2.0) },
+            )
+            .with_unit(" 1/s")
+            .with_value_to_string(formatters::v2s_f32_rounded(2)),
+            pressure_damping_per_s: FloatParam::new(
+                "Pressure damping",
+                40.0,
+                FloatRange::Skewed { min: 0.0, max: 500.0, factor: FloatRange::skew_factor(-2.0) },
+            )
+            .with_unit(" 1/s")
+            .with_value_to_string(formatters::v2s_f32_rounded(2)),
             quality_db: FloatParam::new("Quality", 60.0, FloatRange::Linear { min: 12.0, max: 120.0 })
                 .with_unit(" dB")
                 .with_value_to_string(formatters::v2s_f32_rounded(0)),
@@ -229,8 +270,12 @@ impl StruckParams {
     pub fn custom_knobs_for(&self, d: &Damping) -> Result<CustomKnobs, String> {
         let (model, a1, c1k, e, c10k) = match *d {
             Damping::Rayleigh { alpha1, alpha2 } => (DampingModelParam::Rayleigh, alpha1, alpha2 * LAMBDA_1K, 1.0, 0.0),
-            Damping::Hybrid { alpha1, alpha2, alpha3 } => (DampingModelParam::Hybrid, alpha1, alpha2 * LAMBDA_1K.powf(alpha3), alpha3, 0.0),
-            Damping::Power { alpha1, alpha2 } => (DampingModelParam::Power, 0.0, alpha1 * LAMBDA_1K.powf(alpha2), alpha2, 0.0),
+            Damping::Hybrid { alpha1, alpha2, alpha3 } => {
+                (DampingModelParam::Hybrid, alpha1, alpha2 * LAMBDA_1K.powf(alpha3), alpha3, 0.0)
+            }
+            Damping::Power { alpha1, alpha2 } => {
+                (DampingModelParam::Power, 0.0, alpha1 * LAMBDA_1K.powf(alpha2), alpha2, 0.0)
+            }
             Damping::Caughey { coeffs, order } => {
                 if order > 3 && coeffs[3] != 0.0 {
                     return Err("the plugin's Custom material plays Caughey series up to order 3".into());
@@ -264,7 +309,12 @@ impl StruckParams {
         match self.damping_model.value() {
             DampingModelParam::Rayleigh => Damping::Rayleigh { alpha1: a1, alpha2: c1k / LAMBDA_1K },
             DampingModelParam::Caughey => Damping::Caughey {
-                coeffs: [a1, c1k / LAMBDA_1K, f64::from(self.caughey_10k_per_s.value()) / (LAMBDA_10K * LAMBDA_10K), 0.0],
+                coeffs: [
+                    a1,
+                    c1k / LAMBDA_1K,
+                    f64::from(self.caughey_10k_per_s.value()) / (LAMBDA_10K * LAMBDA_10K),
+                    0.0,
+                ],
                 order: 3,
             },
             DampingModelParam::Power => Damping::Power { alpha1: c1k / LAMBDA_1K.powf(e), alpha2: e },

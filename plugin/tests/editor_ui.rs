@@ -88,7 +88,10 @@ fn point_on_screen(h: &Harness<'_, State>, plugin: &Struck, i: usize) -> egui::P
 fn distinct_point(plugin: &Struck, avoid: usize) -> usize {
     let bank = &plugin.library().banks[plugin.struck_params().object.value() as usize];
     let n = bank.points.len();
-    (0..n).rev().find(|&i| i != avoid && bank.points.iter().filter(|p| p.xy == bank.points[i].xy).count() == 1).expect("a distinct strike point")
+    (0..n)
+        .rev()
+        .find(|&i| i != avoid && bank.points.iter().filter(|p| p.xy == bank.points[i].xy).count() == 1)
+        .expect("a distinct strike point")
 }
 
 #[test]
@@ -190,7 +193,11 @@ fn choosing_a_material_from_the_list_sets_the_material_parameter() {
 fn render_taps(name: &str) -> PathBuf {
     let wav = tmp(name);
     let opts = struck::cli::RenderOptions {
-        sound: struck::cli::SoundOptions { object: "circular-plate".into(), material: "steel-sterling-rayleigh".into(), ..Default::default() },
+        sound: struck::cli::SoundOptions {
+            object: "circular-plate".into(),
+            material: "steel-sterling-rayleigh".into(),
+            ..Default::default()
+        },
         notes: Some("48:110@0.1,55:110@0.45+1.5,50:120@0.8+3".into()),
         midi: None,
         seconds: Some(4.5),
@@ -289,7 +296,8 @@ fn save_material_writes_a_loadable_user_preset() {
     h.run_steps(2);
     h.get_by_label("Save material").click();
     h.run_steps(2);
-    let files: Vec<_> = std::fs::read_dir(&dir).expect("user folder").filter_map(Result::ok).map(|e| e.path()).collect();
+    let files: Vec<_> =
+        std::fs::read_dir(&dir).expect("user folder").filter_map(Result::ok).map(|e| e.path()).collect();
     assert_eq!(files.len(), 1, "{files:?}");
     let m = presets::Material::load(&files[0]).expect("a valid material");
     assert!(m.id.starts_with("captured-") && m.provenance.contains("taps-save.wav"), "{m:?}");
@@ -325,7 +333,11 @@ fn ab_plays_the_recording_and_resyntheses_and_a_known_object_gives_gamma() {
     // Two taps of key 48: with "Keys tune the object" the plate's lowest mode sounds at C3.
     let wav = tmp("taps-ab.wav");
     let opts = struck::cli::RenderOptions {
-        sound: struck::cli::SoundOptions { object: "circular-plate".into(), material: "steel-sterling-rayleigh".into(), ..Default::default() },
+        sound: struck::cli::SoundOptions {
+            object: "circular-plate".into(),
+            material: "steel-sterling-rayleigh".into(),
+            ..Default::default()
+        },
         notes: Some("48:110@0.1,48:120@0.8+1.5".into()),
         midi: None,
         seconds: Some(3.5),
@@ -372,7 +384,12 @@ fn ab_plays_the_recording_and_resyntheses_and_a_known_object_gives_gamma() {
     h.run_steps(1);
     h.state_mut().ui.wait_for_ab();
     let a = shared.clips.pop().expect("the recording clip was queued");
-    let file: Vec<f32> = hound::WavReader::open(&wav).expect("wav").into_samples::<f32>().step_by(2).map(|s| s.expect("sample")).collect();
+    let file: Vec<f32> = hound::WavReader::open(&wav)
+        .expect("wav")
+        .into_samples::<f32>()
+        .step_by(2)
+        .map(|s| s.expect("sample"))
+        .collect();
     let start = ((impact.onset_s - struck::editor::ab::PRE_ROLL_S) * 48_000.0) as usize;
     assert!(a.samples().len() > 24_000, "{} samples", a.samples().len());
     // The reader removes the file's DC offset (a constant); otherwise the samples are the file's.
@@ -407,7 +424,8 @@ fn ab_plays_the_recording_and_resyntheses_and_a_known_object_gives_gamma() {
     // The saved material carries γ, so "Material sets pitch" plays it at the recorded pitch.
     h.get_by_label("Save material").click();
     h.run_steps(2);
-    let files: Vec<_> = std::fs::read_dir(&dir).expect("user folder").filter_map(Result::ok).map(|e| e.path()).collect();
+    let files: Vec<_> =
+        std::fs::read_dir(&dir).expect("user folder").filter_map(Result::ok).map(|e| e.path()).collect();
     let saved = presets::Material::load(&files[0]).expect("a valid material");
     assert!((saved.specific_modulus.expect("γ saved") / want - 1.0).abs() < 0.005);
     let _ = std::fs::remove_dir_all(&dir);

@@ -86,10 +86,7 @@ impl Bank {
 
     /// Undamped mode frequencies sqrt(λ)/(2π) in Hz at the reference.
     pub fn frequencies_hz(&self) -> Vec<f64> {
-        self.lambdas
-            .iter()
-            .map(|l| l.sqrt() / (2.0 * std::f64::consts::PI))
-            .collect()
+        self.lambdas.iter().map(|l| l.sqrt() / (2.0 * std::f64::consts::PI)).collect()
     }
 
     /// Eigenvalues in rad²/s² for a material of specific modulus `specific_modulus` (m²/s²)
@@ -111,11 +108,7 @@ impl Bank {
         if n == 0 {
             return;
         }
-        let t = if position.is_finite() {
-            position.clamp(0.0, 1.0)
-        } else {
-            0.0
-        } * (n - 1) as f32;
+        let t = if position.is_finite() { position.clamp(0.0, 1.0) } else { 0.0 } * (n - 1) as f32;
         // `t` is in 0..=n−1, so the floor fits and `i` is a valid index.
         let i = (t.floor() as usize).min(n.saturating_sub(2));
         let frac = if n == 1 { 0.0 } else { t - i as f32 };
@@ -129,11 +122,7 @@ impl Bank {
 
     /// Scales all gains by one factor so that max |gain| = 1 (no-op if all are zero).
     pub fn normalize_gains(&mut self) {
-        let max = self
-            .gains
-            .iter()
-            .flatten()
-            .fold(0.0f32, |m, g| m.max(g.abs()));
+        let max = self.gains.iter().flatten().fold(0.0f32, |m, g| m.max(g.abs()));
         if max > 0.0 && max.is_finite() {
             for g in self.gains.iter_mut().flatten() {
                 *g /= max;
@@ -231,10 +220,7 @@ impl Bank {
 
         let n_points = self.points.len();
         if n_points == 0 {
-            return Err(PresetError::invalid(
-                "points",
-                "the bank has no strike points; add at least one",
-            ));
+            return Err(PresetError::invalid("points", "the bank has no strike points; add at least one"));
         }
         if n_points > MAX_BANK_POINTS {
             return Err(PresetError::invalid(
@@ -243,11 +229,7 @@ impl Bank {
             ));
         }
         for (i, p) in self.points.iter().enumerate() {
-            if !p
-                .xy
-                .iter()
-                .all(|v| v.is_finite() && (0.0..=1.0).contains(v))
-            {
+            if !p.xy.iter().all(|v| v.is_finite() && (0.0..=1.0).contains(v)) {
                 return Err(PresetError::invalid(
                     format!("points[{i}].xy"),
                     format!("drawing coordinates must be in [0, 1], found {:?}", p.xy),
@@ -264,10 +246,7 @@ impl Bank {
         if self.gains.len() != n_points {
             return Err(PresetError::invalid(
                 "gains",
-                format!(
-                    "must have one row per strike point: {n_points} points but {} rows",
-                    self.gains.len()
-                ),
+                format!("must have one row per strike point: {n_points} points but {} rows", self.gains.len()),
             ));
         }
         let mut max = 0.0f32;
@@ -275,18 +254,12 @@ impl Bank {
             if row.len() != n_modes {
                 return Err(PresetError::invalid(
                     format!("gains[{p}]"),
-                    format!(
-                        "must have one gain per mode: {n_modes} modes but {} gains",
-                        row.len()
-                    ),
+                    format!("must have one gain per mode: {n_modes} modes but {} gains", row.len()),
                 ));
             }
             for (m, &g) in row.iter().enumerate() {
                 if !g.is_finite() {
-                    return Err(PresetError::invalid(
-                        format!("gains[{p}][{m}]"),
-                        format!("must be finite, found {g}"),
-                    ));
+                    return Err(PresetError::invalid(format!("gains[{p}][{m}]"), format!("must be finite, found {g}")));
                 }
                 if g.abs() > 1.0 + GAIN_TOLERANCE {
                     return Err(PresetError::invalid(
@@ -298,10 +271,7 @@ impl Bank {
             }
         }
         if max == 0.0 {
-            return Err(PresetError::invalid(
-                "gains",
-                "all gains are zero: the bank would be silent",
-            ));
+            return Err(PresetError::invalid("gains", "all gains are zero: the bank would be silent"));
         }
 
         if !self.mode_labels.is_empty() && self.mode_labels.len() != n_modes {

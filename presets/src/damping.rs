@@ -63,10 +63,7 @@ pub struct DampingSpec {
 impl DampingSpec {
     /// Rayleigh damping c = α1 + α2 λ (α1 in s⁻¹, α2 in s).
     pub fn rayleigh(alpha1: f64, alpha2: f64) -> Self {
-        DampingSpec {
-            model: DampingModel::Rayleigh,
-            params: vec![alpha1, alpha2],
-        }
+        DampingSpec { model: DampingModel::Rayleigh, params: vec![alpha1, alpha2] }
     }
 
     /// Checks the spec and converts it to the engine's [`dsp::Damping`].
@@ -83,10 +80,7 @@ impl DampingSpec {
         let count = |expected: &str| {
             PresetError::invalid(
                 "damping.params",
-                format!(
-                    "the {name} model takes {expected} params, found {}",
-                    p.len()
-                ),
+                format!("the {name} model takes {expected} params, found {}", p.len()),
             )
         };
         for (i, &a) in p.iter().enumerate() {
@@ -101,7 +95,10 @@ impl DampingSpec {
             if p[i] < 0.0 {
                 Err(PresetError::invalid(
                     format!("damping.params[{i}]"),
-                    format!("{what} of the {name} model must be >= 0 (negative damping makes modes grow), found {}", p[i]),
+                    format!(
+                        "{what} of the {name} model must be >= 0 (negative damping makes modes grow), found {}",
+                        p[i]
+                    ),
                 ))
             } else {
                 Ok(())
@@ -113,10 +110,7 @@ impl DampingSpec {
             } else {
                 Err(PresetError::invalid(
                     format!("damping.params[{i}]"),
-                    format!(
-                        "the {name} exponent must be in (0, {MAX_EXPONENT}], found {}",
-                        p[i]
-                    ),
+                    format!("the {name} exponent must be in (0, {MAX_EXPONENT}], found {}", p[i]),
                 ))
             }
         };
@@ -127,23 +121,15 @@ impl DampingSpec {
                 }
                 non_negative(0, "alpha1")?;
                 non_negative(1, "alpha2")?;
-                Damping::Rayleigh {
-                    alpha1: p[0],
-                    alpha2: p[1],
-                }
+                Damping::Rayleigh { alpha1: p[0], alpha2: p[1] }
             }
             DampingModel::Caughey => {
                 if p.is_empty() || p.len() > MAX_CAUGHEY_TERMS {
-                    return Err(count(&format!(
-                        "1 to {MAX_CAUGHEY_TERMS} ([alpha0, alpha1, ...])"
-                    )));
+                    return Err(count(&format!("1 to {MAX_CAUGHEY_TERMS} ([alpha0, alpha1, ...])")));
                 }
                 let mut coeffs = [0.0; MAX_CAUGHEY_TERMS];
                 coeffs[..p.len()].copy_from_slice(p);
-                Damping::Caughey {
-                    coeffs,
-                    order: p.len(),
-                }
+                Damping::Caughey { coeffs, order: p.len() }
             }
             DampingModel::Power => {
                 if p.len() != 2 {
@@ -151,10 +137,7 @@ impl DampingSpec {
                 }
                 non_negative(0, "alpha1")?;
                 exponent(1)?;
-                Damping::Power {
-                    alpha1: p[0],
-                    alpha2: p[1],
-                }
+                Damping::Power { alpha1: p[0], alpha2: p[1] }
             }
             DampingModel::Hybrid => {
                 if p.len() != 3 {
@@ -163,11 +146,7 @@ impl DampingSpec {
                 non_negative(0, "alpha1")?;
                 non_negative(1, "alpha2")?;
                 exponent(2)?;
-                Damping::Hybrid {
-                    alpha1: p[0],
-                    alpha2: p[1],
-                    alpha3: p[2],
-                }
+                Damping::Hybrid { alpha1: p[0], alpha2: p[1], alpha3: p[2] }
             }
         };
         check_audible_range(&damping)?;
@@ -177,26 +156,19 @@ impl DampingSpec {
     /// The spec of an engine damping law (inverse of [`DampingSpec::to_damping`]).
     pub fn from_damping(d: &Damping) -> Self {
         match *d {
-            Damping::Rayleigh { alpha1, alpha2 } => DampingSpec {
-                model: DampingModel::Rayleigh,
-                params: vec![alpha1, alpha2],
-            },
+            Damping::Rayleigh { alpha1, alpha2 } => {
+                DampingSpec { model: DampingModel::Rayleigh, params: vec![alpha1, alpha2] }
+            }
             Damping::Caughey { coeffs, order } => DampingSpec {
                 model: DampingModel::Caughey,
                 params: coeffs[..order.clamp(1, MAX_CAUGHEY_TERMS)].to_vec(),
             },
-            Damping::Power { alpha1, alpha2 } => DampingSpec {
-                model: DampingModel::Power,
-                params: vec![alpha1, alpha2],
-            },
-            Damping::Hybrid {
-                alpha1,
-                alpha2,
-                alpha3,
-            } => DampingSpec {
-                model: DampingModel::Hybrid,
-                params: vec![alpha1, alpha2, alpha3],
-            },
+            Damping::Power { alpha1, alpha2 } => {
+                DampingSpec { model: DampingModel::Power, params: vec![alpha1, alpha2] }
+            }
+            Damping::Hybrid { alpha1, alpha2, alpha3 } => {
+                DampingSpec { model: DampingModel::Hybrid, params: vec![alpha1, alpha2, alpha3] }
+            }
         }
     }
 }
@@ -274,10 +246,7 @@ mod tests {
     use super::*;
 
     fn spec(model: DampingModel, params: &[f64]) -> DampingSpec {
-        DampingSpec {
-            model,
-            params: params.to_vec(),
-        }
+        DampingSpec { model, params: params.to_vec() }
     }
 
     fn invalid_field(r: Result<Damping, PresetError>) -> String {
@@ -304,46 +273,19 @@ mod tests {
 
     #[test]
     fn rejects_bad_params_naming_the_field() {
-        assert_eq!(
-            invalid_field(spec(DampingModel::Rayleigh, &[1.0]).to_damping()),
-            "damping.params"
-        );
-        assert_eq!(
-            invalid_field(spec(DampingModel::Hybrid, &[1.0, 1e-7]).to_damping()),
-            "damping.params"
-        );
-        assert_eq!(
-            invalid_field(spec(DampingModel::Caughey, &[]).to_damping()),
-            "damping.params"
-        );
-        assert_eq!(
-            invalid_field(spec(DampingModel::Caughey, &[1.0; 5]).to_damping()),
-            "damping.params"
-        );
-        assert_eq!(
-            invalid_field(spec(DampingModel::Rayleigh, &[f64::NAN, 1e-7]).to_damping()),
-            "damping.params[0]"
-        );
+        assert_eq!(invalid_field(spec(DampingModel::Rayleigh, &[1.0]).to_damping()), "damping.params");
+        assert_eq!(invalid_field(spec(DampingModel::Hybrid, &[1.0, 1e-7]).to_damping()), "damping.params");
+        assert_eq!(invalid_field(spec(DampingModel::Caughey, &[]).to_damping()), "damping.params");
+        assert_eq!(invalid_field(spec(DampingModel::Caughey, &[1.0; 5]).to_damping()), "damping.params");
+        assert_eq!(invalid_field(spec(DampingModel::Rayleigh, &[f64::NAN, 1e-7]).to_damping()), "damping.params[0]");
         assert_eq!(
             invalid_field(spec(DampingModel::Rayleigh, &[1.0, f64::INFINITY]).to_damping()),
             "damping.params[1]"
         );
-        assert_eq!(
-            invalid_field(spec(DampingModel::Rayleigh, &[-1.0, 1e-7]).to_damping()),
-            "damping.params[0]"
-        );
-        assert_eq!(
-            invalid_field(spec(DampingModel::Power, &[1.0, 0.0]).to_damping()),
-            "damping.params[1]"
-        );
-        assert_eq!(
-            invalid_field(spec(DampingModel::Power, &[1.0, 2.5]).to_damping()),
-            "damping.params[1]"
-        );
-        assert_eq!(
-            invalid_field(spec(DampingModel::Hybrid, &[1.0, 1e-7, -0.5]).to_damping()),
-            "damping.params[2]"
-        );
+        assert_eq!(invalid_field(spec(DampingModel::Rayleigh, &[-1.0, 1e-7]).to_damping()), "damping.params[0]");
+        assert_eq!(invalid_field(spec(DampingModel::Power, &[1.0, 0.0]).to_damping()), "damping.params[1]");
+        assert_eq!(invalid_field(spec(DampingModel::Power, &[1.0, 2.5]).to_damping()), "damping.params[1]");
+        assert_eq!(invalid_field(spec(DampingModel::Hybrid, &[1.0, 1e-7, -0.5]).to_damping()), "damping.params[2]");
     }
 
     #[test]
@@ -354,9 +296,7 @@ mod tests {
         let s = spec(DampingModel::Caughey, &[100.0, -2.2e-7, 1e-16]);
         let d = s.to_damping();
         assert_eq!(invalid_field(d), "damping.params");
-        assert!(spec(DampingModel::Caughey, &[100.0, -1.8e-7, 1e-16])
-            .to_damping()
-            .is_ok());
+        assert!(spec(DampingModel::Caughey, &[100.0, -1.8e-7, 1e-16]).to_damping().is_ok());
     }
 
     #[test]

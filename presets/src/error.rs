@@ -52,10 +52,7 @@ pub enum PresetError {
 impl PresetError {
     /// Shorthand for [`PresetError::Invalid`].
     pub(crate) fn invalid(field: impl Into<String>, reason: impl Into<String>) -> Self {
-        PresetError::Invalid {
-            field: field.into(),
-            reason: reason.into(),
-        }
+        PresetError::Invalid { field: field.into(), reason: reason.into() }
     }
 
     /// A [`PresetError::Json`] from a serde_json error, with the position split out.
@@ -64,11 +61,6 @@ impl PresetError {
         // serde_json appends " at line L column C"; the position has its own fields.
         let suffix = format!(" at line {} column {}", e.line(), e.column());
         let message = full.strip_suffix(&suffix).unwrap_or(&full).to_string();
-        PresetError::Json {
-            what: what.to_string(),
-            line: e.line(),
-            column: e.column(),
-            message,
-        }
+        PresetError::Json { what: what.to_string(), line: e.line(), column: e.column(), message }
     }
 }

@@ -10,8 +10,7 @@ use crate::{PresetError, SCHEMA_VERSION};
 /// Parses `s` as a `T`, checking `schema_version` first so that a file from another
 /// format version reports [`PresetError::SchemaVersion`] rather than a confusing field error.
 pub(crate) fn parse<T: DeserializeOwned>(s: &str, what: &str) -> Result<T, PresetError> {
-    let value: serde_json::Value =
-        serde_json::from_str(s).map_err(|e| PresetError::json(what, &e))?;
+    let value: serde_json::Value = serde_json::from_str(s).map_err(|e| PresetError::json(what, &e))?;
     let Some(object) = value.as_object() else {
         return Err(PresetError::Json {
             what: what.to_string(),
@@ -31,15 +30,9 @@ pub(crate) fn parse<T: DeserializeOwned>(s: &str, what: &str) -> Result<T, Prese
             Some(found) if found == u64::from(SCHEMA_VERSION) => {}
             Some(found) => {
                 let found = u32::try_from(found).map_err(|_| {
-                    PresetError::invalid(
-                        "schema_version",
-                        format!("{found} is not a valid version number"),
-                    )
+                    PresetError::invalid("schema_version", format!("{found} is not a valid version number"))
                 })?;
-                return Err(PresetError::SchemaVersion {
-                    found,
-                    supported: SCHEMA_VERSION,
-                });
+                return Err(PresetError::SchemaVersion { found, supported: SCHEMA_VERSION });
             }
             None => {
                 return Err(PresetError::invalid(
@@ -64,23 +57,14 @@ pub(crate) fn to_pretty<T: Serialize>(value: &T) -> String {
 
 /// Reads a whole file, mapping failure to [`PresetError::Io`] with the path.
 pub(crate) fn read(path: &Path) -> Result<String, PresetError> {
-    std::fs::read_to_string(path).map_err(|source| PresetError::Io {
-        path: path.to_path_buf(),
-        source,
-    })
+    std::fs::read_to_string(path).map_err(|source| PresetError::Io { path: path.to_path_buf(), source })
 }
 
 /// Writes `text` to `path` through a temporary sibling file and a rename, so that a crash
 /// mid-write never leaves a half-written preset behind.
 pub(crate) fn write(path: &Path, text: &str) -> Result<(), PresetError> {
-    let io = |source| PresetError::Io {
-        path: path.to_path_buf(),
-        source,
-    };
-    let mut tmp_name = path
-        .file_name()
-        .map(|n| n.to_os_string())
-        .unwrap_or_default();
+    let io = |source| PresetError::Io { path: path.to_path_buf(), source };
+    let mut tmp_name = path.file_name().map(|n| n.to_os_string()).unwrap_or_default();
     tmp_name.push(".tmp");
     let tmp = path.with_file_name(tmp_name);
     std::fs::write(&tmp, text).map_err(io)?;
@@ -93,10 +77,7 @@ pub(crate) fn write(path: &Path, text: &str) -> Result<(), PresetError> {
 /// Checks that `id` is non-empty kebab-case: `a-z`, `0-9` and single inner hyphens.
 pub(crate) fn check_id(id: &str) -> Result<(), PresetError> {
     let bad = |reason: &str| {
-        PresetError::invalid(
-            "id",
-            format!("{reason} (found {id:?}); use kebab-case like \"glass-ren2013\""),
-        )
+        PresetError::invalid("id", format!("{reason} (found {id:?}); use kebab-case like \"glass-ren2013\""))
     };
     if id.is_empty() {
         return Err(bad("must not be empty"));
@@ -104,13 +85,8 @@ pub(crate) fn check_id(id: &str) -> Result<(), PresetError> {
     if id.len() > 64 {
         return Err(bad("must be at most 64 characters"));
     }
-    if !id
-        .bytes()
-        .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'-')
-    {
-        return Err(bad(
-            "may contain only lowercase letters a-z, digits and '-'",
-        ));
+    if !id.bytes().all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'-') {
+        return Err(bad("may contain only lowercase letters a-z, digits and '-'"));
     }
     if id.starts_with('-') || id.ends_with('-') || id.contains("--") {
         return Err(bad("hyphens must separate words"));
@@ -123,20 +99,14 @@ pub(crate) fn check_version(found: u32) -> Result<(), PresetError> {
     if found == SCHEMA_VERSION {
         Ok(())
     } else {
-        Err(PresetError::SchemaVersion {
-            found,
-            supported: SCHEMA_VERSION,
-        })
+        Err(PresetError::SchemaVersion { found, supported: SCHEMA_VERSION })
     }
 }
 
 /// Checks that `name` is not blank.
 pub(crate) fn check_name(name: &str) -> Result<(), PresetError> {
     if name.trim().is_empty() {
-        Err(PresetError::invalid(
-            "name",
-            "must not be empty; give a display name like \"Glass (Ren 2013)\"",
-        ))
+        Err(PresetError::invalid("name", "must not be empty; give a display name like \"Glass (Ren 2013)\""))
     } else {
         Ok(())
     }

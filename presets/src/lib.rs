@@ -26,13 +26,10 @@ mod json;
 mod material;
 
 pub use bank::{Bank, BankReference, StrikePoint, MAX_BANK_MODES, MAX_BANK_POINTS};
-pub use damping::{
-    DampingModel, DampingSpec, AUDIBLE_LAMBDA_MAX, AUDIBLE_LAMBDA_MIN, MAX_EXPONENT,
-};
+pub use damping::{DampingModel, DampingSpec, AUDIBLE_LAMBDA_MAX, AUDIBLE_LAMBDA_MIN, MAX_EXPONENT};
 pub use error::PresetError;
 pub use factory::{
-    factory_bank, factory_banks, factory_material, factory_materials, FACTORY_BANK_IDS,
-    FACTORY_MATERIAL_IDS,
+    factory_bank, factory_banks, factory_material, factory_materials, FACTORY_BANK_IDS, FACTORY_MATERIAL_IDS,
 };
 pub use material::Material;
 

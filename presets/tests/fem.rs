@@ -58,7 +58,15 @@ fn bar_bending_matches_euler_bernoulli() {
     for k in 0..4 {
         let fe = euler_bernoulli_hz(k);
         let fk = f[bend[k]];
-        println!("bend {}: FEM {:.2} Hz, Euler-Bernoulli {:.2} Hz, err {:+.3} %, ratio {:.4} vs {:.3}", k + 1, fk, fe, 100.0 * (fk / fe - 1.0), fk / f1, ratios[k]);
+        println!(
+            "bend {}: FEM {:.2} Hz, Euler-Bernoulli {:.2} Hz, err {:+.3} %, ratio {:.4} vs {:.3}",
+            k + 1,
+            fk,
+            fe,
+            100.0 * (fk / fe - 1.0),
+            fk / f1,
+            ratios[k]
+        );
         assert!((fk / fe - 1.0).abs() < 0.02, "bend {} off by {:.2} %", k + 1, 100.0 * (fk / fe - 1.0));
         assert!((fk / f1 / ratios[k] - 1.0).abs() < 0.02);
     }
@@ -160,7 +168,10 @@ fn strike_at_a_mode_node_gives_near_zero_gain() {
     let pts = [[0.2242 * l, 0.5 * w, t], [0.5 * l, 0.5 * w, t], [1e-4 * l, 0.5 * w, t], [0.1321 * l, 0.5 * w, t]];
     let g = fem::strike_gains(&mesh, &modes, &pts);
     let (b1, b2) = (bend[0], bend[1]);
-    println!("mode 1: node {:.3e}, end {:.3e}; mode 2: node {:.3e}, end {:.3e}", g[0][b1], g[2][b1], g[1][b2], g[2][b2]);
+    println!(
+        "mode 1: node {:.3e}, end {:.3e}; mode 2: node {:.3e}, end {:.3e}",
+        g[0][b1], g[2][b1], g[1][b2], g[2][b2]
+    );
     assert!(g[0][b1].abs() < 0.01 * g[2][b1].abs());
     assert!(g[1][b2].abs() < 0.01 * g[2][b2].abs());
     assert!(g[3][b2].abs() < 0.01 * g[2][b2].abs());
@@ -208,7 +219,13 @@ fn circular_plate_matches_kirchhoff() {
     let expect = [(0, 5.262), (1, 5.262), (2, 9.069), (3, 12.244), (4, 12.244), (5, 20.513), (6, 20.513)];
     for &(i, l2) in &expect {
         let fk = kirchhoff(l2);
-        println!("mode {i}: FEM {:.1} Hz, Kirchhoff {:.1} Hz, err {:+.2} %, ratio err {:+.2} %", f[i], fk, 100.0 * (f[i] / fk - 1.0), 100.0 * (f[i] / f[0] / (l2 / 5.262) - 1.0));
+        println!(
+            "mode {i}: FEM {:.1} Hz, Kirchhoff {:.1} Hz, err {:+.2} %, ratio err {:+.2} %",
+            f[i],
+            fk,
+            100.0 * (f[i] / fk - 1.0),
+            100.0 * (f[i] / f[0] / (l2 / 5.262) - 1.0)
+        );
         assert!((f[i] / f[0] / (l2 / 5.262) - 1.0).abs() < 0.03);
         assert!((f[i] / fk - 1.0).abs() < 0.03);
     }
@@ -228,8 +245,16 @@ fn other_shapes_mesh_and_solve() {
     for s in &shapes {
         let opts = BuildOptions { max_modes: 10, max_freq_hz: None, resolution: 10, strike_points: 64 };
         let t = std::time::Instant::now();
-        let (bank, r) = fem::build_bank("x", "x", s, &mat, &opts, &quiet).unwrap_or_else(|e| panic!("{}: {e}", s.kind()));
-        println!("{}: {} nodes, {} modes, {:.2} s, f = {:?}", s.kind(), r.nodes, bank.num_modes(), t.elapsed().as_secs_f64(), bank.frequencies_hz().iter().map(|f| f.round()).collect::<Vec<_>>());
+        let (bank, r) =
+            fem::build_bank("x", "x", s, &mat, &opts, &quiet).unwrap_or_else(|e| panic!("{}: {e}", s.kind()));
+        println!(
+            "{}: {} nodes, {} modes, {:.2} s, f = {:?}",
+            s.kind(),
+            r.nodes,
+            bank.num_modes(),
+            t.elapsed().as_secs_f64(),
+            bank.frequencies_hz().iter().map(|f| f.round()).collect::<Vec<_>>()
+        );
         bank.validate().unwrap();
     }
 }
@@ -256,12 +281,20 @@ fn gmsh_two_cubes_and_disconnected_mesh() {
         let t = [[0, 1, 3, 4], [1, 2, 3, 6], [1, 4, 5, 6], [3, 4, 6, 7], [1, 3, 4, 6]];
         let mut e = String::new();
         for (i, tt) in t.iter().enumerate() {
-            e += &format!("{} 4 2 0 1 {} {} {} {}\n", id0 + i + 1, tt[0] + id0 + 1, tt[1] + id0 + 1, tt[2] + id0 + 1, tt[3] + id0 + 1);
+            e += &format!(
+                "{} 4 2 0 1 {} {} {} {}\n",
+                id0 + i + 1,
+                tt[0] + id0 + 1,
+                tt[1] + id0 + 1,
+                tt[2] + id0 + 1,
+                tt[3] + id0 + 1
+            );
         }
         (n, e)
     };
     let (n1, e1) = cube(0.0, 0);
-    let text = format!("$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n8\n{n1}$EndNodes\n$Elements\n5\n{e1}$EndElements\n");
+    let text =
+        format!("$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n8\n{n1}$EndNodes\n$Elements\n5\n{e1}$EndElements\n");
     let mesh = fem::read_gmsh(&text).unwrap();
     assert_eq!(mesh.tets.len(), 5);
     assert!((mesh.volume() - 1e-3).abs() < 1e-12);
@@ -270,7 +303,9 @@ fn gmsh_two_cubes_and_disconnected_mesh() {
     assert_eq!(modes.rigid_lambdas.len(), 6);
     // Two separate cubes: twelve zero eigenvalues (more than six), which must be reported.
     let (n2, e2) = cube(0.5, 8);
-    let text = format!("$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n16\n{n1}{n2}$EndNodes\n$Elements\n10\n{e1}{e2}$EndElements\n");
+    let text = format!(
+        "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n16\n{n1}{n2}$EndNodes\n$Elements\n10\n{e1}{e2}$EndElements\n"
+    );
     let mesh = fem::read_gmsh(&text).unwrap();
     let r = fem::analyse(&mesh, &Material::STEEL, &opts, &quiet);
     assert!(matches!(r, Err(fem::FemError::RigidModes { found, .. }) if found > 6), "{r:?}");
@@ -278,7 +313,16 @@ fn gmsh_two_cubes_and_disconnected_mesh() {
 
 /// Eigen options as `fem::analyse` uses them, with a small slice to force several shifts.
 fn sliced_options(nev: usize, sigma: f64) -> fem::eigen::EigenOptions {
-    fem::eigen::EigenOptions { nev, lambda_max: None, sigma, block: 8, tol: 1e-8, max_basis: 320, slice: 16, max_factor_bytes: fem::eigen::MAX_FACTOR_BYTES }
+    fem::eigen::EigenOptions {
+        nev,
+        lambda_max: None,
+        sigma,
+        block: 8,
+        tol: 1e-8,
+        max_basis: 320,
+        slice: 16,
+        max_factor_bytes: fem::eigen::MAX_FACTOR_BYTES,
+    }
 }
 
 #[test]
@@ -330,7 +374,14 @@ fn chunky_block_converges_all_requested_modes() {
     let sigma = -1e-2 * Material::STEEL.specific_modulus() / (0.2f64.powi(2) + 0.08f64.powi(2) + 0.05f64.powi(2));
     let r = fem::eigen::solve_sliced(&sys, &sliced_options(86, sigma), &quiet).unwrap();
     let p = fem::eigen::last_profile();
-    println!("{} DOFs, {} shifts, {} runs, {} steps, RQ err {:.1e}", sys.n, p.shifts.len(), p.runs, p.steps, p.max_rayleigh_error);
+    println!(
+        "{} DOFs, {} shifts, {} runs, {} steps, RQ err {:.1e}",
+        sys.n,
+        p.shifts.len(),
+        p.runs,
+        p.steps,
+        p.max_rayleigh_error
+    );
     assert_eq!(r.lambdas.len(), 86);
     assert!(r.lambdas.windows(2).all(|w| w[0] <= w[1]));
     assert!(p.shifts.len() >= 3);

@@ -2,10 +2,7 @@
 
 use std::path::PathBuf;
 
-use presets::{
-    factory_bank, factory_material, Bank, DampingModel, DampingSpec, Material, PresetError,
-    SCHEMA_VERSION,
-};
+use presets::{factory_bank, factory_material, Bank, DampingModel, DampingSpec, Material, PresetError, SCHEMA_VERSION};
 
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("struck-presets-test-{}", std::process::id()));
@@ -46,10 +43,7 @@ fn bank_and_material_round_trip() {
     assert_eq!(Material::from_json(&m.to_json()).unwrap(), m);
     let mut odd = factory_material("glass-ren2013").unwrap();
     odd.specific_modulus = Some(2.8e7 + 1.0 / 3.0);
-    odd.damping = DampingSpec {
-        model: DampingModel::Caughey,
-        params: vec![0.1 + 0.2, 1e-7 / 3.0, 1e-17, 1e-25],
-    };
+    odd.damping = DampingSpec { model: DampingModel::Caughey, params: vec![0.1 + 0.2, 1e-7 / 3.0, 1e-17, 1e-25] };
     assert_eq!(Material::from_json(&odd.to_json()).unwrap(), odd);
 }
 
@@ -74,10 +68,7 @@ fn save_and_load_files() {
 #[test]
 fn missing_file_is_an_io_error_naming_the_path() {
     let path = scratch("does-not-exist/nowhere.json");
-    for err in [
-        Material::load(&path).unwrap_err(),
-        Bank::load(&path).unwrap_err(),
-    ] {
+    for err in [Material::load(&path).unwrap_err(), Bank::load(&path).unwrap_err()] {
         match &err {
             PresetError::Io { path: p, source } => {
                 assert_eq!(p, &path);
@@ -94,9 +85,7 @@ fn broken_json_is_a_json_error_with_position() {
     let m = factory_material("glass-ren2013").unwrap().to_json();
     let truncated = &m[..m.len() / 2];
     match Material::from_json(truncated) {
-        Err(PresetError::Json {
-            line, column, what, ..
-        }) => {
+        Err(PresetError::Json { line, column, what, .. }) => {
             assert!(line > 1 && column > 0);
             assert_eq!(what, "material");
         }
@@ -104,21 +93,12 @@ fn broken_json_is_a_json_error_with_position() {
     }
     // Wrong type for a field.
     let wrong = m.replace("\"rayleigh\"", "42");
-    assert!(matches!(
-        Material::from_json(&wrong),
-        Err(PresetError::Json { .. })
-    ));
+    assert!(matches!(Material::from_json(&wrong), Err(PresetError::Json { .. })));
     // Unknown model name.
     let unknown = m.replace("\"rayleigh\"", "\"viscous\"");
-    assert!(matches!(
-        Material::from_json(&unknown),
-        Err(PresetError::Json { .. })
-    ));
+    assert!(matches!(Material::from_json(&unknown), Err(PresetError::Json { .. })));
     // Not an object.
-    assert!(matches!(
-        Bank::from_json("[1, 2]"),
-        Err(PresetError::Json { .. })
-    ));
+    assert!(matches!(Bank::from_json("[1, 2]"), Err(PresetError::Json { .. })));
     // Loading a broken file names the file.
     let path = scratch("broken.json");
     std::fs::write(&path, truncated).unwrap();
@@ -131,9 +111,7 @@ fn broken_json_is_a_json_error_with_position() {
 #[test]
 fn wrong_schema_version_is_reported_as_such() {
     let m = factory_material("glass-ren2013").unwrap();
-    let future = m
-        .to_json()
-        .replace("\"schema_version\": 1", "\"schema_version\": 2");
+    let future = m.to_json().replace("\"schema_version\": 1", "\"schema_version\": 2");
     match Material::from_json(&future) {
         Err(PresetError::SchemaVersion { found, supported }) => {
             assert_eq!((found, supported), (2, SCHEMA_VERSION))
@@ -142,19 +120,10 @@ fn wrong_schema_version_is_reported_as_such() {
     }
     let mut b = small_bank();
     b.schema_version = 7;
-    assert!(matches!(
-        b.validate(),
-        Err(PresetError::SchemaVersion { found: 7, .. })
-    ));
-    assert!(matches!(
-        Bank::from_json(&b.to_json()),
-        Err(PresetError::SchemaVersion { found: 7, .. })
-    ));
+    assert!(matches!(b.validate(), Err(PresetError::SchemaVersion { found: 7, .. })));
+    assert!(matches!(Bank::from_json(&b.to_json()), Err(PresetError::SchemaVersion { found: 7, .. })));
     let missing = m.to_json().replace("\"schema_version\": 1,", "");
-    assert_eq!(
-        invalid_field(Material::from_json(&missing)),
-        "schema_version"
-    );
+    assert_eq!(invalid_field(Material::from_json(&missing)), "schema_version");
 }
 
 #[test]
@@ -166,10 +135,7 @@ fn invalid_materials_name_the_field() {
         assert_eq!(invalid_field(m.validate()), field);
         // Also through JSON (NaN is written as null, which is a JSON type error instead).
         if let Err(e) = Material::from_json(&m.to_json()) {
-            assert!(matches!(
-                e,
-                PresetError::Invalid { .. } | PresetError::Json { .. }
-            ));
+            assert!(matches!(e, PresetError::Invalid { .. } | PresetError::Json { .. }));
         } else {
             panic!("{field}: invalid material parsed");
         }
@@ -180,41 +146,14 @@ fn invalid_materials_name_the_field() {
     check(&|m| m.specific_modulus = Some(-1.0), "specific_modulus");
     check(&|m| m.specific_modulus = Some(0.0), "specific_modulus");
     check(&|m| m.damping.params = vec![1.0], "damping.params");
+    check(&|m| m.damping.params = vec![-1.0, 1e-7], "damping.params[0]");
+    check(&|m| m.damping.params = vec![1.0, f64::NAN], "damping.params[1]");
+    check(&|m| m.damping = DampingSpec { model: DampingModel::Power, params: vec![1.0, 3.0] }, "damping.params[1]");
     check(
-        &|m| m.damping.params = vec![-1.0, 1e-7],
-        "damping.params[0]",
-    );
-    check(
-        &|m| m.damping.params = vec![1.0, f64::NAN],
-        "damping.params[1]",
-    );
-    check(
-        &|m| {
-            m.damping = DampingSpec {
-                model: DampingModel::Power,
-                params: vec![1.0, 3.0],
-            }
-        },
-        "damping.params[1]",
-    );
-    check(
-        &|m| {
-            m.damping = DampingSpec {
-                model: DampingModel::Hybrid,
-                params: vec![1.0, 1e-7, 0.0],
-            }
-        },
+        &|m| m.damping = DampingSpec { model: DampingModel::Hybrid, params: vec![1.0, 1e-7, 0.0] },
         "damping.params[2]",
     );
-    check(
-        &|m| {
-            m.damping = DampingSpec {
-                model: DampingModel::Caughey,
-                params: vec![-5.0, 1e-7],
-            }
-        },
-        "damping.params",
-    );
+    check(&|m| m.damping = DampingSpec { model: DampingModel::Caughey, params: vec![-5.0, 1e-7] }, "damping.params");
 }
 
 #[test]
@@ -238,19 +177,10 @@ fn invalid_banks_name_the_field() {
     check(&|b| b.gains[1].push(0.5), "gains[1]");
     check(&|b| b.gains[0][1] = f32::NAN, "gains[0][1]");
     check(&|b| b.gains[1][2] = 1.5, "gains[1][2]");
-    check(
-        &|b| b.gains.iter_mut().flatten().for_each(|g| *g = 0.0),
-        "gains",
-    );
-    check(
-        &|b| b.mode_labels.pop().map(drop).unwrap_or(()),
-        "mode_labels",
-    );
+    check(&|b| b.gains.iter_mut().flatten().for_each(|g| *g = 0.0), "gains");
+    check(&|b| b.mode_labels.pop().map(drop).unwrap_or(()), "mode_labels");
     check(&|b| b.points[0].xy = [1.5, 0.0], "points[0].xy");
-    check(
-        &|b| b.reference.specific_modulus = 0.0,
-        "reference.specific_modulus",
-    );
+    check(&|b| b.reference.specific_modulus = 0.0, "reference.specific_modulus");
     check(&|b| b.reference.poisson = 0.7, "reference.poisson");
     check(&|b| b.reference.size_m = f64::NAN, "reference.size_m");
     // Empty mode labels are allowed.

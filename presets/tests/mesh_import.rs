@@ -382,7 +382,8 @@ fn orientation_is_repaired_and_cavities_point_inward() {
     let want = outer.signed_volume() - inner.signed_volume();
     assert!((rep.volume / want - 1.0).abs() < 1e-9, "{} vs {want}", rep.volume);
     // The voxeliser leaves the cavity empty: volume within a few % at resolution 20.
-    let imp = import_surface(s, "test", &ImportOptions { resolution: Some(20), ..ImportOptions::default() }, &quiet).unwrap();
+    let imp =
+        import_surface(s, "test", &ImportOptions { resolution: Some(20), ..ImportOptions::default() }, &quiet).unwrap();
     let v = imp.mesh.volume();
     println!("hollow sphere: mesh {v:.4e} m^3, surface {want:.4e} m^3; {}", imp.summary);
     assert!((v / want - 1.0).abs() < 0.05, "voxel volume {v} vs {want}");
@@ -436,7 +437,8 @@ fn voxelised_box_bar_matches_the_built_in_bar() {
     let path = dir.join("bar.OBJ");
     // In millimetres, read with scale 0.001.
     std::fs::write(&path, box_obj(1000.0 * l, 1000.0 * w, 1000.0 * t)).unwrap();
-    let imp = import_mesh_file(&path, &ImportOptions { scale: 1e-3, resolution: Some(30), snap: true }, &quiet).unwrap();
+    let imp =
+        import_mesh_file(&path, &ImportOptions { scale: 1e-3, resolution: Some(30), snap: true }, &quiet).unwrap();
     let _ = std::fs::remove_dir_all(&dir);
     assert!((imp.mesh.volume() / (l * w * t) - 1.0).abs() < 1e-9);
     let direct = fem::mesh_shape(&Shape::Bar { length: l, width: w, thickness: t }, 30).unwrap();
@@ -449,7 +451,13 @@ fn voxelised_box_bar_matches_the_built_in_bar() {
     for k in 0..n {
         let abs = fv[k] / fd[k] - 1.0;
         let ratio = (fv[k] / fv[0]) / (fd[k] / fd[0]) - 1.0;
-        println!("mode {k}: {:.1} vs {:.1} Hz ({:+.2} %), ratio to f1 {:+.2} %", fv[k], fd[k], 100.0 * abs, 100.0 * ratio);
+        println!(
+            "mode {k}: {:.1} vs {:.1} Hz ({:+.2} %), ratio to f1 {:+.2} %",
+            fv[k],
+            fd[k],
+            100.0 * abs,
+            100.0 * ratio
+        );
         assert!(abs.abs() < 0.03, "mode {k}: {} vs {} Hz", fv[k], fd[k]);
         assert!(ratio.abs() < 0.02, "mode {k} ratio off by {ratio}");
     }
@@ -461,10 +469,12 @@ fn voxelised_cylinder_bends_like_a_beam() {
     let (len, r) = (0.3, 0.015);
     let surf = obj(&cylinder_obj(len, r, 48));
     let res = 40;
-    let imp = import_surface(surf, "OBJ", &ImportOptions { resolution: Some(res), ..ImportOptions::default() }, &quiet).unwrap();
+    let imp = import_surface(surf, "OBJ", &ImportOptions { resolution: Some(res), ..ImportOptions::default() }, &quiet)
+        .unwrap();
     println!("{}; warnings {:?}", imp.summary, imp.warnings);
     let opts = BuildOptions { max_modes: 6, resolution: res, ..BuildOptions::default() };
-    let (bank, report) = build_bank_from_import("cyl", "Cylinder", "cylinder.obj", &imp, &Material::STEEL, &opts, &quiet).unwrap();
+    let (bank, report) =
+        build_bank_from_import("cyl", "Cylinder", "cylinder.obj", &imp, &Material::STEEL, &opts, &quiet).unwrap();
     println!(
         "cylinder: {} vertices, {} tets, {} dofs, {:.2} s; f = {:?} Hz",
         report.vertices,
@@ -485,7 +495,12 @@ fn voxelised_cylinder_bends_like_a_beam() {
     let f = bank.frequencies_hz();
     let err_eb = f[0] / f_eb - 1.0;
     let err = f[0] / f_timo - 1.0;
-    println!("f1 = {:.1} Hz: Euler-Bernoulli {f_eb:.1} Hz ({:+.2} %), Timoshenko {f_timo:.1} Hz ({:+.2} %)", f[0], 100.0 * err_eb, 100.0 * err);
+    println!(
+        "f1 = {:.1} Hz: Euler-Bernoulli {f_eb:.1} Hz ({:+.2} %), Timoshenko {f_timo:.1} Hz ({:+.2} %)",
+        f[0],
+        100.0 * err_eb,
+        100.0 * err
+    );
     // Tolerance: the section is 4 voxels across, its boundary snapped onto the 48-gon but
     // partly left as a staircase (volume −3 %), which changes I/A by a few per cent.
     assert!(err.abs() < 0.03, "f1 {:.1} Hz vs Timoshenko {f_timo:.1} Hz", f[0]);
@@ -505,5 +520,9 @@ fn automatic_resolution_fits_the_vertex_budget() {
     assert!((60..=100).contains(&rc) && (15..=24).contains(&rs), "{rc} {rs}");
     let imp = import_surface(ball, "t", &ImportOptions::default(), &quiet).unwrap();
     println!("{}", imp.summary);
-    assert!(imp.mesh.corners <= 2 * DEFAULT_VERTEX_BUDGET && imp.mesh.corners >= DEFAULT_VERTEX_BUDGET / 2, "{}", imp.mesh.corners);
+    assert!(
+        imp.mesh.corners <= 2 * DEFAULT_VERTEX_BUDGET && imp.mesh.corners >= DEFAULT_VERTEX_BUDGET / 2,
+        "{}",
+        imp.mesh.corners
+    );
 }

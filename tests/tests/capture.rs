@@ -13,7 +13,11 @@ fn tmp(name: &str) -> PathBuf {
 fn estimator_recovers_the_material_the_plugin_played() {
     let wav = tmp("taps.wav");
     let opts = RenderOptions {
-        sound: SoundOptions { object: "circular-plate".into(), material: "steel-sterling-rayleigh".into(), ..SoundOptions::default() },
+        sound: SoundOptions {
+            object: "circular-plate".into(),
+            material: "steel-sterling-rayleigh".into(),
+            ..SoundOptions::default()
+        },
         // Taps far enough apart to decay into silence, at different strike points and keys.
         notes: Some("48:110@0.1,55:110@0.45+2.5,50:120@0.8+5".into()),
         midi: None,

@@ -101,7 +101,11 @@ fn plugin_binary() -> PathBuf {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("workspace root");
     // `cargo test` builds the plugin (cdylib included) into deps/ as this crate's dependency;
     // only a direct `cargo build -p struck` updates the uplifted copy.
-    let candidates = [root.join("target/debug/deps/libstruck.so"), root.join("target/debug/libstruck.so"), root.join("target/bundled/Struck.clap")];
+    let candidates = [
+        root.join("target/debug/deps/libstruck.so"),
+        root.join("target/debug/libstruck.so"),
+        root.join("target/bundled/Struck.clap"),
+    ];
     candidates.iter().find(|p| p.exists()).cloned().unwrap_or_else(|| {
         panic!(
             "no Struck CLAP binary found (looked for $STRUCK_CLAP, {}): \
@@ -120,21 +124,33 @@ fn load_entry() -> PluginEntry {
     let factory = entry.get_plugin_factory().expect("the entry has no plugin factory");
     let ids: Vec<String> =
         factory.plugin_descriptors().filter_map(|d| d.id()).map(|id| id.to_string_lossy().into_owned()).collect();
-    assert!(ids.iter().any(|id| id.as_bytes() == PLUGIN_ID.to_bytes()), "plugin factory lists {ids:?}, not {PLUGIN_ID:?}");
+    assert!(
+        ids.iter().any(|id| id.as_bytes() == PLUGIN_ID.to_bytes()),
+        "plugin factory lists {ids:?}, not {PLUGIN_ID:?}"
+    );
     entry
 }
 
 fn instantiate(entry: &PluginEntry) -> PluginInstance<TestHost> {
     let info = HostInfo::new("struck-tests", "Struck developers", "https://example.invalid/struck", "0.1.0").unwrap();
-    PluginInstance::<TestHost>::new(|_| TestHostShared { callback_requested: false.into() }, |_| (), entry, PLUGIN_ID, &info)
-        .expect("instantiate Struck")
+    PluginInstance::<TestHost>::new(
+        |_| TestHostShared { callback_requested: false.into() },
+        |_| (),
+        entry,
+        PLUGIN_ID,
+        &info,
+    )
+    .expect("instantiate Struck")
 }
 
 /// Activates `instance` (48 kHz, blocks of at most 512), renders `num_samples` of stereo output
 /// with one note-on (key 60, velocity 100/127) at sample 0, and deactivates it again.
 fn render_note(instance: &mut PluginInstance<TestHost>, num_samples: usize) -> [Vec<f32>; 2] {
-    let config =
-        PluginAudioConfiguration { sample_rate: f64::from(SAMPLE_RATE), min_frames_count: 1, max_frames_count: BLOCK as u32 };
+    let config = PluginAudioConfiguration {
+        sample_rate: f64::from(SAMPLE_RATE),
+        min_frames_count: 1,
+        max_frames_count: BLOCK as u32,
+    };
     let stopped = instance.activate(|_, _| (), config).expect("activate");
     let mut processor = stopped.start_processing().expect("start processing");
 
@@ -222,7 +238,8 @@ fn clap_binary_matches_offline_host_and_round_trips_state() {
     // --- 1. The CLAP binary plays what the offline host plays. ---
     let clap_default = render_note(&mut a, num_samples);
     let mut offline = configured_host(&SoundOptions::default(), BLOCK).unwrap();
-    let events = note_events(&[NoteSpec { key: KEY, velocity: VELOCITY, position: None, start_s: 0.0 }], f64::from(SAMPLE_RATE));
+    let events =
+        note_events(&[NoteSpec { key: KEY, velocity: VELOCITY, position: None, start_s: 0.0 }], f64::from(SAMPLE_RATE));
     let (reference, _sent) = offline.render(&events, num_samples, BLOCK);
 
     let (r0, r1) = (rms(&clap_default[0]), rms(&clap_default[1]));
@@ -271,7 +288,10 @@ fn clap_binary_matches_offline_host_and_round_trips_state() {
     assert!(d <= 1e-6, "A and B (A's state) differ by {d:e} at channel {ch}, sample {i}");
     let (d, _, _) = max_diff(&from_b, &clap_default);
     println!("state carried a change: B differs from the default render by up to {d:.3e}");
-    assert!(d > 1e-3, "B (strike position 0.8) plays like a default instance (max diff {d:e}): the state carried nothing");
+    assert!(
+        d > 1e-3,
+        "B (strike position 0.8) plays like a default instance (max diff {d:e}): the state carried nothing"
+    );
 
     println!("clap_host test body took {:.2?}", started.elapsed());
 }
@@ -345,8 +365,20 @@ fn the_editor_opens_in_a_host_window_resizes_and_reopens_at_its_size() {
     let screen = &conn.setup().roots[screen_num];
     let (depth, root, black) = (screen.root_depth, screen.root, screen.black_pixel);
     let host_window = conn.generate_id().expect("x id");
-    conn.create_window(depth, host_window, root, 0, 0, 2000, 1400, 0, WindowClass::INPUT_OUTPUT, 0, &CreateWindowAux::new().background_pixel(black))
-        .expect("create the host window");
+    conn.create_window(
+        depth,
+        host_window,
+        root,
+        0,
+        0,
+        2000,
+        1400,
+        0,
+        WindowClass::INPUT_OUTPUT,
+        0,
+        &CreateWindowAux::new().background_pixel(black),
+    )
+    .expect("create the host window");
     conn.map_window(host_window).expect("map");
     conn.flush().expect("flush");
 
@@ -355,7 +387,9 @@ fn the_editor_opens_in_a_host_window_resizes_and_reopens_at_its_size() {
     let gui: PluginGui = plugin.plugin_shared_handle().get_extension().expect("no gui extension");
     let cfg = GuiConfiguration { api_type: GuiApiType::X11, is_floating: false };
     assert!(gui.is_api_supported(&plugin.plugin_handle(), cfg), "X11 embedding is not supported");
-    let children = |conn: &x11rb::rust_connection::RustConnection| conn.query_tree(host_window).expect("query").reply().expect("tree").children;
+    let children = |conn: &x11rb::rust_connection::RustConnection| {
+        conn.query_tree(host_window).expect("query").reply().expect("tree").children
+    };
     let geometry = |conn: &x11rb::rust_connection::RustConnection, w: u32| {
         let g = conn.get_geometry(w).expect("geometry").reply().expect("geometry reply");
         (u32::from(g.width), u32::from(g.height))
@@ -367,9 +401,11 @@ fn the_editor_opens_in_a_host_window_resizes_and_reopens_at_its_size() {
     assert_eq!((size.width, size.height), (1040, 720), "default editor size");
     assert!(gui.can_resize(&plugin.plugin_handle()));
     // SAFETY: `host_window` stays alive until after `destroy`.
-    unsafe { gui.set_parent(&plugin.plugin_handle(), ClapWindow::from_x11_handle(host_window.into())) }.expect("embed the editor");
+    unsafe { gui.set_parent(&plugin.plugin_handle(), ClapWindow::from_x11_handle(host_window.into())) }
+        .expect("embed the editor");
     gui.show(&plugin.plugin_handle()).expect("show");
-    let editor = wait_for(&mut plugin, "the editor's window inside the host window", || children(&conn).first().copied());
+    let editor =
+        wait_for(&mut plugin, "the editor's window inside the host window", || children(&conn).first().copied());
     assert_eq!(geometry(&conn, editor), (1040, 720), "the embedded window has the size the plugin reported");
     // Painted: the egui frame has text, panels and plots, i.e. many distinct colours.
     let (pixels, colours) = wait_for(&mut plugin, "the editor to paint", || {
@@ -385,11 +421,14 @@ fn the_editor_opens_in_a_host_window_resizes_and_reopens_at_its_size() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/tmp/editor-screenshots");
     std::fs::create_dir_all(&dir).expect("screenshot folder");
     let rgb: Vec<u8> = pixels.chunks_exact(4).flat_map(|p| [p[2], p[1], p[0]]).collect();
-    image::save_buffer(dir.join("clap-host-window.png"), &rgb, 1040, 720, image::ExtendedColorType::Rgb8).expect("save screenshot");
+    image::save_buffer(dir.join("clap-host-window.png"), &rgb, 1040, 720, image::ExtendedColorType::Rgb8)
+        .expect("save screenshot");
 
     // The host resizes the editor.
     gui.set_size(&plugin.plugin_handle(), GuiSize { width: 1200, height: 800 }).expect("set_size");
-    wait_for(&mut plugin, "the editor window to take the new size", || (geometry(&conn, editor) == (1200, 800)).then_some(()));
+    wait_for(&mut plugin, "the editor window to take the new size", || {
+        (geometry(&conn, editor) == (1200, 800)).then_some(())
+    });
     gui.destroy(&plugin.plugin_handle());
     wait_for(&mut plugin, "the editor window to close", || children(&conn).is_empty().then_some(()));
 
@@ -401,12 +440,15 @@ fn the_editor_opens_in_a_host_window_resizes_and_reopens_at_its_size() {
     // Scaled by the host (X11 has no system scale: hosts call set_scale): the window and the
     // reported size grow by the factor, the logical size stays.
     // SAFETY: as above.
-    unsafe { gui.set_parent(&plugin.plugin_handle(), ClapWindow::from_x11_handle(host_window.into())) }.expect("embed again");
+    unsafe { gui.set_parent(&plugin.plugin_handle(), ClapWindow::from_x11_handle(host_window.into())) }
+        .expect("embed again");
     gui.show(&plugin.plugin_handle()).expect("show again");
     let editor = wait_for(&mut plugin, "the reopened editor's window", || children(&conn).first().copied());
     assert_eq!(geometry(&conn, editor), (1200, 800));
     assert!(gui.set_scale(&plugin.plugin_handle(), 1.5).is_ok(), "set_scale refused");
-    wait_for(&mut plugin, "the editor window to scale by 1.5", || (geometry(&conn, editor) == (1800, 1200)).then_some(()));
+    wait_for(&mut plugin, "the editor window to scale by 1.5", || {
+        (geometry(&conn, editor) == (1800, 1200)).then_some(())
+    });
     let size = gui.get_size(&plugin.plugin_handle()).expect("editor size");
     assert_eq!((size.width, size.height), (1800, 1200), "get_size after set_scale(1.5)");
     gui.destroy(&plugin.plugin_handle());

@@ -4,7 +4,27 @@ use struck::cli::{render, RenderOptions, SoundOptions};
 
 /// A format-0 MIDI file (96 ppq, 120 bpm): a note-on after `delay_ticks`.
 fn midi_file(delay_ticks: u8, key: u8) -> Vec<u8> {
-    let trk = [0x00, 0xFF, 0x51, 0x03, 0x07, 0xA1, 0x20, delay_ticks, 0x90, key, 100, 0x60, 0x80, key, 0, 0x00, 0xFF, 0x2F, 0x00];
+    let trk = [
+        0x00,
+        0xFF,
+        0x51,
+        0x03,
+        0x07,
+        0xA1,
+        0x20,
+        delay_ticks,
+        0x90,
+        key,
+        100,
+        0x60,
+        0x80,
+        key,
+        0,
+        0x00,
+        0xFF,
+        0x2F,
+        0x00,
+    ];
     let mut f = b"MThd\x00\x00\x00\x06\x00\x00\x00\x01\x00\x60MTrk".to_vec();
     f.extend((trk.len() as u32).to_be_bytes());
     f.extend(trk);
@@ -54,7 +74,12 @@ fn unwritable_output_and_bad_midi_are_one_line_errors() {
     assert!(e.starts_with("cannot write /nonexistent-dir/x.wav") && !e.contains('\n'), "{e}");
     let bad = std::env::temp_dir().join(format!("struck-bad-{}.mid", std::process::id()));
     std::fs::write(&bad, b"MThd garbage").unwrap();
-    let opts = RenderOptions { midi: Some(bad.clone()), notes: None, out: std::env::temp_dir().join("struck-never.wav"), ..opts };
+    let opts = RenderOptions {
+        midi: Some(bad.clone()),
+        notes: None,
+        out: std::env::temp_dir().join("struck-never.wav"),
+        ..opts
+    };
     let e = render(&opts).unwrap_err();
     assert!(e.contains("not a readable MIDI file"), "{e}");
     let _ = std::fs::remove_file(bad);

@@ -8,7 +8,12 @@ use struck_tests::*;
 const SR: u32 = 48_000;
 
 fn opts(object: &str, material: &str, set: &[(&str, f32)]) -> SoundOptions {
-    SoundOptions { object: object.into(), material: material.into(), set: set.iter().map(|(k, v)| format!("{k}={v}")).collect(), ..SoundOptions::default() }
+    SoundOptions {
+        object: object.into(),
+        material: material.into(),
+        set: set.iter().map(|(k, v)| format!("{k}={v}")).collect(),
+        ..SoundOptions::default()
+    }
 }
 
 /// The strongest predicted modes that are isolated enough to measure: no other mode of
@@ -44,7 +49,11 @@ fn strongest_modes_ring_within_a_cent_and_decay_within_a_percent() {
         for (f, d, _) in chosen {
             let gap = ((1.5 / d).clamp(0.05, 0.3) * sr) as usize;
             let (fm, dm) = measure_mode(&x, sr, f, start, len, gap);
-            assert!(cents(fm, f).abs() < 1.0, "{object}: mode {f:.2} Hz measured {fm:.3} Hz ({:.3} cents)", cents(fm, f));
+            assert!(
+                cents(fm, f).abs() < 1.0,
+                "{object}: mode {f:.2} Hz measured {fm:.3} Hz ({:.3} cents)",
+                cents(fm, f)
+            );
             assert!((dm / d - 1.0).abs() < 0.01, "{object}: mode {f:.1} Hz decay {dm:.4} vs {d:.4}");
         }
     }
@@ -118,7 +127,9 @@ fn a_strike_on_a_node_leaves_that_mode_silent() {
             let (a, b) = (bank.gains[q][m], bank.gains[q + 1][m]);
             if a * b < 0.0 && a.abs().min(b.abs()) > 0.05 {
                 let node = (q as f32 + a / (a - b)) / (p - 1) as f32;
-                let anti = (0..p).max_by(|&i, &j| bank.gains[i][m].abs().total_cmp(&bank.gains[j][m].abs())).unwrap() as f32 / (p - 1) as f32;
+                let anti = (0..p).max_by(|&i, &j| bank.gains[i][m].abs().total_cmp(&bank.gains[j][m].abs())).unwrap()
+                    as f32
+                    / (p - 1) as f32;
                 found = Some((m, node, anti));
                 break 'outer;
             }
@@ -129,7 +140,8 @@ fn a_strike_on_a_node_leaves_that_mode_silent() {
         let mut h = host("bar", "glass-sterling-rayleigh", SR, &[]);
         let x = render(&mut h, &[note(60, 100, Some(pos))], 0.5, 512);
         let modes = predicted_modes(&SoundOptions { position: Some(anti), ..o.clone() }, 60, 100).unwrap();
-        let f = (bank.lambdas[m] * (modes[0].0 / bank.frequencies_hz()[0]).powi(2)).sqrt() / (2.0 * std::f64::consts::PI);
+        let f =
+            (bank.lambdas[m] * (modes[0].0 / bank.frequencies_hz()[0]).powi(2)).sqrt() / (2.0 * std::f64::consts::PI);
         amplitude(&x, f64::from(SR), f, 480, 9600)
     };
     let (at_node, at_anti) = (level(node), level(anti));
@@ -214,7 +226,13 @@ fn release_and_pressure_add_their_decay_rate_to_every_mode() {
     let mut events = struck::cli::note_events(&[note(45, 100, None)], sr);
     events.push(TimedEvent {
         sample: 4800,
-        event: NoteEvent::PolyPressure { timing: 0, voice_id: VoiceID::ID(0), channel: Channel::Number(0), key: Key::Number(45), pressure: 0.5 },
+        event: NoteEvent::PolyPressure {
+            timing: 0,
+            voice_id: VoiceID::ID(0),
+            channel: Channel::Number(0),
+            key: Key::Number(45),
+            pressure: 0.5,
+        },
     });
     let (x, _) = h.render(&events, 48_000, 256);
     for &(f, d, _) in &chosen {
@@ -248,7 +266,15 @@ fn poly_modulation_of_the_strike_position_moves_that_note_only() {
     // Note 0 at the parameter's position 0.3 with a +0.4 poly-mod offset, note 1 unmodulated.
     let notes = [note(50, 100, None), NoteSpec { key: 62, velocity: 100, position: None, start_s: 0.0 }];
     let mut events = struck::cli::note_events(&notes, sr);
-    events.push(TimedEvent { sample: 0, event: NoteEvent::PolyModulation { timing: 0, voice_id: 0, poly_modulation_id: struck::params::POSITION_POLY_MOD_ID, normalized_offset: 0.4 } });
+    events.push(TimedEvent {
+        sample: 0,
+        event: NoteEvent::PolyModulation {
+            timing: 0,
+            voice_id: 0,
+            poly_modulation_id: struck::params::POSITION_POLY_MOD_ID,
+            normalized_offset: 0.4,
+        },
+    });
     let mut h = host("rect-plate", "glass-ren2013", SR, &[("pos", 0.3)]);
     let (modulated, _) = h.render(&events, 24_000, 512);
     // The same two notes with explicit positions 0.7 and 0.3.

@@ -30,7 +30,17 @@ fn bundle(release: bool) -> Result<(), String> {
 const FEM_BANKS: &[(&str, &str, &str, &str, f64, f64, f64, usize, usize)] = &[
     ("fem-bar", "Bar (FEM, aluminium 30 cm)", "bar", "0.3,0.04,0.01", 69e9, 2700.0, 0.33, 36, 100),
     ("fem-plate", "Plate (FEM, steel 40 × 30 cm)", "plate", "0.4,0.3,0.004", 200e9, 7850.0, 0.3, 28, 100),
-    ("fem-circular-plate", "Circular plate (FEM, brass Ø 30 cm)", "circular-plate", "0.15,0.003", 105e9, 8600.0, 0.34, 28, 100),
+    (
+        "fem-circular-plate",
+        "Circular plate (FEM, brass Ø 30 cm)",
+        "circular-plate",
+        "0.15,0.003",
+        105e9,
+        8600.0,
+        0.34,
+        28,
+        100,
+    ),
     ("fem-tube", "Tube / chime (FEM, aluminium 60 cm)", "tube", "0.6,0.016,0.0015", 69e9, 2700.0, 0.33, 40, 100),
     ("fem-bowl", "Bowl (FEM, glass Ø 16 cm)", "bowl", "0.08,0.004", 70e9, 2500.0, 0.22, 24, 100),
     ("fem-cup", "Cup (FEM, porcelain)", "cup", "0.04,0.09,0.003", 100e9, 2400.0, 0.22, 18, 80),
@@ -49,11 +59,40 @@ fn banks() -> Result<(), String> {
     let mut failed = Vec::new();
     for &(id, name, shape, dims, e, rho, nu, res, modes) in FEM_BANKS {
         let out = format!("presets/factory/banks/{id}.json");
-        let (e, rho, nu, res, modes) = (e.to_string(), rho.to_string(), nu.to_string(), res.to_string(), modes.to_string());
+        let (e, rho, nu, res, modes) =
+            (e.to_string(), rho.to_string(), nu.to_string(), res.to_string(), modes.to_string());
         eprintln!("== {id}: {shape} {dims}");
         let status = Command::new(&struck)
-            .args(["bank", "build", "--shape", shape, "--dims", dims, "--young", &e, "--density", &rho, "--poisson", &nu])
-            .args(["--resolution", &res, "--modes", &modes, "--max-freq", "20000", "--points", "64", "--id", id, "--name", name, "--out", &out])
+            .args([
+                "bank",
+                "build",
+                "--shape",
+                shape,
+                "--dims",
+                dims,
+                "--young",
+                &e,
+                "--density",
+                &rho,
+                "--poisson",
+                &nu,
+            ])
+            .args([
+                "--resolution",
+                &res,
+                "--modes",
+                &modes,
+                "--max-freq",
+                "20000",
+                "--points",
+                "64",
+                "--id",
+                id,
+                "--name",
+                name,
+                "--out",
+                &out,
+            ])
             .status()
             .map_err(|e| format!("cannot run struck: {e}"))?;
         if !status.success() {
@@ -81,10 +120,18 @@ fn run() -> Result<(), String> {
         Some("test") => {
             // The CLAP host test loads the debug bundle built with allocation assertions.
             nice_plug_xtask::chdir_workspace_root().map_err(|e| e.to_string())?;
-            nice_plug_xtask::main_with_args("cargo xtask", ["bundle", "struck", "--features", "assert_process_allocs"].map(String::from))
-                .map_err(|e| format!("bundling the test plugin failed: {e:#}"))?;
+            nice_plug_xtask::main_with_args(
+                "cargo xtask",
+                ["bundle", "struck", "--features", "assert_process_allocs"].map(String::from),
+            )
+            .map_err(|e| format!("bundling the test plugin failed: {e:#}"))?;
             // SAFETY: single-threaded at this point; the variable is read by the child.
-            unsafe { std::env::set_var("STRUCK_CLAP", std::env::current_dir().map_err(|e| e.to_string())?.join("target/bundled/Struck.clap")) };
+            unsafe {
+                std::env::set_var(
+                    "STRUCK_CLAP",
+                    std::env::current_dir().map_err(|e| e.to_string())?.join("target/bundled/Struck.clap"),
+                )
+            };
             let mut test = vec!["test", "--workspace"];
             test.extend(args[1..].iter().map(String::as_str));
             cargo(&test)

@@ -218,12 +218,27 @@ fn run(cli: Cli) -> Result<(), String> {
         Command::Bank { command } => struck::banks::run(command.into()),
         Command::Features { files, channel, json } => struck::capture::features(&files, channel, json),
         Command::Estimate { files, model, method, object, channel, out, report } => {
-            let summary = struck::capture::estimate(&struck::capture::EstimateArgs { files, model, method, object, channel, out, report })?;
+            let summary = struck::capture::estimate(&struck::capture::EstimateArgs {
+                files,
+                model,
+                method,
+                object,
+                channel,
+                out,
+                report,
+            })?;
             eprintln!("{summary}");
             Ok(())
         }
         Command::Render { sound, notes, midi, seconds, block_size, out } => {
-            let opts = RenderOptions { sound: sound.options(), notes, midi: midi.as_deref().map(Path::to_path_buf), seconds, block_size, out };
+            let opts = RenderOptions {
+                sound: sound.options(),
+                notes,
+                midi: midi.as_deref().map(Path::to_path_buf),
+                seconds,
+                block_size,
+                out,
+            };
             let summary = cli::render(&opts)?;
             eprintln!("{summary}");
             Ok(())
@@ -235,9 +250,37 @@ impl From<BankCommand> for struck::banks::BankCommand {
     fn from(c: BankCommand) -> Self {
         use struck::banks::BankCommand as B;
         match c {
-            BankCommand::Build { shape, dims, mesh, scale, modes, max_freq, young, density, poisson, resolution, points, id, name, out } => {
-                B::Build { shape, dims, mesh, scale, modes, max_freq, young, density, poisson, resolution, points, id, name, out }
-            }
+            BankCommand::Build {
+                shape,
+                dims,
+                mesh,
+                scale,
+                modes,
+                max_freq,
+                young,
+                density,
+                poisson,
+                resolution,
+                points,
+                id,
+                name,
+                out,
+            } => B::Build {
+                shape,
+                dims,
+                mesh,
+                scale,
+                modes,
+                max_freq,
+                young,
+                density,
+                poisson,
+                resolution,
+                points,
+                id,
+                name,
+                out,
+            },
             BankCommand::Info { bank, json } => B::Info { bank, json },
             BankCommand::Shapes => B::Shapes,
         }

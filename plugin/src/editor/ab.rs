@@ -60,12 +60,14 @@ pub fn resample(x: &[f32], from: u32, to: u32) -> Result<Vec<f32>, String> {
     if from == to || x.is_empty() {
         return Ok(x.to_vec());
     }
-    let mut r = Fft::<f32>::new(from as usize, to as usize, 1024, 1, FixedSync::Both).map_err(|e| format!("resampler: {e}"))?;
+    let mut r =
+        Fft::<f32>::new(from as usize, to as usize, 1024, 1, FixedSync::Both).map_err(|e| format!("resampler: {e}"))?;
     let needed = r.process_all_needed_output_len(x.len());
     let mut out = vec![0.0f32; needed];
     let input = InterleavedSlice::new(x, 1, x.len()).map_err(|e| format!("resampler input: {e}"))?;
     let mut output = InterleavedSlice::new_mut(&mut out, 1, needed).map_err(|e| format!("resampler output: {e}"))?;
-    let (_, produced) = r.process_all_into_buffer(&input, &mut output, x.len(), None).map_err(|e| format!("resampling: {e}"))?;
+    let (_, produced) =
+        r.process_all_into_buffer(&input, &mut output, x.len(), None).map_err(|e| format!("resampling: {e}"))?;
     let want = ((x.len() as f64) * f64::from(to) / f64::from(from)).round() as usize;
     out.truncate(produced.min(want));
     Ok(out)
@@ -122,7 +124,8 @@ pub fn modes_clip(features: &[Feature], damping: Option<&Damping>, rate: f32, se
 /// The λ factor that puts `modes`' lowest mode (scaled by `modulus_ratio`) at the lowest of
 /// `features`, or 1 when there is nothing to match.
 pub fn tuning_factor(modes: &ObjectModes, modulus_ratio: f64, features: &[Feature]) -> f64 {
-    let lowest = features.iter().map(Feature::lambda).filter(|l| l.is_finite() && *l > 0.0).fold(f64::INFINITY, f64::min);
+    let lowest =
+        features.iter().map(Feature::lambda).filter(|l| l.is_finite() && *l > 0.0).fold(f64::INFINITY, f64::min);
     match modes.lambdas().first() {
         Some(&l0) if lowest.is_finite() && l0 > 0.0 && modulus_ratio > 0.0 => lowest / (l0 * modulus_ratio),
         _ => 1.0,
@@ -221,7 +224,13 @@ pub fn build(req: &AbRequest) -> Result<Vec<f32>, String> {
                 _ => (1.0, tuning_factor(&req.object, 1.0, &req.features)),
             };
             p.modulus_ratio = modulus;
-            object_clip(&req.object, p, Strike { velocity: 0.8, position: req.position, lambda_factor: factor }, req.rate, seconds)
+            object_clip(
+                &req.object,
+                p,
+                Strike { velocity: 0.8, position: req.position, lambda_factor: factor },
+                req.rate,
+                seconds,
+            )
         }
     };
     // Line the B onset up with the recording's (which starts PRE_ROLL_S early).
@@ -263,7 +272,9 @@ mod tests {
     #[test]
     fn resampling_keeps_pitch_and_length() {
         for (from, to) in [(44_100u32, 48_000u32), (96_000, 48_000), (48_000, 44_100)] {
-            let x: Vec<f32> = (0..from as usize / 4).map(|i| (std::f64::consts::TAU * 1000.0 * i as f64 / f64::from(from)).sin() as f32).collect();
+            let x: Vec<f32> = (0..from as usize / 4)
+                .map(|i| (std::f64::consts::TAU * 1000.0 * i as f64 / f64::from(from)).sin() as f32)
+                .collect();
             let y = resample(&x, from, to).unwrap();
             let want = x.len() as f64 * f64::from(to) / f64::from(from);
             assert!((y.len() as f64 - want).abs() <= 2.0, "{from}->{to}: {} samples, want {want}", y.len());
@@ -311,8 +322,14 @@ mod tests {
 
     #[test]
     fn object_clip_is_tuned_to_the_impact() {
-        let modes = ObjectModes::new(vec![(std::f64::consts::TAU * 100.0).powi(2), (std::f64::consts::TAU * 276.0).powi(2)], &[vec![1.0, 0.5]]);
-        let feats = [Feature { freq_hz: 523.0, decay_per_s: 2.0, amplitude: 0.3 }, Feature { freq_hz: 1500.0, decay_per_s: 4.0, amplitude: 0.1 }];
+        let modes = ObjectModes::new(
+            vec![(std::f64::consts::TAU * 100.0).powi(2), (std::f64::consts::TAU * 276.0).powi(2)],
+            &[vec![1.0, 0.5]],
+        );
+        let feats = [
+            Feature { freq_hz: 523.0, decay_per_s: 2.0, amplitude: 0.3 },
+            Feature { freq_hz: 1500.0, decay_per_s: 4.0, amplitude: 0.1 },
+        ];
         let k = tuning_factor(&modes, 1.0, &feats);
         let p = SoundParams { damping: Damping::Rayleigh { alpha1: 1.0, alpha2: 0.0 }, ..SoundParams::default() };
         let x = object_clip(&modes, p, Strike { velocity: 0.8, position: 0.0, lambda_factor: k }, 48_000.0, 0.5);

@@ -6,9 +6,9 @@ use super::material::apply_damping;
 use super::plot::{series_color, Axis, Plot};
 use super::ui::EditorUi;
 use crate::params::StruckParams;
+use egui::{self, Color32, RichText, Stroke};
 use estimator::{EstimateReport, Method, ModelKind};
 use nice_plug::prelude::ParamSetter;
-use egui::{self, Color32, RichText, Stroke};
 use presets::{DampingSpec, Material, SCHEMA_VERSION};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -95,7 +95,10 @@ pub(super) struct CaptureUi {
 
 impl Default for CaptureUi {
     fn default() -> Self {
-        let browse_dir = std::env::var_os("HOME").map(PathBuf::from).or_else(|| std::env::current_dir().ok()).unwrap_or_else(|| PathBuf::from("/"));
+        let browse_dir = std::env::var_os("HOME")
+            .map(PathBuf::from)
+            .or_else(|| std::env::current_dir().ok())
+            .unwrap_or_else(|| PathBuf::from("/"));
         CaptureUi {
             files: Vec::new(),
             path_text: String::new(),
@@ -170,7 +173,8 @@ impl CaptureUi {
     /// made of, if known.
     fn start(&mut self, object: Option<&presets::Bank>) {
         let object_lambdas = object.map(|b| b.lambdas.clone());
-        let captured = object.map(|b| CapturedObject { id: b.id.clone(), specific_modulus: b.reference.specific_modulus });
+        let captured =
+            object.map(|b| CapturedObject { id: b.id.clone(), specific_modulus: b.reference.specific_modulus });
         if self.job.is_some() || self.files.is_empty() {
             return;
         }
@@ -178,10 +182,16 @@ impl CaptureUi {
         let cancel = Arc::new(AtomicBool::new(false));
         let result = Arc::new(Mutex::new(None));
         let files = self.files.clone();
-        let opts = estimator::Options { model: self.model, method: self.method, object_lambdas, ..estimator::Options::default() };
+        let opts = estimator::Options {
+            model: self.model,
+            method: self.method,
+            object_lambdas,
+            ..estimator::Options::default()
+        };
         let (p, c, r, f) = (progress.clone(), cancel.clone(), result.clone(), files.clone());
         let spawned = std::thread::Builder::new().name("struck-estimator".into()).spawn(move || {
-            let out = estimator::estimate(&f, &opts, &|x| p.store(x.clamp(0.0, 1.0).to_bits(), Ordering::Relaxed), &c).map_err(|e| e.to_string());
+            let out = estimator::estimate(&f, &opts, &|x| p.store(x.clamp(0.0, 1.0).to_bits(), Ordering::Relaxed), &c)
+                .map_err(|e| e.to_string());
             *r.lock().unwrap_or_else(PoisonError::into_inner) = Some(out);
         });
         match spawned {
@@ -209,7 +219,8 @@ impl CaptureUi {
                 self.apply_method = None;
                 self.ab_impact = 0;
                 let object = if report.object.is_some() { object } else { None };
-                *params.capture.lock().unwrap_or_else(PoisonError::into_inner) = Some(CaptureRecord { files, report, object });
+                *params.capture.lock().unwrap_or_else(PoisonError::into_inner) =
+                    Some(CaptureRecord { files, report, object });
             }
             Err(e) => self.message = Some(e),
         }
@@ -236,7 +247,8 @@ fn method_color(m: Method) -> Color32 {
 /// modulus γ = (γ/γ₀)·γ₀ when the recordings were matched to a known object (Ren §5), so
 /// *Material sets pitch* plays it at the recording's pitch on that object.
 pub(super) fn captured_material(name: &str, rec: &CaptureRecord, fit: &estimator::FitResult) -> Material {
-    let names: Vec<&str> = rec.files.iter().map(|f| Path::new(f).file_name().and_then(|n| n.to_str()).unwrap_or(f.as_str())).collect();
+    let names: Vec<&str> =
+        rec.files.iter().map(|f| Path::new(f).file_name().and_then(|n| n.to_str()).unwrap_or(f.as_str())).collect();
     Material {
         schema_version: SCHEMA_VERSION,
         id: logic::kebab_id("captured", name),
@@ -308,7 +320,8 @@ impl EditorUi {
                 if ui.small_button("x").on_hover_text("Remove").clicked() {
                     remove = Some(i);
                 }
-                ui.label(f.file_name().map_or_else(|| f.display().to_string(), |n| n.to_string_lossy().into_owned())).on_hover_text(f.display().to_string());
+                ui.label(f.file_name().map_or_else(|| f.display().to_string(), |n| n.to_string_lossy().into_owned()))
+                    .on_hover_text(f.display().to_string());
             });
         }
         if let Some(i) = remove {
@@ -318,7 +331,9 @@ impl EditorUi {
             ui.label(RichText::new("None yet: type a path, browse, or drop WAV files here.").weak());
         }
         ui.horizontal(|ui| {
-            let edit = ui.add(egui::TextEdit::singleline(&mut c.path_text).hint_text("/path/to/taps.wav").desired_width(220.0)).accessible_name("Recording path");
+            let edit = ui
+                .add(egui::TextEdit::singleline(&mut c.path_text).hint_text("/path/to/taps.wav").desired_width(220.0))
+                .accessible_name("Recording path");
             let enter = edit.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
             if ui.button("Add").clicked() || enter {
                 let path = PathBuf::from(c.path_text.trim());
@@ -343,7 +358,10 @@ impl EditorUi {
                     let name = if i == 0 && c.browse_dir.parent() == Some(e.path.as_path()) {
                         ".. (up)".to_string()
                     } else {
-                        let n = e.path.file_name().map_or_else(|| e.path.display().to_string(), |n| n.to_string_lossy().into_owned());
+                        let n = e
+                            .path
+                            .file_name()
+                            .map_or_else(|| e.path.display().to_string(), |n| n.to_string_lossy().into_owned());
                         if e.is_dir {
                             format!("{n}/")
                         } else {
@@ -393,7 +411,10 @@ impl EditorUi {
             ui.end_row();
         });
         if let Some(o) = object {
-            ui.checkbox(&mut c.recorded_object, format!("Recordings are of the current object ({})", lib.banks[o].name));
+            ui.checkbox(
+                &mut c.recorded_object,
+                format!("Recordings are of the current object ({})", lib.banks[o].name),
+            );
         }
         let running = c.job.is_some();
         ui.horizontal(|ui| {
@@ -443,32 +464,41 @@ impl EditorUi {
         if let Some(o) = &r.object {
             ui.label(format!("object match: {o:?}"));
         }
-        egui::CollapsingHeader::new(format!("Impacts per file ({} skipped)", r.skipped.len())).default_open(false).show(ui, |ui| {
-            egui::Grid::new("capture-files").striped(true).show(ui, |ui| {
-                ui.label("file");
-                ui.label("found");
-                ui.label("used");
-                ui.label("noise floor");
-                ui.end_row();
-                for f in &r.files {
-                    ui.label(Path::new(&f.file).file_name().map_or(f.file.clone(), |n| n.to_string_lossy().into_owned()));
-                    ui.label(f.impacts_found.to_string());
-                    ui.label(f.impacts_used.to_string());
-                    ui.label(format!("{:.1} dBFS", f.noise_floor_db));
+        egui::CollapsingHeader::new(format!("Impacts per file ({} skipped)", r.skipped.len()))
+            .default_open(false)
+            .show(ui, |ui| {
+                egui::Grid::new("capture-files").striped(true).show(ui, |ui| {
+                    ui.label("file");
+                    ui.label("found");
+                    ui.label("used");
+                    ui.label("noise floor");
                     ui.end_row();
+                    for f in &r.files {
+                        ui.label(
+                            Path::new(&f.file).file_name().map_or(f.file.clone(), |n| n.to_string_lossy().into_owned()),
+                        );
+                        ui.label(f.impacts_found.to_string());
+                        ui.label(f.impacts_used.to_string());
+                        ui.label(format!("{:.1} dBFS", f.noise_floor_db));
+                        ui.end_row();
+                    }
+                });
+                for s in &r.skipped {
+                    ui.label(format!("skipped {} @ {:.3} s: {}", s.file, s.onset_s, s.reason));
                 }
             });
-            for s in &r.skipped {
-                ui.label(format!("skipped {} @ {:.3} s: {}", s.file, s.onset_s, s.reason));
-            }
-        });
         for w in &r.warnings {
             ui.colored_label(Color32::from_rgb(255, 170, 60), format!("warning: {w}"));
         }
 
         // (λ, c) scatter coloured by impact, and the fitted curves (thesis Fig. 4.5).
-        let pts: Vec<(f64, f64, usize)> =
-            r.impacts.iter().enumerate().flat_map(|(i, imp)| imp.features.iter().map(move |f| (f.lambda(), f.c(), i))).filter(|p| p.0 > 0.0 && p.1 > 0.0).collect();
+        let pts: Vec<(f64, f64, usize)> = r
+            .impacts
+            .iter()
+            .enumerate()
+            .flat_map(|(i, imp)| imp.features.iter().map(move |f| (f.lambda(), f.c(), i)))
+            .filter(|p| p.0 > 0.0 && p.1 > 0.0)
+            .collect();
         let (lmin, lmax) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p.0), b.max(p.0)));
         let (cmin, cmax) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p.1), b.max(p.1)));
         if pts.is_empty() {
@@ -508,7 +538,8 @@ impl EditorUi {
             ui.end_row();
             for f in &r.fits {
                 let sel = self.capture.apply_method.unwrap_or(r.method) == f.method;
-                if ui.selectable_label(sel, f.method.name()).on_hover_text("Use this fit for Apply and Save").clicked() {
+                if ui.selectable_label(sel, f.method.name()).on_hover_text("Use this fit for Apply and Save").clicked()
+                {
                     self.capture.apply_method = Some(f.method);
                 }
                 let ps: Vec<String> = f
@@ -533,19 +564,29 @@ impl EditorUi {
         drop(guard);
         self.ab_row(ui, &rec, &fit);
         ui.horizontal(|ui| {
-            if ui.button("Apply").on_hover_text("Set the Custom material to this fit (one host gesture per parameter)").clicked() {
+            if ui
+                .button("Apply")
+                .on_hover_text("Set the Custom material to this fit (one host gesture per parameter)")
+                .clicked()
+            {
                 let custom = self.library.custom_material_index();
                 match apply_damping(&params, custom, setter, &fit.damping()) {
-                    Ok(()) => self.capture.message = Some(format!("applied the {} fit to the Custom material", fit.method.name())),
+                    Ok(()) => {
+                        self.capture.message =
+                            Some(format!("applied the {} fit to the Custom material", fit.method.name()))
+                    }
                     Err(e) => self.capture.message = Some(e),
                 }
             }
             ui.add(egui::TextEdit::singleline(&mut self.capture.save_name).desired_width(160.0));
             let dir = self.material_dir();
-            if ui.button("Save material").on_hover_text(format!("Write a user material to {}", dir.display())).clicked() {
+            if ui.button("Save material").on_hover_text(format!("Write a user material to {}", dir.display())).clicked()
+            {
                 let m = captured_material(&self.capture.save_name, &rec, &fit);
                 let path = dir.join(format!("{}.json", m.id));
-                let out = std::fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display())).and_then(|()| m.save(&path).map_err(|e| e.to_string()));
+                let out = std::fs::create_dir_all(&dir)
+                    .map_err(|e| format!("cannot create {}: {e}", dir.display()))
+                    .and_then(|()| m.save(&path).map_err(|e| e.to_string()));
                 self.capture.message = Some(match out {
                     Ok(()) => format!("saved {}", path.display()),
                     Err(e) => e,
@@ -658,7 +699,8 @@ impl EditorUi {
         match out {
             Ok(samples) => {
                 if self.shared.play_clip(super::Clip::new(samples)).is_err() {
-                    self.capture.message = Some("the audio thread is not taking clips (is the plugin processing?)".into());
+                    self.capture.message =
+                        Some("the audio thread is not taking clips (is the plugin processing?)".into());
                 } else if self.capture.message.as_deref().is_some_and(|m| m.starts_with("A/B")) {
                     self.capture.message = None;
                 }

@@ -135,7 +135,11 @@ pub struct ModeBar {
 pub fn mode_bars(bank: &Bank, position: f32, lambda_scale: f64) -> Vec<ModeBar> {
     let mut gains = vec![0.0f32; bank.num_modes()];
     bank.gains_at(position, &mut gains);
-    bank.lambdas.iter().zip(gains).map(|(&l, gain)| ModeBar { freq_hz: (l * lambda_scale).max(0.0).sqrt() / TAU, gain }).collect()
+    bank.lambdas
+        .iter()
+        .zip(gains)
+        .map(|(&l, gain)| ModeBar { freq_hz: (l * lambda_scale).max(0.0).sqrt() / TAU, gain })
+        .collect()
 }
 
 /// A `Material::id`-safe kebab-case id from free text (at most 64 characters).
@@ -180,8 +184,8 @@ pub fn user_material_dir() -> std::path::PathBuf {
 mod tests {
     use super::*;
     use crate::params::DampingModelParam;
-    use nice_plug::prelude::Param;
     use crate::Struck;
+    use nice_plug::prelude::Param;
 
     #[test]
     fn t60_matches_the_rayleigh_formula() {
@@ -299,7 +303,9 @@ mod tests {
                 unsafe { param.as_ptr()._internal_set_normalized_value(param.preview_normalized(v)) };
             };
             // SAFETY: as above.
-            unsafe { p.damping_model.as_ptr()._internal_set_normalized_value(p.damping_model.preview_normalized(k.model)) };
+            unsafe {
+                p.damping_model.as_ptr()._internal_set_normalized_value(p.damping_model.preview_normalized(k.model))
+            };
             set(&p.alpha1_per_s, k.alpha1_per_s);
             set(&p.damping_1k_per_s, k.damping_1k_per_s);
             set(&p.exponent, k.exponent);
@@ -311,7 +317,10 @@ mod tests {
             }
             assert_eq!(p.damping_model.value(), k.model);
         }
-        assert_eq!(p.custom_knobs_for(&Damping::Rayleigh { alpha1: 1e6, alpha2: 0.0 }).map(|k| k.model), Err("base damping α₁ (1/s) = 1000000 is outside the plugin's range 0..=2000".into()));
+        assert_eq!(
+            p.custom_knobs_for(&Damping::Rayleigh { alpha1: 1e6, alpha2: 0.0 }).map(|k| k.model),
+            Err("base damping α₁ (1/s) = 1000000 is outside the plugin's range 0..=2000".into())
+        );
         let _ = DampingModelParam::Rayleigh;
     }
 

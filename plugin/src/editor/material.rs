@@ -5,8 +5,8 @@ use super::logic::{self, F_MAX_HZ, F_MIN_HZ};
 use super::plot::{Axis, Plot};
 use super::ui::{param_row, set_param, EditorUi};
 use crate::params::StruckParams;
-use nice_plug::prelude::ParamSetter;
 use egui::{self, Color32, Stroke};
+use nice_plug::prelude::ParamSetter;
 use presets::Material;
 use std::path::PathBuf;
 
@@ -46,7 +46,12 @@ pub(super) fn scan_user_materials(dir: &std::path::Path) -> Vec<UserMaterial> {
 ///
 /// # Errors
 /// As [`StruckParams::custom_knobs_for`] (nothing is changed).
-pub(super) fn apply_damping(params: &StruckParams, custom_index: usize, setter: &ParamSetter, d: &dsp::Damping) -> Result<(), String> {
+pub(super) fn apply_damping(
+    params: &StruckParams,
+    custom_index: usize,
+    setter: &ParamSetter,
+    d: &dsp::Damping,
+) -> Result<(), String> {
     let k = params.custom_knobs_for(d)?;
     set_param(setter, &params.material, custom_index as i32);
     set_param(setter, &params.damping_model, k.model);
@@ -77,7 +82,9 @@ impl EditorUi {
             egui::ComboBox::from_label("Material").selected_text(shown).width(220.0).show_ui(ui, |ui| {
                 ui.label(egui::RichText::new("Factory").weak());
                 for (i, m) in lib.materials.iter().enumerate() {
-                    let r = ui.selectable_label(i == selected, m.name.as_str()).on_hover_text(format!("{}\n\n{}", m.provenance, m.notes));
+                    let r = ui
+                        .selectable_label(i == selected, m.name.as_str())
+                        .on_hover_text(format!("{}\n\n{}", m.provenance, m.notes));
                     if r.clicked() && i != selected {
                         set_param(setter, &p.material, i as i32);
                         self.material.loaded_user = None;
@@ -92,7 +99,11 @@ impl EditorUi {
                     let name = u.path.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
                     match &u.material {
                         Ok(m) => {
-                            if ui.selectable_label(false, m.name.as_str()).on_hover_text(format!("{}\n\n{}", m.provenance, u.path.display())).clicked() {
+                            if ui
+                                .selectable_label(false, m.name.as_str())
+                                .on_hover_text(format!("{}\n\n{}", m.provenance, u.path.display()))
+                                .clicked()
+                            {
                                 match m.to_damping() {
                                     Ok(d) => chosen_user = Some((m.name.clone(), d)),
                                     Err(e) => self.material.message = Some(e.to_string()),
@@ -100,7 +111,8 @@ impl EditorUi {
                             }
                         }
                         Err(e) => {
-                            ui.label(egui::RichText::new(format!("{name}: unreadable")).weak()).on_hover_text(e.as_str());
+                            ui.label(egui::RichText::new(format!("{name}: unreadable")).weak())
+                                .on_hover_text(e.as_str());
                         }
                     }
                 }
@@ -153,7 +165,15 @@ impl EditorUi {
         let d = logic::current_damping(&p, &lib);
         let scale = f64::from(p.decay_scale.value());
         let curve = logic::t60_curve(&d, scale, F_MIN_HZ, F_MAX_HZ, 200);
-        let (plot, _, painter) = Plot::show(ui, 190.0, Axis::log(F_MIN_HZ, F_MAX_HZ), Axis::log(1e-3, 100.0), "frequency (Hz)", "T60 (s)", "T60 curve");
+        let (plot, _, painter) = Plot::show(
+            ui,
+            190.0,
+            Axis::log(F_MIN_HZ, F_MAX_HZ),
+            Axis::log(1e-3, 100.0),
+            "frequency (Hz)",
+            "T60 (s)",
+            "T60 curve",
+        );
         if let Ok(c) = p.capture.try_lock() {
             if let Some(rec) = c.as_ref() {
                 for f in rec.report.impacts.iter().flat_map(|i| &i.features) {

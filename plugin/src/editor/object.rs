@@ -4,8 +4,8 @@
 use super::logic::{self, F_MAX_HZ, F_MIN_HZ};
 use super::plot::{Axis, Plot};
 use super::ui::{set_param, EditorUi};
-use nice_plug::prelude::ParamSetter;
 use egui::{self, Color32, Pos2, Rect, Sense, Stroke, Vec2};
+use nice_plug::prelude::ParamSetter;
 
 impl EditorUi {
     pub(super) fn object_panel(&mut self, ui: &mut egui::Ui, setter: &ParamSetter) {
@@ -18,7 +18,9 @@ impl EditorUi {
         let bank = &lib.banks[obj];
         egui::ComboBox::from_label("Object").selected_text(bank.name.as_str()).show_ui(ui, |ui| {
             for (i, b) in lib.banks.iter().enumerate() {
-                let r = ui.selectable_label(i == obj, b.name.as_str()).on_hover_text(format!("{}\n\n{}", b.description, b.provenance));
+                let r = ui
+                    .selectable_label(i == obj, b.name.as_str())
+                    .on_hover_text(format!("{}\n\n{}", b.description, b.provenance));
                 if r.clicked() && i != obj {
                     set_param(setter, &self.params.object, i as i32);
                 }
@@ -34,7 +36,8 @@ impl EditorUi {
         let (rect, response) = ui.allocate_exact_size(Vec2::new(ui.available_width(), side), Sense::click_and_drag());
         let response = response.accessible_name("Object view");
         let area = Rect::from_center_size(rect.center(), Vec2::splat(side - 24.0));
-        let to_screen = |xy: [f32; 2]| Pos2::new(area.left() + xy[0] * area.width(), area.bottom() - xy[1] * area.height());
+        let to_screen =
+            |xy: [f32; 2]| Pos2::new(area.left() + xy[0] * area.width(), area.bottom() - xy[1] * area.height());
         let from_screen = |p: Pos2| [(p.x - area.left()) / area.width(), (area.bottom() - p.y) / area.height()];
         let points: Vec<[f32; 2]> = bank.points.iter().map(|p| p.xy).collect();
         let n = points.len();
@@ -89,7 +92,13 @@ impl EditorUi {
             painter.circle_stroke(to_screen(xy), 9.0, Stroke::new(2.0, Color32::from_rgb(255, 150, 40)));
         }
         let label = current.and_then(|i| bank.points.get(i)).map_or("", |p| p.label.as_str());
-        painter.text(rect.left_top() + Vec2::new(6.0, 4.0), egui::Align2::LEFT_TOP, format!("{} · {label}", self.params.strike_position), egui::FontId::proportional(11.0), visuals.text_color());
+        painter.text(
+            rect.left_top() + Vec2::new(6.0, 4.0),
+            egui::Align2::LEFT_TOP,
+            format!("{} · {label}", self.params.strike_position),
+            egui::FontId::proportional(11.0),
+            visuals.text_color(),
+        );
         if let Some(p) = response.hover_pos() {
             if let Some(i) = logic::nearest_point(&points, from_screen(p)) {
                 painter.circle_stroke(path[i], 6.0, Stroke::new(1.0, visuals.strong_text_color()));
@@ -102,7 +111,15 @@ impl EditorUi {
         let bars = logic::mode_bars(bank, position, scale);
         let peak = bars.iter().fold(0.0f32, |m, b| m.max(b.gain.abs())).max(1e-6);
         let threshold = peak * 10f32.powf(-self.params.quality_db.value() / 20.0);
-        let (plot, _, painter) = Plot::show(ui, 170.0, Axis::log(F_MIN_HZ, F_MAX_HZ), Axis::lin(0.0, f64::from(peak)), "frequency (Hz)", "|gain|", "Mode gains");
+        let (plot, _, painter) = Plot::show(
+            ui,
+            170.0,
+            Axis::log(F_MIN_HZ, F_MAX_HZ),
+            Axis::lin(0.0, f64::from(peak)),
+            "frequency (Hz)",
+            "|gain|",
+            "Mode gains",
+        );
         for b in &bars {
             let strong = b.gain.abs() >= threshold && b.gain != 0.0;
             let color = if strong { Color32::from_rgb(90, 170, 255) } else { Color32::from_gray(90) };

@@ -66,7 +66,15 @@ impl Plot {
     /// Allocates a plot of `height` points across the available width, draws the frame, grid
     /// and labels, and returns it with the response (hover). `label` names it for screen
     /// readers and tests.
-    pub fn show(ui: &mut Ui, height: f32, x: Axis, y: Axis, x_label: &str, y_label: &str, label: &str) -> (Plot, egui::Response, egui::Painter) {
+    pub fn show(
+        ui: &mut Ui,
+        height: f32,
+        x: Axis,
+        y: Axis,
+        x_label: &str,
+        y_label: &str,
+        label: &str,
+    ) -> (Plot, egui::Response, egui::Painter) {
         let width = ui.available_width().max(120.0);
         let (outer, response) = ui.allocate_exact_size(Vec2::new(width, height), Sense::hover());
         let response = response.accessible_name(label);

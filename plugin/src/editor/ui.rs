@@ -119,7 +119,12 @@ impl EditorUi {
     /// Queues a strike at `position` for the audio thread.
     pub(super) fn audition(&mut self, position: f32) {
         self.serial = self.serial.wrapping_add(1);
-        let a = super::Audition { key: self.audition_key.min(127), velocity: self.audition_velocity.clamp(0.0, 1.0), position, serial: self.serial };
+        let a = super::Audition {
+            key: self.audition_key.min(127),
+            velocity: self.audition_velocity.clamp(0.0, 1.0),
+            position,
+            serial: self.serial,
+        };
         let _ = self.shared.audition(a);
     }
 }
@@ -135,7 +140,8 @@ pub(super) fn set_param<P: Param>(setter: &ParamSetter, param: &P, value: P::Pla
 pub(super) fn param_row<P: Param>(ui: &mut egui::Ui, setter: &ParamSetter, param: &P) {
     ui.label(param.name());
     // Named for screen readers (and the UI tests): ParamSlider sets no accessibility info.
-    ui.add(nice_plug_egui::widgets::ParamSlider::for_param(param, setter).with_width(170.0)).accessible_name(format!("{} slider", param.name()));
+    ui.add(nice_plug_egui::widgets::ParamSlider::for_param(param, setter).with_width(170.0))
+        .accessible_name(format!("{} slider", param.name()));
     ui.end_row();
 }
 

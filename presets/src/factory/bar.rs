@@ -78,9 +78,7 @@ pub fn bar_bank() -> Bank {
     let offset = w / 4.0; // strike line: a quarter width off the centreline, so torsion sounds
 
     // Strike points from one end (x = 0) to the centre (x = L/2); the other half mirrors it.
-    let xs: Vec<f64> = (0..N_POINTS)
-        .map(|k| 0.5 * l * k as f64 / (N_POINTS - 1) as f64)
-        .collect();
+    let xs: Vec<f64> = (0..N_POINTS).map(|k| 0.5 * l * k as f64 / (N_POINTS - 1) as f64).collect();
     let points = xs
         .iter()
         .map(|&x| StrikePoint {
@@ -100,15 +98,8 @@ pub fn bar_bank() -> Bank {
         if lambda > lambda_max {
             break;
         }
-        let shape = xs
-            .iter()
-            .map(|&x| bend_norm * free_free_shape(bl, x / l))
-            .collect();
-        modes.push(Mode {
-            lambda,
-            label: format!("bend {k}"),
-            shape,
-        });
+        let shape = xs.iter().map(|&x| bend_norm * free_free_shape(bl, x / l)).collect();
+        modes.push(Mode { lambda, label: format!("bend {k}"), shape });
     }
     // Torsion (St Venant): λ = (kπ/L)² GJ/(ρ I_p); rotation θ = sqrt(2/(ρ I_p L)) cos(kπx/L)
     // is mass-normalised (∫ρ I_p θ² dx = 1); the surface moves by offset·θ at the strike line.
@@ -118,15 +109,8 @@ pub fn bar_bank() -> Bank {
         if lambda > lambda_max {
             break;
         }
-        let shape = xs
-            .iter()
-            .map(|&x| tors_norm * (k as f64 * std::f64::consts::PI * x / l).cos())
-            .collect();
-        modes.push(Mode {
-            lambda,
-            label: format!("torsion {k}"),
-            shape,
-        });
+        let shape = xs.iter().map(|&x| tors_norm * (k as f64 * std::f64::consts::PI * x / l).cos()).collect();
+        modes.push(Mode { lambda, label: format!("torsion {k}"), shape });
     }
 
     let info = BankInfo {
@@ -138,7 +122,9 @@ pub fn bar_bank() -> Bank {
              dimensions_m = [length, width, thickness]; size_m = length. \
              position_m = [x along the length from one end, y across from the centreline, z up from the mid-plane]; \
              xy = [x / length, 0.5 + y / width]. Modes: vertical bending (\"bend k\") and torsion (\"torsion k\").",
-            l * 1e3, w * 1e3, t * 1e3
+            l * 1e3,
+            w * 1e3,
+            t * 1e3
         ),
         provenance: "Analytic. Bending: Euler-Bernoulli free-free beam, cos(bL) cosh(bL) = 1, \
                      shape cosh + cos - sigma (sinh + sin) (Blevins 1979, Table 8-1). Torsion: St Venant, \
@@ -164,22 +150,11 @@ mod tests {
 
     #[test]
     fn beta_l_roots_match_the_tables() {
-        for (k, expected) in [
-            (1, 4.730_040_7),
-            (2, 7.853_204_6),
-            (3, 10.995_607_8),
-            (4, 14.137_165_5),
-        ] {
-            assert!(
-                (free_free_beta_l(k) - expected).abs() < 1e-6,
-                "k = {k}: {}",
-                free_free_beta_l(k)
-            );
+        for (k, expected) in [(1, 4.730_040_7), (2, 7.853_204_6), (3, 10.995_607_8), (4, 14.137_165_5)] {
+            assert!((free_free_beta_l(k) - expected).abs() < 1e-6, "k = {k}: {}", free_free_beta_l(k));
         }
         let k = 60;
-        assert!(
-            (free_free_beta_l(k) - (2 * k + 1) as f64 * std::f64::consts::FRAC_PI_2).abs() < 1e-12
-        );
+        assert!((free_free_beta_l(k) - (2 * k + 1) as f64 * std::f64::consts::FRAC_PI_2).abs() < 1e-12);
     }
 
     #[test]
@@ -188,10 +163,7 @@ mod tests {
             let bl = free_free_beta_l(k);
             let norm = simpson(0.0, 1.0, 4000, |x| free_free_shape(bl, x).powi(2));
             assert!((norm - 1.0).abs() < 1e-6, "k = {k}: ∫φ² = {norm}");
-            assert!(
-                free_free_shape(bl, 0.0).abs() > 1.99,
-                "free end moves twice the mean amplitude"
-            );
+            assert!(free_free_shape(bl, 0.0).abs() > 1.99, "free end moves twice the mean amplitude");
         }
         // Against the direct (cancelling) formula where it is still accurate.
         let bl = free_free_beta_l(2);

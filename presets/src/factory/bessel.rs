@@ -134,22 +134,10 @@ mod tests {
         let mut i = [0.0; 3];
         bessel_i_scaled(1.0, &mut i);
         let e = 1f64.exp();
-        assert!(
-            close(i[0] * e, 1.266_065_877_752_008_4, 1e-13),
-            "{}",
-            i[0] * e
-        );
-        assert!(
-            close(i[1] * e, 0.565_159_103_992_485, 1e-13),
-            "{}",
-            i[1] * e
-        );
+        assert!(close(i[0] * e, 1.266_065_877_752_008_4, 1e-13), "{}", i[0] * e);
+        assert!(close(i[1] * e, 0.565_159_103_992_485, 1e-13), "{}", i[1] * e);
         bessel_i_scaled(5.0, &mut i);
-        assert!(
-            close(i[2] * 5f64.exp(), 17.505_614_966_624_236, 1e-12),
-            "{}",
-            i[2] * 5f64.exp()
-        );
+        assert!(close(i[2] * 5f64.exp(), 17.505_614_966_624_236, 1e-12), "{}", i[2] * 5f64.exp());
         // Large argument: e⁻ˣ I₀(x) ≈ 1/sqrt(2πx) (1 + 1/(8x) + 9/(128x²)).
         bessel_i_scaled(50.0, &mut i);
         let x = 50.0;

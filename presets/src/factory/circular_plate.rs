@@ -59,11 +59,7 @@ fn determinant(m: usize, x: f64, nu: f64, j: &[f64], i: &[f64]) -> (f64, f64) {
     let mf = m as f64;
     let m2 = mf * mf;
     let (jm, im) = (j[m], i[m]);
-    let (jm_1, im_1) = if m == 0 {
-        (-j[1], i[1])
-    } else {
-        (j[m - 1], i[m - 1])
-    };
+    let (jm_1, im_1) = if m == 0 { (-j[1], i[1]) } else { (j[m - 1], i[m - 1]) };
     let dj = jm_1 - mf / x * jm; // J'ₘ = Jₘ₋₁ − (m/x) Jₘ
     let rho = (im_1 - mf / x * im) / im; // I'ₘ/Iₘ
     let x2 = x * x;
@@ -121,12 +117,7 @@ pub fn free_circular_plate_roots(nu: f64, x_max: f64) -> Vec<CircularPlateRoot> 
                 let (_, c_ratio) = eval(m, root, nu, &mut j, &mut i);
                 if root <= x_max {
                     let n = count[m] + usize::from(m < 2);
-                    roots.push(CircularPlateRoot {
-                        m,
-                        n,
-                        x: root,
-                        c_ratio,
-                    });
+                    roots.push(CircularPlateRoot { m, n, x: root, c_ratio });
                 }
                 count[m] += 1;
                 // The arrays were overwritten by the bisection: restore them for this x.
@@ -141,13 +132,7 @@ pub fn free_circular_plate_roots(nu: f64, x_max: f64) -> Vec<CircularPlateRoot> 
 }
 
 /// Radial shape W(ρ a) = Jₘ(xρ) + c_ratio · Iₘ(xρ)/Iₘ(x), ρ = r/a in [0, 1].
-fn radial_shape(
-    root: &CircularPlateRoot,
-    rho: f64,
-    i_edge: f64,
-    j: &mut [f64],
-    i: &mut [f64],
-) -> f64 {
+fn radial_shape(root: &CircularPlateRoot, rho: f64, i_edge: f64, j: &mut [f64], i: &mut [f64]) -> f64 {
     let m = root.m;
     let xr = root.x * rho;
     bessel_j(xr, &mut j[..m + 1]);
@@ -165,22 +150,13 @@ pub fn circular_plate_bank() -> Bank {
     let x_max = a * (omega_max / kappa).sqrt();
     let roots = free_circular_plate_roots(nu, x_max);
 
-    let radii: Vec<f64> = (0..N_POINTS)
-        .map(|k| k as f64 / (N_POINTS - 1) as f64)
-        .collect();
+    let radii: Vec<f64> = (0..N_POINTS).map(|k| k as f64 / (N_POINTS - 1) as f64).collect();
     let points = radii
         .iter()
         .map(|&r| StrikePoint {
             label: format!("r = {:.2} a", r),
-            xy: [
-                (0.5 + 0.5 * r * STRIKE_ANGLE.cos()) as f32,
-                (0.5 + 0.5 * r * STRIKE_ANGLE.sin()) as f32,
-            ],
-            position_m: [
-                (a * r * STRIKE_ANGLE.cos()) as f32,
-                (a * r * STRIKE_ANGLE.sin()) as f32,
-                (h / 2.0) as f32,
-            ],
+            xy: [(0.5 + 0.5 * r * STRIKE_ANGLE.cos()) as f32, (0.5 + 0.5 * r * STRIKE_ANGLE.sin()) as f32],
+            position_m: [(a * r * STRIKE_ANGLE.cos()) as f32, (a * r * STRIKE_ANGLE.sin()) as f32, (h / 2.0) as f32],
         })
         .collect();
 
@@ -196,27 +172,14 @@ pub fn circular_plate_bank() -> Bank {
             // Mass normalisation: ρh ∫∫ W² cos²(mθ) r dr dθ = 1.
             // ~6 Simpson intervals per radian of x·r/a: relative error well below f32 precision.
             let intervals = (8.0 * root.x).ceil().max(64.0) as usize;
-            let radial = simpson(0.0, 1.0, intervals, |r| {
-                radial_shape(root, r, i_edge, &mut j, &mut i).powi(2) * r
-            }) * a
-                * a;
-            let angular = if m == 0 {
-                2.0 * std::f64::consts::PI
-            } else {
-                std::f64::consts::PI
-            };
+            let radial =
+                simpson(0.0, 1.0, intervals, |r| radial_shape(root, r, i_edge, &mut j, &mut i).powi(2) * r) * a * a;
+            let angular = if m == 0 { 2.0 * std::f64::consts::PI } else { std::f64::consts::PI };
             let norm = 1.0 / (rho * h * radial * angular).sqrt();
             let orient = (m as f64 * STRIKE_ANGLE).cos();
-            let shape = radii
-                .iter()
-                .map(|&r| norm * orient * radial_shape(root, r, i_edge, &mut j, &mut i))
-                .collect();
+            let shape = radii.iter().map(|&r| norm * orient * radial_shape(root, r, i_edge, &mut j, &mut i)).collect();
             let lambda = (root.x * root.x / (a * a) * kappa).powi(2);
-            Mode {
-                lambda,
-                label: format!("(m,n)=({},{})", m, root.n),
-                shape,
-            }
+            Mode { lambda, label: format!("(m,n)=({},{})", m, root.n), shape }
         })
         .collect();
 
@@ -257,22 +220,13 @@ mod tests {
     fn roots_match_leissa_for_nu_0_33() {
         let roots = free_circular_plate_roots(0.33, 6.0);
         // Leissa 1969 Table 2.5 / Blevins Table 11-1, ν = 0.33: λ² = ω a² sqrt(ρh/D).
-        let expected = [
-            ((2, 0), 5.251),
-            ((0, 1), 9.076),
-            ((3, 0), 12.23),
-            ((1, 1), 20.52),
-        ];
+        let expected = [((2, 0), 5.251), ((0, 1), 9.076), ((3, 0), 12.23), ((1, 1), 20.52)];
         for (k, ((m, n), lambda2)) in expected.into_iter().enumerate() {
             let r = roots[k];
             let got = r.x * r.x;
             assert_eq!((r.m, r.n), (m, n), "mode {k}");
             let rel = (got / lambda2 - 1.0).abs();
-            assert!(
-                rel < 0.005,
-                "(m,n)=({m},{n}): λ² = {got}, expected {lambda2} ({:.3} %)",
-                rel * 100.0
-            );
+            assert!(rel < 0.005, "(m,n)=({m},{n}): λ² = {got}, expected {lambda2} ({:.3} %)", rel * 100.0);
             println!("(m,n)=({m},{n}): λ² = {got:.4} (Leissa {lambda2})");
         }
     }
@@ -294,17 +248,11 @@ mod tests {
             let (w3, w4) = (w(1.0 - 3.0 * hh), w(1.0 - 4.0 * hh));
             // One-sided 2nd-order differences at r = 1.
             let d1 = (25.0 * w0 - 48.0 * w1 + 36.0 * w2 - 16.0 * w3 + 3.0 * w4) / (12.0 * hh);
-            let d2 =
-                (35.0 * w0 - 104.0 * w1 + 114.0 * w2 - 56.0 * w3 + 11.0 * w4) / (12.0 * hh * hh);
+            let d2 = (35.0 * w0 - 104.0 * w1 + 114.0 * w2 - 56.0 * w3 + 11.0 * w4) / (12.0 * hh * hh);
             let m2 = (root.m * root.m) as f64;
             let moment = d2 + nu * (d1 - m2 * w0);
             let scale = d2.abs() + d1.abs() + m2 * w0.abs();
-            assert!(
-                moment.abs() < 1e-3 * scale,
-                "(m,n)=({},{}): M_r = {moment}, scale {scale}",
-                root.m,
-                root.n
-            );
+            assert!(moment.abs() < 1e-3 * scale, "(m,n)=({},{}): M_r = {moment}, scale {scale}", root.m, root.n);
         }
     }
 
@@ -317,16 +265,8 @@ mod tests {
         bessel_i_scaled(root.x, &mut i[..m + 1]);
         let edge = i[m];
         let coarse_n = (8.0 * root.x).ceil() as usize;
-        let coarse = simpson(0.0, 1.0, coarse_n, |r| {
-            radial_shape(root, r, edge, &mut j, &mut i).powi(2) * r
-        });
-        let fine = simpson(0.0, 1.0, 20_000, |r| {
-            radial_shape(root, r, edge, &mut j, &mut i).powi(2) * r
-        });
-        assert!(
-            (coarse / fine - 1.0).abs() < 1e-6,
-            "x = {}: {coarse} vs {fine}",
-            root.x
-        );
+        let coarse = simpson(0.0, 1.0, coarse_n, |r| radial_shape(root, r, edge, &mut j, &mut i).powi(2) * r);
+        let fine = simpson(0.0, 1.0, 20_000, |r| radial_shape(root, r, edge, &mut j, &mut i).powi(2) * r);
+        assert!((coarse / fine - 1.0).abs() < 1e-6, "x = {}: {coarse} vs {fine}", root.x);
     }
 }

@@ -10,134 +10,41 @@ use crate::Material;
 
 /// Embedded factory material files, in [`factory_materials`] order.
 const FILES: &[(&str, &str)] = &[
-    (
-        "wood-ren2013",
-        include_str!("../../factory/materials/wood-ren2013.json"),
-    ),
-    (
-        "plastic-ren2013",
-        include_str!("../../factory/materials/plastic-ren2013.json"),
-    ),
-    (
-        "metal-ren2013",
-        include_str!("../../factory/materials/metal-ren2013.json"),
-    ),
-    (
-        "glass-ren2013",
-        include_str!("../../factory/materials/glass-ren2013.json"),
-    ),
-    (
-        "porcelain-ren2013",
-        include_str!("../../factory/materials/porcelain-ren2013.json"),
-    ),
-    (
-        "porcelain-sterling-rayleigh",
-        include_str!("../../factory/materials/porcelain-sterling-rayleigh.json"),
-    ),
-    (
-        "porcelain-sterling-hybrid",
-        include_str!("../../factory/materials/porcelain-sterling-hybrid.json"),
-    ),
-    (
-        "travertine-sterling-rayleigh",
-        include_str!("../../factory/materials/travertine-sterling-rayleigh.json"),
-    ),
-    (
-        "travertine-sterling-hybrid",
-        include_str!("../../factory/materials/travertine-sterling-hybrid.json"),
-    ),
-    (
-        "wood-sterling-rayleigh",
-        include_str!("../../factory/materials/wood-sterling-rayleigh.json"),
-    ),
-    (
-        "wood-sterling-hybrid",
-        include_str!("../../factory/materials/wood-sterling-hybrid.json"),
-    ),
-    (
-        "steel-sterling-rayleigh",
-        include_str!("../../factory/materials/steel-sterling-rayleigh.json"),
-    ),
-    (
-        "steel-sterling-hybrid",
-        include_str!("../../factory/materials/steel-sterling-hybrid.json"),
-    ),
-    (
-        "plastic-sterling-rayleigh",
-        include_str!("../../factory/materials/plastic-sterling-rayleigh.json"),
-    ),
-    (
-        "plastic-sterling-hybrid",
-        include_str!("../../factory/materials/plastic-sterling-hybrid.json"),
-    ),
-    (
-        "glass-sterling-rayleigh",
-        include_str!("../../factory/materials/glass-sterling-rayleigh.json"),
-    ),
-    (
-        "glass-sterling-hybrid",
-        include_str!("../../factory/materials/glass-sterling-hybrid.json"),
-    ),
-    (
-        "plastic-bowl-sterling31-rayleigh",
-        include_str!("../../factory/materials/plastic-bowl-sterling31-rayleigh.json"),
-    ),
-    (
-        "plastic-bowl-sterling31-caughey",
-        include_str!("../../factory/materials/plastic-bowl-sterling31-caughey.json"),
-    ),
-    (
-        "plastic-bowl-sterling31-power",
-        include_str!("../../factory/materials/plastic-bowl-sterling31-power.json"),
-    ),
+    ("wood-ren2013", include_str!("../../factory/materials/wood-ren2013.json")),
+    ("plastic-ren2013", include_str!("../../factory/materials/plastic-ren2013.json")),
+    ("metal-ren2013", include_str!("../../factory/materials/metal-ren2013.json")),
+    ("glass-ren2013", include_str!("../../factory/materials/glass-ren2013.json")),
+    ("porcelain-ren2013", include_str!("../../factory/materials/porcelain-ren2013.json")),
+    ("porcelain-sterling-rayleigh", include_str!("../../factory/materials/porcelain-sterling-rayleigh.json")),
+    ("porcelain-sterling-hybrid", include_str!("../../factory/materials/porcelain-sterling-hybrid.json")),
+    ("travertine-sterling-rayleigh", include_str!("../../factory/materials/travertine-sterling-rayleigh.json")),
+    ("travertine-sterling-hybrid", include_str!("../../factory/materials/travertine-sterling-hybrid.json")),
+    ("wood-sterling-rayleigh", include_str!("../../factory/materials/wood-sterling-rayleigh.json")),
+    ("wood-sterling-hybrid", include_str!("../../factory/materials/wood-sterling-hybrid.json")),
+    ("steel-sterling-rayleigh", include_str!("../../factory/materials/steel-sterling-rayleigh.json")),
+    ("steel-sterling-hybrid", include_str!("../../factory/materials/steel-sterling-hybrid.json")),
+    ("plastic-sterling-rayleigh", include_str!("../../factory/materials/plastic-sterling-rayleigh.json")),
+    ("plastic-sterling-hybrid", include_str!("../../factory/materials/plastic-sterling-hybrid.json")),
+    ("glass-sterling-rayleigh", include_str!("../../factory/materials/glass-sterling-rayleigh.json")),
+    ("glass-sterling-hybrid", include_str!("../../factory/materials/glass-sterling-hybrid.json")),
+    ("plastic-bowl-sterling31-rayleigh", include_str!("../../factory/materials/plastic-bowl-sterling31-rayleigh.json")),
+    ("plastic-bowl-sterling31-caughey", include_str!("../../factory/materials/plastic-bowl-sterling31-caughey.json")),
+    ("plastic-bowl-sterling31-power", include_str!("../../factory/materials/plastic-bowl-sterling31-power.json")),
     (
         "plastic-scoop-sterling31-rayleigh",
         include_str!("../../factory/materials/plastic-scoop-sterling31-rayleigh.json"),
     ),
-    (
-        "plastic-scoop-sterling31-caughey",
-        include_str!("../../factory/materials/plastic-scoop-sterling31-caughey.json"),
-    ),
-    (
-        "plastic-scoop-sterling31-power",
-        include_str!("../../factory/materials/plastic-scoop-sterling31-power.json"),
-    ),
-    (
-        "porcelain-sterling31-rayleigh",
-        include_str!("../../factory/materials/porcelain-sterling31-rayleigh.json"),
-    ),
-    (
-        "porcelain-sterling31-caughey",
-        include_str!("../../factory/materials/porcelain-sterling31-caughey.json"),
-    ),
-    (
-        "porcelain-sterling31-power",
-        include_str!("../../factory/materials/porcelain-sterling31-power.json"),
-    ),
-    (
-        "wood-sterling31-rayleigh",
-        include_str!("../../factory/materials/wood-sterling31-rayleigh.json"),
-    ),
-    (
-        "wood-sterling31-caughey",
-        include_str!("../../factory/materials/wood-sterling31-caughey.json"),
-    ),
-    (
-        "wood-sterling31-power",
-        include_str!("../../factory/materials/wood-sterling31-power.json"),
-    ),
-    (
-        "aluminum-sterling31-rayleigh",
-        include_str!("../../factory/materials/aluminum-sterling31-rayleigh.json"),
-    ),
-    (
-        "aluminum-sterling31-caughey",
-        include_str!("../../factory/materials/aluminum-sterling31-caughey.json"),
-    ),
-    (
-        "aluminum-sterling31-power",
-        include_str!("../../factory/materials/aluminum-sterling31-power.json"),
-    ),
+    ("plastic-scoop-sterling31-caughey", include_str!("../../factory/materials/plastic-scoop-sterling31-caughey.json")),
+    ("plastic-scoop-sterling31-power", include_str!("../../factory/materials/plastic-scoop-sterling31-power.json")),
+    ("porcelain-sterling31-rayleigh", include_str!("../../factory/materials/porcelain-sterling31-rayleigh.json")),
+    ("porcelain-sterling31-caughey", include_str!("../../factory/materials/porcelain-sterling31-caughey.json")),
+    ("porcelain-sterling31-power", include_str!("../../factory/materials/porcelain-sterling31-power.json")),
+    ("wood-sterling31-rayleigh", include_str!("../../factory/materials/wood-sterling31-rayleigh.json")),
+    ("wood-sterling31-caughey", include_str!("../../factory/materials/wood-sterling31-caughey.json")),
+    ("wood-sterling31-power", include_str!("../../factory/materials/wood-sterling31-power.json")),
+    ("aluminum-sterling31-rayleigh", include_str!("../../factory/materials/aluminum-sterling31-rayleigh.json")),
+    ("aluminum-sterling31-caughey", include_str!("../../factory/materials/aluminum-sterling31-caughey.json")),
+    ("aluminum-sterling31-power", include_str!("../../factory/materials/aluminum-sterling31-power.json")),
 ];
 
 /// Ids of the factory materials, in [`factory_materials`] order.
@@ -192,8 +99,5 @@ pub fn factory_materials() -> Vec<Material> {
 
 /// The factory material with this id, or `None`.
 pub fn factory_material(id: &str) -> Option<Material> {
-    FILES
-        .iter()
-        .find(|(i, _)| *i == id)
-        .map(|(i, text)| parse(i, text))
+    FILES.iter().find(|(i, _)| *i == id).map(|(i, text)| parse(i, text))
 }

@@ -77,14 +77,9 @@ pub(crate) fn assemble(info: BankInfo, points: Vec<StrikePoint>, mut modes: Vec<
     let lambda_max = (2.0 * std::f64::consts::PI * FACTORY_MAX_FREQ_HZ).powi(2);
     modes.retain(|m| m.lambda > 0.0 && m.lambda <= lambda_max);
     modes.sort_by(|a, b| a.lambda.total_cmp(&b.lambda));
-    let max = modes
-        .iter()
-        .flat_map(|m| m.shape.iter())
-        .fold(0.0f64, |acc, g| acc.max(g.abs()));
+    let max = modes.iter().flat_map(|m| m.shape.iter()).fold(0.0f64, |acc, g| acc.max(g.abs()));
     let scale = if max > 0.0 { 1.0 / max } else { 1.0 };
-    let gains = (0..points.len())
-        .map(|p| modes.iter().map(|m| (m.shape[p] * scale) as f32).collect())
-        .collect();
+    let gains = (0..points.len()).map(|p| modes.iter().map(|m| (m.shape[p] * scale) as f32).collect()).collect();
     Bank {
         schema_version: SCHEMA_VERSION,
         id: info.id.to_string(),

@@ -38,10 +38,7 @@ pub fn rect_plate_bank() -> Bank {
     let uv: Vec<[f64; 2]> = (0..N_POINTS)
         .map(|k| {
             let t = k as f64 / (N_POINTS - 1) as f64;
-            [
-                PATH_START[0] + (PATH_END[0] - PATH_START[0]) * t,
-                PATH_START[1] + (PATH_END[1] - PATH_START[1]) * t,
-            ]
+            [PATH_START[0] + (PATH_END[0] - PATH_START[0]) * t, PATH_START[1] + (PATH_END[1] - PATH_START[1]) * t]
         })
         .collect();
     let points = uv
@@ -63,15 +60,8 @@ pub fn rect_plate_bank() -> Bank {
         let n_max = (b * rest.max(0.0).sqrt()).floor() as usize;
         for n in 1..=n_max {
             let omega = pi * pi * ((m * m) as f64 / (a * a) + (n * n) as f64 / (b * b)) * kappa;
-            let shape = uv
-                .iter()
-                .map(|&[u, v]| norm * (m as f64 * pi * u).sin() * (n as f64 * pi * v).sin())
-                .collect();
-            modes.push(Mode {
-                lambda: omega * omega,
-                label: format!("(m,n)=({m},{n})"),
-                shape,
-            });
+            let shape = uv.iter().map(|&[u, v]| norm * (m as f64 * pi * u).sin() * (n as f64 * pi * v).sin()).collect();
+            modes.push(Mode { lambda: omega * omega, label: format!("(m,n)=({m},{n})"), shape });
         }
     }
 

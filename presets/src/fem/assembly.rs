@@ -67,10 +67,7 @@ pub fn assemble(mesh: &TetMesh, material: &Material) -> Result<System, FemError>
     let mut me = [[0.0; 10]; 10];
     for (e, t) in mesh.tets.iter().enumerate() {
         let x: [[f64; 3]; 10] = std::array::from_fn(|i| mesh.nodes[t[i] as usize]);
-        if kit
-            .matrices(&x, lambda, mu, material.density, &mut ke, &mut me)
-            .is_none()
-        {
+        if kit.matrices(&x, lambda, mu, material.density, &mut ke, &mut me).is_none() {
             return Err(FemError::Mesh(format!(
                 "element {e} is inverted or degenerate (det J <= 0); check the mesh or use a finer resolution"
             )));
@@ -96,13 +93,7 @@ pub fn assemble(mesh: &TetMesh, material: &Material) -> Result<System, FemError>
             }
         }
     }
-    Ok(System {
-        n,
-        col_ptr,
-        row_idx,
-        k,
-        m,
-    })
+    Ok(System { n, col_ptr, row_idx, k, m })
 }
 
 // The pattern was built from the same element lists, so every (a, b) pair is present.
@@ -113,10 +104,7 @@ fn unreachable_pattern() -> usize {
 /// y = A x for a symmetric matrix in [`System`] storage with values `val`, applied to `b`
 /// vectors stored row-major (`x[r * b + k]`). Parallel over columns on up to `threads`.
 pub fn sym_matvec_rows(sys: &System, val: &[f64], x: &[f64], y: &mut [f64], b: usize) {
-    let threads = std::thread::available_parallelism()
-        .map(|t| t.get())
-        .unwrap_or(1)
-        .clamp(1, 8);
+    let threads = std::thread::available_parallelism().map(|t| t.get()).unwrap_or(1).clamp(1, 8);
     let chunk = sys.n.div_ceil(threads).max(1);
     std::thread::scope(|s| {
         for (ci, yc) in y.chunks_mut(chunk * b).enumerate() {

@@ -296,7 +296,14 @@ impl<'a> Factor<'a> {
                 max_bytes as f64 / f64::from(1 << 30)
             )));
         }
-        Ok(Factor { sys, symbolic, values: vec![0.0; len], shifted: vec![0.0; sys.k.len()], sigma: f64::NAN, negative: 0 })
+        Ok(Factor {
+            sys,
+            symbolic,
+            values: vec![0.0; len],
+            shifted: vec![0.0; sys.k.len()],
+            sigma: f64::NAN,
+            negative: 0,
+        })
     }
 
     /// Factors K − σM; a shift that hits a zero pivot is moved by a relative 1e-7.
@@ -366,7 +373,12 @@ impl<'a> Factor<'a> {
     fn solve(&self, x: MatMut<'_, f64>, prof: &mut Profile) {
         let t = Instant::now();
         let mut buf = MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(x.ncols(), STEP_PAR));
-        LdltRef::new(&self.symbolic, &self.values).solve_in_place_with_conj(Conj::No, x, STEP_PAR, MemStack::new(&mut buf));
+        LdltRef::new(&self.symbolic, &self.values).solve_in_place_with_conj(
+            Conj::No,
+            x,
+            STEP_PAR,
+            MemStack::new(&mut buf),
+        );
         prof.solve_seconds += t.elapsed().as_secs_f64();
     }
 }
@@ -397,7 +409,12 @@ impl Locked {
             self.lambdas.push(lambda);
             self.len() - 1
         } else {
-            let (imax, lmax) = self.lambdas.iter().copied().enumerate().fold((0, f64::MIN), |a, (i, l)| if l > a.1 { (i, l) } else { a });
+            let (imax, lmax) =
+                self.lambdas
+                    .iter()
+                    .copied()
+                    .enumerate()
+                    .fold((0, f64::MIN), |a, (i, l)| if l > a.1 { (i, l) } else { a });
             if lambda >= lmax {
                 return;
             }
@@ -476,7 +493,11 @@ fn chol_qr(w: &mut Mat<f64>, z: &mut Mat<f64>) -> Option<Mat<f64>> {
     }
     // W ← W R⁻¹ and Z ← Z R⁻¹ in place: Rᵀ Xᵀ = Wᵀ with Rᵀ = L lower triangular.
     for x in [w, z] {
-        faer::linalg::triangular_solve::solve_lower_triangular_in_place(l.as_ref(), x.as_mut().transpose_mut(), STEP_PAR);
+        faer::linalg::triangular_solve::solve_lower_triangular_in_place(
+            l.as_ref(),
+            x.as_mut().transpose_mut(),
+            STEP_PAR,
+        );
     }
     Some(l.transpose().to_owned())
 }
@@ -549,7 +570,12 @@ fn run(
     let mut mv = Mat::<f64>::zeros(n, cap);
     let mut h = Mat::<f64>::zeros(cap + b, cap);
 
-    let fresh = |mass: &mut Mass<'_>, locked: &Locked, v: MatRef<'_, f64>, mv: MatRef<'_, f64>, seed: &mut u64, prof: &mut Profile| {
+    let fresh = |mass: &mut Mass<'_>,
+                 locked: &Locked,
+                 v: MatRef<'_, f64>,
+                 mv: MatRef<'_, f64>,
+                 seed: &mut u64,
+                 prof: &mut Profile| {
         for _ in 0..20 {
             let mut w = random_block(n, b, *seed);
             *seed += 1;
@@ -561,8 +587,10 @@ fn run(
         }
         None
     };
-    let no_room = |k: usize| FemError::NotConverged { converged: 0, wanted: goal.need_below + goal.want_above, basis: k };
-    let (w, z) = fresh(mass, locked, v.as_ref().subcols(0, 0), mv.as_ref().subcols(0, 0), seed, prof).ok_or_else(|| no_room(0))?;
+    let no_room =
+        |k: usize| FemError::NotConverged { converged: 0, wanted: goal.need_below + goal.want_above, basis: k };
+    let (w, z) = fresh(mass, locked, v.as_ref().subcols(0, 0), mv.as_ref().subcols(0, 0), seed, prof)
+        .ok_or_else(|| no_room(0))?;
     v.as_mut().subcols_mut(0, b).copy_from(&w);
     mv.as_mut().subcols_mut(0, b).copy_from(&z);
     let mut k = b;
@@ -574,7 +602,15 @@ fn run(
         prof.steps += 1;
         let mut z = Mat::<f64>::zeros(n, b);
         mass.apply(w.as_ref(), z.as_mut(), prof);
-        let res = orthonormalise(mass, locked.view(), v.as_ref().subcols(0, k), mv.as_ref().subcols(0, k), &mut w, &mut z, prof);
+        let res = orthonormalise(
+            mass,
+            locked.view(),
+            v.as_ref().subcols(0, k),
+            mv.as_ref().subcols(0, k),
+            &mut w,
+            &mut z,
+            prof,
+        );
         let r = match res {
             Some((c, r)) => {
                 h.as_mut().submatrix_mut(0, k - b, k, b).copy_from(&c);
@@ -663,8 +699,11 @@ fn run(
                     locked.push(lam(i), phi.as_ref().subcols(j, 1));
                 }
                 prof.lock_seconds += t.elapsed().as_secs_f64();
-                let ritz_above =
-                    if first_unconv < k { (0..=first_unconv).rev().filter(|&i| s[i] > 0.0).map(lam).collect() } else { Vec::new() };
+                let ritz_above = if first_unconv < k {
+                    (0..=first_unconv).rev().filter(|&i| s[i] > 0.0).map(lam).collect()
+                } else {
+                    Vec::new()
+                };
                 return Ok(RunOut { below: below.len(), ritz_above });
             }
         }
@@ -745,7 +784,11 @@ pub fn solve_sliced(sys: &System, opts: &EigenOptions, progress: &dyn Fn(&str, f
         };
         if need > 0 || (!ran_here && want_above > 0) {
             if prof.runs >= max_runs {
-                return Err(FemError::NotConverged { converged: locked.count_below(lmax).min(nev), wanted: nev, basis: prof.max_basis });
+                return Err(FemError::NotConverged {
+                    converged: locked.count_below(lmax).min(nev),
+                    wanted: nev,
+                    basis: prof.max_basis,
+                });
             }
             // Eigenvalues as close above σ as the needed ones below converge alongside them.
             // A repeated run at the same shift gets a larger basis.
@@ -763,7 +806,11 @@ pub fn solve_sliced(sys: &System, opts: &EigenOptions, progress: &dyn Fn(&str, f
             }
             stalls = if locked.len() == before && out.below == 0 { stalls + 1 } else { 0 };
             if stalls >= 3 {
-                return Err(FemError::NotConverged { converged: locked.len().min(nev), wanted: nev, basis: prof.max_basis });
+                return Err(FemError::NotConverged {
+                    converged: locked.len().min(nev),
+                    wanted: nev,
+                    basis: prof.max_basis,
+                });
             }
             ran_here = true;
             last = Some(out);
@@ -825,7 +872,11 @@ pub fn solve_sliced(sys: &System, opts: &EigenOptions, progress: &dyn Fn(&str, f
             u + (u - sigma).abs().max(sigma.abs())
         };
         if !(next > sigma) {
-            return Err(FemError::NotConverged { converged: locked.len().min(nev), wanted: nev, basis: prof.max_basis });
+            return Err(FemError::NotConverged {
+                converged: locked.len().min(nev),
+                wanted: nev,
+                basis: prof.max_basis,
+            });
         }
         first = false;
         ran_here = false;
@@ -836,7 +887,8 @@ pub fn solve_sliced(sys: &System, opts: &EigenOptions, progress: &dyn Fn(&str, f
     let t = Instant::now();
     let mut order: Vec<usize> = (0..locked.len()).collect();
     order.sort_by(|&i, &j| locked.lambdas[i].total_cmp(&locked.lambdas[j]));
-    let want = order.iter().take_while(|&&i| locked.lambdas[i] <= lmax).count().saturating_add(1).min(nev).min(order.len());
+    let want =
+        order.iter().take_while(|&&i| locked.lambdas[i] <= lmax).count().saturating_add(1).min(nev).min(order.len());
     let lambdas: Vec<f64> = order[..want].iter().map(|&i| locked.lambdas[i]).collect();
     let mut vectors = Mat::<f64>::zeros(n, want);
     for (j, &i) in order[..want].iter().enumerate() {
@@ -923,7 +975,12 @@ fn residual(sys: &System, lambdas: &[f64], phi: MatRef<'_, f64>, s: f64, b: usiz
             worst = worst.max(rr.sqrt() / ((l.abs() + s) * mm.sqrt()).max(1e-300));
             worst_rq = worst_rq.max(q.abs() / (l.abs() + s));
             if debug() && q.abs() / (l.abs() + s) > 1e-9 {
-                eprintln!("eigen: check pair {} lambda {l:.6e} rq err {:.1e} residual {:.1e}", c0 + c, q.abs() / (l.abs() + s), rr.sqrt() / ((l.abs() + s) * mm.sqrt()));
+                eprintln!(
+                    "eigen: check pair {} lambda {l:.6e} rq err {:.1e} residual {:.1e}",
+                    c0 + c,
+                    q.abs() / (l.abs() + s),
+                    rr.sqrt() / ((l.abs() + s) * mm.sqrt())
+                );
             }
         }
     }

@@ -21,10 +21,7 @@ pub struct Rule {
 pub fn rule_degree2() -> Rule {
     let a = 0.585_410_196_624_968_5;
     let b = 0.138_196_601_125_010_5;
-    Rule {
-        points: vec![[b, b, b], [a, b, b], [b, a, b], [b, b, a]],
-        weights: vec![1.0 / 24.0; 4],
-    }
+    Rule { points: vec![[b, b, b], [a, b, b], [b, a, b], [b, b, a]], weights: vec![1.0 / 24.0; 4] }
 }
 
 /// A collapsed-cube (Duffy / Stroud conical product) rule with 4 Gauss–Legendre points per
@@ -32,18 +29,8 @@ pub fn rule_degree2() -> Rule {
 /// the consistent mass (NᵢNⱼ has degree 4).
 pub fn rule_mass() -> Rule {
     // Gauss–Legendre on [−1, 1] (Abramowitz & Stegun Table 25.4), mapped to [0, 1].
-    let x = [
-        -0.861_136_311_594_052_6,
-        -0.339_981_043_584_856_3,
-        0.339_981_043_584_856_3,
-        0.861_136_311_594_052_6,
-    ];
-    let w = [
-        0.347_854_845_137_453_9,
-        0.652_145_154_862_546_1,
-        0.652_145_154_862_546_1,
-        0.347_854_845_137_453_9,
-    ];
+    let x = [-0.861_136_311_594_052_6, -0.339_981_043_584_856_3, 0.339_981_043_584_856_3, 0.861_136_311_594_052_6];
+    let w = [0.347_854_845_137_453_9, 0.652_145_154_862_546_1, 0.652_145_154_862_546_1, 0.347_854_845_137_453_9];
     let mut points = Vec::with_capacity(64);
     let mut weights = Vec::with_capacity(64);
     for i in 0..4 {
@@ -107,12 +94,7 @@ impl ElementKit {
         let rs = rule_degree2();
         let rm = rule_mass();
         ElementKit {
-            stiff: rs
-                .points
-                .iter()
-                .zip(&rs.weights)
-                .map(|(p, &w)| (w, shape(*p).1))
-                .collect(),
+            stiff: rs.points.iter().zip(&rs.weights).map(|(p, &w)| (w, shape(*p).1)).collect(),
             mass: rm
                 .points
                 .iter()

@@ -62,7 +62,10 @@ impl<'a> Lines<'a> {
     fn expect_end(&mut self, end: &str, section: &str) -> Result<(), FemError> {
         let (n, l) = self.next(section)?;
         if l != end {
-            return Err(err(n, format!("expected {end} but found {:?}; the counts in {section} do not match its contents", short(l))));
+            return Err(err(
+                n,
+                format!("expected {end} but found {:?}; the counts in {section} do not match its contents", short(l)),
+            ));
         }
         Ok(())
     }
@@ -79,7 +82,9 @@ fn short(s: &str) -> String {
 /// Parses whitespace-separated unsigned integers.
 fn ints(line: usize, s: &str, what: &str) -> Result<Vec<u64>, FemError> {
     s.split_whitespace()
-        .map(|v| v.parse::<u64>().map_err(|_| err(line, format!("{what}: {:?} is not a non-negative integer", short(v)))))
+        .map(|v| {
+            v.parse::<u64>().map_err(|_| err(line, format!("{what}: {:?} is not a non-negative integer", short(v))))
+        })
         .collect()
 }
 
@@ -151,7 +156,8 @@ pub fn read_gmsh(text: &str) -> Result<TetMesh, FemError> {
                 l.expect_end("$EndMeshFormat", "$MeshFormat")?;
             }
             "$Nodes" | "$Elements" => {
-                let v = version.ok_or_else(|| err(n, format!("{line} before $MeshFormat; this is not a Gmsh .msh file")))?;
+                let v = version
+                    .ok_or_else(|| err(n, format!("{line} before $MeshFormat; this is not a Gmsh .msh file")))?;
                 match (line, v) {
                     ("$Nodes", 2) => nodes_v2(&mut l, &mut raw)?,
                     ("$Nodes", _) => nodes_v4(&mut l, &mut raw)?,
@@ -182,7 +188,8 @@ pub fn read_gmsh(text: &str) -> Result<TetMesh, FemError> {
             let idx = *raw
                 .ids
                 .get(&t[c])
-                .ok_or_else(|| err(*line, format!("the element refers to node {} which is not in $Nodes", t[c])))? as usize;
+                .ok_or_else(|| err(*line, format!("the element refers to node {} which is not in $Nodes", t[c])))?
+                as usize;
             if used[idx] == u32::MAX {
                 used[idx] = corners.len() as u32;
                 corners.push(raw.nodes[idx]);
@@ -213,7 +220,10 @@ fn nodes_v2(l: &mut Lines, raw: &mut Raw) -> Result<(), FemError> {
         let (ln, s) = l.next("$Nodes")?;
         let f: Vec<&str> = s.split_whitespace().collect();
         if f.len() < 4 || f[0].starts_with('$') {
-            return Err(err(ln, format!("a node line needs: id x y z (found {:?}; is the node count right?)", short(s))));
+            return Err(err(
+                ln,
+                format!("a node line needs: id x y z (found {:?}; is the node count right?)", short(s)),
+            ));
         }
         let id: u64 = f[0].parse().map_err(|_| err(ln, "bad node id"))?;
         raw.add_node(ln, id, coords(ln, &f[1..4])?)?;
@@ -285,7 +295,10 @@ fn nodes_v4(l: &mut Lines, raw: &mut Raw) -> Result<(), FemError> {
             let (tn, s) = l.next("$Nodes")?;
             let t = ints(tn, s, "node tag")?;
             if t.len() != 1 {
-                return Err(err(tn, format!("expected one node tag, found {:?} (are the block counts right?)", short(s))));
+                return Err(err(
+                    tn,
+                    format!("expected one node tag, found {:?} (are the block counts right?)", short(s)),
+                ));
             }
             tags.push((t[0], tn));
         }
@@ -294,7 +307,10 @@ fn nodes_v4(l: &mut Lines, raw: &mut Raw) -> Result<(), FemError> {
             let (ln, s) = l.next("$Nodes")?;
             let f: Vec<&str> = s.split_whitespace().collect();
             if f.len() < want.max(3) || f.len() > want.max(3) {
-                return Err(err(ln, format!("expected {want} coordinates for node {tag} (tag on line {tn}), found {:?}", short(s))));
+                return Err(err(
+                    ln,
+                    format!("expected {want} coordinates for node {tag} (tag on line {tn}), found {:?}", short(s)),
+                ));
             }
             raw.add_node(ln, tag, coords(ln, &f[..3])?)?;
         }
@@ -313,7 +329,10 @@ fn elements_v4(l: &mut Lines, raw: &mut Raw) -> Result<(), FemError> {
     }
     let (blocks, total) = (h[0] as usize, h[1] as usize);
     if total > MAX_GMSH_ELEMENTS {
-        return Err(err(hn, format!("{total} elements is more than the {MAX_GMSH_ELEMENTS} supported; coarsen the mesh")));
+        return Err(err(
+            hn,
+            format!("{total} elements is more than the {MAX_GMSH_ELEMENTS} supported; coarsen the mesh"),
+        ));
     }
     if blocks > total.max(1) {
         return Err(err(hn, format!("{blocks} entity blocks for {total} elements; the header is inconsistent")));
@@ -342,7 +361,10 @@ fn elements_v4(l: &mut Lines, raw: &mut Raw) -> Result<(), FemError> {
             let Some(want) = want else { continue };
             let f = ints(ln, s, "element line")?;
             if f.len() != 1 + want {
-                return Err(err(ln, format!("a type-{ty} element line needs its tag and {want} node tags, found {} numbers", f.len())));
+                return Err(err(
+                    ln,
+                    format!("a type-{ty} element line needs its tag and {want} node tags, found {} numbers", f.len()),
+                ));
             }
             raw.tets.push(([f[1], f[2], f[3], f[4]], ln));
         }

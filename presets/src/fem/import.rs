@@ -15,7 +15,9 @@
 
 use super::surface::{check_surface, read_obj, read_stl, TriGrid, TriSurface};
 use super::voxel::{auto_resolution, voxelise, VoxelOptions, DEFAULT_VERTEX_BUDGET};
-use super::{analyse, finish_bank, strike, strike_gains, today, BuildOptions, BuildReport, FemError, Material, Modes, TetMesh};
+use super::{
+    analyse, finish_bank, strike, strike_gains, today, BuildOptions, BuildReport, FemError, Material, Modes, TetMesh,
+};
 use crate::{Bank, BankReference, StrikePoint};
 use std::collections::HashMap;
 use std::path::Path;
@@ -95,14 +97,21 @@ pub struct ImportedMesh {
 /// [`FemError::InvalidOptions`] (extension, scale), [`FemError::MeshFile`] (parse errors with
 /// the line) or [`FemError::Mesh`] (unreadable or too large file, failed surface checks,
 /// voxel limits).
-pub fn import_mesh_file(path: &Path, opts: &ImportOptions, progress: &dyn Fn(&str, f32)) -> Result<ImportedMesh, FemError> {
+pub fn import_mesh_file(
+    path: &Path,
+    opts: &ImportOptions,
+    progress: &dyn Fn(&str, f32),
+) -> Result<ImportedMesh, FemError> {
     let kind = MeshFileKind::of(path)?;
     validate_scale(opts.scale)?;
     progress("read", 0.0);
     let io = |e: std::io::Error| FemError::Mesh(format!("cannot read {}: {e}", path.display()));
     let len = std::fs::metadata(path).map_err(io)?.len();
     if len > MAX_MESH_FILE_BYTES {
-        return Err(FemError::Mesh(format!("{} is {len} bytes, over the limit of {MAX_MESH_FILE_BYTES}; simplify the mesh", path.display())));
+        return Err(FemError::Mesh(format!(
+            "{} is {len} bytes, over the limit of {MAX_MESH_FILE_BYTES}; simplify the mesh",
+            path.display()
+        )));
     }
     let bytes = std::fs::read(path).map_err(io)?;
     match kind {
@@ -124,7 +133,9 @@ pub fn import_mesh_file(path: &Path, opts: &ImportOptions, progress: &dyn Fn(&st
 
 fn validate_scale(scale: f64) -> Result<(), FemError> {
     if !(scale.is_finite() && scale > 0.0) {
-        return Err(FemError::InvalidOptions(format!("the scale must be a finite factor > 0 (e.g. 0.001 for millimetres), found {scale}")));
+        return Err(FemError::InvalidOptions(format!(
+            "the scale must be a finite factor > 0 (e.g. 0.001 for millimetres), found {scale}"
+        )));
     }
     Ok(())
 }
@@ -134,7 +145,12 @@ fn validate_scale(scale: f64) -> Result<(), FemError> {
 ///
 /// # Errors
 /// As [`check_surface`] and [`voxelise`]; [`FemError::InvalidOptions`] for a bad scale.
-pub fn import_surface(mut surface: TriSurface, format: &str, opts: &ImportOptions, progress: &dyn Fn(&str, f32)) -> Result<ImportedMesh, FemError> {
+pub fn import_surface(
+    mut surface: TriSurface,
+    format: &str,
+    opts: &ImportOptions,
+    progress: &dyn Fn(&str, f32),
+) -> Result<ImportedMesh, FemError> {
     validate_scale(opts.scale)?;
     if opts.scale != 1.0 {
         surface.scale(opts.scale);
@@ -223,7 +239,11 @@ pub fn surface_strike_points(mesh: &TetMesh, count: usize) -> Result<Vec<[f64; 3
     let mut left: Vec<usize> = chosen[1..].to_vec();
     while !left.is_empty() {
         let last = pos[*path.last().unwrap_or(&chosen[0])];
-        let (k, _) = left.iter().enumerate().min_by(|a, b| dist2(pos[*a.1], last).total_cmp(&dist2(pos[*b.1], last))).unwrap_or((0, &0));
+        let (k, _) = left
+            .iter()
+            .enumerate()
+            .min_by(|a, b| dist2(pos[*a.1], last).total_cmp(&dist2(pos[*b.1], last)))
+            .unwrap_or((0, &0));
         path.push(left.swap_remove(k));
     }
     Ok(path.into_iter().map(|i| pos[i]).collect())
@@ -267,7 +287,12 @@ pub fn build_bank_from_import(
 
 /// Surface-normal gains like [`strike_gains`], with the normal of the nearest triangle of
 /// `surface` instead of the mesh face's.
-fn gains_with_surface_normals(mesh: &TetMesh, modes: &Modes, points: &[[f64; 3]], surface: &TriSurface) -> Vec<Vec<f64>> {
+fn gains_with_surface_normals(
+    mesh: &TetMesh,
+    modes: &Modes,
+    points: &[[f64; 3]],
+    surface: &TriSurface,
+) -> Vec<Vec<f64>> {
     let tris: Vec<u32> = (0..surface.triangles.len() as u32).collect();
     let diag = surface.diagonal();
     let grid = TriGrid::new(surface, &tris, 1e-3 * diag);
@@ -397,7 +422,8 @@ mod tests {
         let mesh = mesh_shape(&shape, 10).unwrap();
         let mat = Material { young: 2.0e11, density: 7850.0, poisson: 0.3 };
         let opts = BuildOptions { max_modes: 8, max_freq_hz: None, resolution: 10, strike_points: 24 };
-        let (bank, report) = build_bank_from_mesh("imported-bar", "Imported bar", "test", &mesh, &mat, &opts, &|_, _| {}).unwrap();
+        let (bank, report) =
+            build_bank_from_mesh("imported-bar", "Imported bar", "test", &mesh, &mat, &opts, &|_, _| {}).unwrap();
         assert_eq!(bank.num_points(), 24);
         assert_eq!(report.rigid_eigenvalues.len(), 6);
         let (direct, _) = crate::fem::build_bank("bar", "Bar", &shape, &mat, &opts, &|_, _| {}).unwrap();
@@ -406,8 +432,12 @@ mod tests {
         }
         // Points are spread: no two closer than a tenth of the mean spacing.
         let p: Vec<[f32; 3]> = bank.points.iter().map(|s| s.position_m).collect();
-        let d = |a: [f32; 3], b: [f32; 3]| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
-        let min = (0..p.len()).flat_map(|i| (i + 1..p.len()).map(move |j| (i, j))).map(|(i, j)| d(p[i], p[j])).fold(f32::MAX, f32::min);
+        let d =
+            |a: [f32; 3], b: [f32; 3]| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
+        let min = (0..p.len())
+            .flat_map(|i| (i + 1..p.len()).map(move |j| (i, j)))
+            .map(|(i, j)| d(p[i], p[j]))
+            .fold(f32::MAX, f32::min);
         assert!(min > 0.003, "closest strike points {min} m apart");
         // Every mode is heard somewhere on the surface.
         for m in 0..bank.num_modes() {

@@ -40,10 +40,7 @@ impl TetMesh {
 
     /// Total volume (m³) from the corner tetrahedra (exact for straight-sided elements).
     pub fn volume(&self) -> f64 {
-        self.tets
-            .iter()
-            .map(|t| signed_volume(&self.nodes, [t[0], t[1], t[2], t[3]]))
-            .sum()
+        self.tets.iter().map(|t| signed_volume(&self.nodes, [t[0], t[1], t[2], t[3]])).sum()
     }
 
     /// Axis-aligned bounding box (min, max), m.
@@ -122,11 +119,7 @@ pub(crate) fn promote(
         }
         out.push(full);
     }
-    Ok(TetMesh {
-        nodes,
-        corners: nc,
-        tets: out,
-    })
+    Ok(TetMesh { nodes, corners: nc, tets: out })
 }
 
 /// Splits the prism with bottom (p0, p1, p2) and top (p3, p4, p5) (p3 above p0, …) into three
@@ -287,12 +280,7 @@ impl Revolution {
             table.push((acc, u));
             prev = p;
         }
-        Revolution {
-            curve,
-            table,
-            len: acc,
-            wall,
-        }
+        Revolution { curve, table, len: acc, wall }
     }
 
     fn u_of(&self, s: f64) -> f64 {
@@ -389,11 +377,7 @@ pub(crate) fn mesh_with_geometry(shape: &Shape, resolution: usize) -> Result<(Te
     let boxed = |lx: f64, ly: f64, lz: f64, line: bool| -> Result<(TetMesh, Geometry), FemError> {
         let h = lx.max(ly).max(lz) / res;
         let (base, tris) = rect_base(lx, ly, divisions(lx, h), divisions(ly, h));
-        let lay = Layered {
-            base,
-            tris,
-            layers: divisions(lz, h),
-        };
+        let lay = Layered { base, tris, layers: divisions(lz, h) };
         let mesh = lay.build(&|q| [q[0], q[1], q[2] * lz], &mid3)?;
         Ok((mesh, Geometry::Box { lx, ly, lz, line }))
     };

@@ -392,7 +392,12 @@ const SLICE_BASIS: usize = 320;
 /// [`FemError::InvalidMaterial`], [`FemError::Mesh`] (degenerate elements),
 /// [`FemError::Factorization`], [`FemError::NotConverged`], [`FemError::RigidModes`] (not
 /// exactly six zero eigenvalues) or [`FemError::NoModes`].
-pub fn analyse(mesh: &TetMesh, material: &Material, opts: &BuildOptions, progress: &dyn Fn(&str, f32)) -> Result<Modes, FemError> {
+pub fn analyse(
+    mesh: &TetMesh,
+    material: &Material,
+    opts: &BuildOptions,
+    progress: &dyn Fn(&str, f32),
+) -> Result<Modes, FemError> {
     material.validate()?;
     opts.validate()?;
     let t0 = Instant::now();
@@ -424,16 +429,11 @@ pub fn analyse(mesh: &TetMesh, material: &Material, opts: &BuildOptions, progres
     let found = res.lambdas.iter().filter(|l| l.abs() < thr).count();
     let lowest_elastic_ok = res.lambdas.get(RIGID).is_none_or(|l| l.abs() >= thr);
     if found != RIGID || !lowest_elastic_ok {
-        return Err(FemError::RigidModes {
-            found,
-            eigenvalues: res.lambdas.iter().take(RIGID + 3).copied().collect(),
-        });
+        return Err(FemError::RigidModes { found, eigenvalues: res.lambdas.iter().take(RIGID + 3).copied().collect() });
     }
     let lmax = eopts.lambda_max.unwrap_or(f64::INFINITY);
-    let keep: Vec<usize> = (RIGID..res.lambdas.len())
-        .filter(|&i| res.lambdas[i] <= lmax)
-        .take(opts.max_modes)
-        .collect();
+    let keep: Vec<usize> =
+        (RIGID..res.lambdas.len()).filter(|&i| res.lambdas[i] <= lmax).take(opts.max_modes).collect();
     if keep.is_empty() {
         return Err(FemError::NoModes);
     }
@@ -503,13 +503,8 @@ pub fn build_bank(
     let positions: Vec<[f64; 3]> = path.iter().map(|p| p.position).collect();
     let gains = strike_gains(&mesh, &modes, &positions);
     let dims = shape.dimensions();
-    let dims_text = shape
-        .field_names()
-        .iter()
-        .zip(&dims)
-        .map(|(n, v)| format!("{n} {v} m"))
-        .collect::<Vec<_>>()
-        .join(", ");
+    let dims_text =
+        shape.field_names().iter().zip(&dims).map(|(n, v)| format!("{n} {v} m")).collect::<Vec<_>>().join(", ");
     let frame = match shape {
         Shape::Bar { .. } | Shape::Plate { .. } | Shape::Block { .. } => {
             "Frame: box [0, length] x [0, width] x [0, thickness]; strike points on the top face; xy = (x/length, y/width)."
@@ -605,10 +600,7 @@ pub fn peak_memory_bytes() -> Option<u64> {
 
 /// Today's UTC date as YYYY-MM-DD (civil-from-days, H. Hinnant's algorithm).
 pub(crate) fn today() -> String {
-    let secs = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_secs())
-        .unwrap_or(0);
+    let secs = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
     let z = (secs / 86_400) as i64 + 719_468;
     let era = z.div_euclid(146_097);
     let doe = z - era * 146_097;

@@ -55,10 +55,7 @@ impl Surface {
                     }
                 }
                 key.sort_unstable();
-                count
-                    .entry(key)
-                    .and_modify(|v| v.1 = usize::MAX)
-                    .or_insert((e, opp));
+                count.entry(key).and_modify(|v| v.1 = usize::MAX).or_insert((e, opp));
             }
         }
         let mut faces = Vec::new();
@@ -189,11 +186,7 @@ pub(crate) fn strike_path(geom: &Geometry, n: usize) -> Vec<PathPoint> {
                 (0..n)
                     .map(|i| {
                         let f = (i as f64 + 0.5) / n as f64;
-                        PathPoint {
-                            position: [f * lx, 0.5 * ly, lz],
-                            xy: [f, 0.5],
-                            label: format!("x = {f:.3} L"),
-                        }
+                        PathPoint { position: [f * lx, 0.5 * ly, lz], xy: [f, 0.5], label: format!("x = {f:.3} L") }
                     })
                     .collect()
             } else {
@@ -239,10 +232,7 @@ pub(crate) fn strike_path(geom: &Geometry, n: usize) -> Vec<PathPoint> {
                         let x = rev.map([th, s, *outer_t]);
                         PathPoint {
                             position: x,
-                            xy: [
-                                (0.5 + 0.5 * x[0] / rmax).clamp(0.0, 1.0),
-                                (0.5 + 0.5 * x[1] / rmax).clamp(0.0, 1.0),
-                            ],
+                            xy: [(0.5 + 0.5 * x[0] / rmax).clamp(0.0, 1.0), (0.5 + 0.5 * x[1] / rmax).clamp(0.0, 1.0)],
                             label: format!("r = {:.2}, {:.0} deg", s / rev.len, th.to_degrees() % 360.0),
                         }
                     })
@@ -257,11 +247,7 @@ pub(crate) fn strike_path(geom: &Geometry, n: usize) -> Vec<PathPoint> {
                         let th = 2.0 * PI * turns * f;
                         let x = rev.map([th, s, *outer_t]);
                         let a = (th / (2.0 * PI)).fract();
-                        PathPoint {
-                            position: x,
-                            xy: [a, f],
-                            label: format!("s = {f:.2}, {:.0} deg", a * 360.0),
-                        }
+                        PathPoint { position: x, xy: [a, f], label: format!("s = {f:.2}, {:.0} deg", a * 360.0) }
                     })
                     .collect();
             }

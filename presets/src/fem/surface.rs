@@ -227,13 +227,17 @@ pub fn read_obj(text: &str) -> Result<TriSurface, FemError> {
                 let mut p = [0.0f64; 3];
                 for (c, slot) in p.iter_mut().enumerate() {
                     let t = f.next().ok_or_else(|| file_err(ln, "a vertex needs three coordinates: v x y z"))?;
-                    *slot = t.parse().map_err(|_| file_err(ln, format!("coordinate {} {t:?} is not a number", c + 1)))?;
+                    *slot =
+                        t.parse().map_err(|_| file_err(ln, format!("coordinate {} {t:?} is not a number", c + 1)))?;
                     if !slot.is_finite() {
                         return Err(file_err(ln, "the vertex has a non-finite coordinate"));
                     }
                 }
                 if s.vertices.len() >= 3 * MAX_SURFACE_TRIANGLES {
-                    return Err(file_err(ln, format!("more than {} vertices; simplify the model", 3 * MAX_SURFACE_TRIANGLES)));
+                    return Err(file_err(
+                        ln,
+                        format!("more than {} vertices; simplify the model", 3 * MAX_SURFACE_TRIANGLES),
+                    ));
                 }
                 s.vertices.push(p);
             }
@@ -241,12 +245,16 @@ pub fn read_obj(text: &str) -> Result<TriSurface, FemError> {
                 poly.clear();
                 for t in f {
                     let idx = t.split('/').next().unwrap_or("");
-                    let k: i64 = idx.parse().map_err(|_| file_err(ln, format!("face index {t:?} is not an integer")))?;
+                    let k: i64 =
+                        idx.parse().map_err(|_| file_err(ln, format!("face index {t:?} is not an integer")))?;
                     let n = s.vertices.len() as i64;
                     // OBJ: 1-based; negative counts back from the latest vertex (-1 = last).
                     let j = if k > 0 { k - 1 } else { n + k };
                     if k == 0 || j < 0 || j >= n {
-                        return Err(file_err(ln, format!("face index {k} is out of range (there are {n} vertices so far)")));
+                        return Err(file_err(
+                            ln,
+                            format!("face index {k} is out of range (there are {n} vertices so far)"),
+                        ));
                     }
                     poly.push(j as u32);
                 }
@@ -257,7 +265,10 @@ pub fn read_obj(text: &str) -> Result<TriSurface, FemError> {
                     s.triangles.push([poly[0], poly[k], poly[k + 1]]);
                 }
                 if s.triangles.len() > MAX_SURFACE_TRIANGLES {
-                    return Err(file_err(ln, format!("more than {MAX_SURFACE_TRIANGLES} triangles; simplify (decimate) the model")));
+                    return Err(file_err(
+                        ln,
+                        format!("more than {MAX_SURFACE_TRIANGLES} triangles; simplify (decimate) the model"),
+                    ));
                 }
             }
             _ => {}
@@ -278,7 +289,8 @@ pub fn read_obj(text: &str) -> Result<TriSurface, FemError> {
 /// without three vertices (naming the line), non-finite coordinates, too many triangles or
 /// no triangles.
 pub fn read_stl(bytes: &[u8]) -> Result<TriSurface, FemError> {
-    let binary_count = (bytes.len() >= 84).then(|| u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as u64);
+    let binary_count =
+        (bytes.len() >= 84).then(|| u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as u64);
     let head = String::from_utf8_lossy(&bytes[..bytes.len().min(512)]);
     let says_solid = head.trim_start().to_ascii_lowercase().starts_with("solid");
     // Exactly 84 + 50·n bytes: binary, even if the header begins with "solid". Without
@@ -287,7 +299,9 @@ pub fn read_stl(bytes: &[u8]) -> Result<TriSurface, FemError> {
         let want = 84 + 50 * n;
         want == bytes.len() as u64 || (!says_solid && want < bytes.len() as u64)
     });
-    let size_note = |n: u64| format!("as binary its header announces {n} triangles = {} bytes but the file has {}", 84 + 50 * n, bytes.len());
+    let size_note = |n: u64| {
+        format!("as binary its header announces {n} triangles = {} bytes but the file has {}", 84 + 50 * n, bytes.len())
+    };
     let mut s = if is_binary {
         read_stl_binary(bytes)?
     } else if says_solid {
@@ -315,7 +329,9 @@ pub fn read_stl(bytes: &[u8]) -> Result<TriSurface, FemError> {
 fn read_stl_binary(bytes: &[u8]) -> Result<TriSurface, FemError> {
     let n = u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as usize;
     if n > MAX_SURFACE_TRIANGLES {
-        return Err(whole_err(format!("{n} triangles is more than the {MAX_SURFACE_TRIANGLES} supported; simplify (decimate) the model")));
+        return Err(whole_err(format!(
+            "{n} triangles is more than the {MAX_SURFACE_TRIANGLES} supported; simplify (decimate) the model"
+        )));
     }
     let mut s = TriSurface { vertices: Vec::with_capacity(3 * n), triangles: Vec::with_capacity(n) };
     let f = |o: usize| f32::from_le_bytes([bytes[o], bytes[o + 1], bytes[o + 2], bytes[o + 3]]) as f64;
@@ -345,7 +361,10 @@ fn read_stl_ascii(text: &str) -> Result<TriSurface, FemError> {
         match f.next().map(|w| w.to_ascii_lowercase()).as_deref() {
             Some("facet") => {
                 if in_facet {
-                    return Err(file_err(ln, format!("'facet' inside the facet begun on line {facet_line} (missing 'endfacet')")));
+                    return Err(file_err(
+                        ln,
+                        format!("'facet' inside the facet begun on line {facet_line} (missing 'endfacet')"),
+                    ));
                 }
                 in_facet = true;
                 facet_line = ln;
@@ -367,14 +386,23 @@ fn read_stl_ascii(text: &str) -> Result<TriSurface, FemError> {
             }
             Some("endfacet") => {
                 if !in_facet || facet.len() != 3 {
-                    return Err(file_err(ln, format!("the facet begun on line {facet_line} has {} vertices; STL facets are triangles", facet.len())));
+                    return Err(file_err(
+                        ln,
+                        format!(
+                            "the facet begun on line {facet_line} has {} vertices; STL facets are triangles",
+                            facet.len()
+                        ),
+                    ));
                 }
                 in_facet = false;
                 let b = s.vertices.len() as u32;
                 s.vertices.extend_from_slice(&facet);
                 s.triangles.push([b, b + 1, b + 2]);
                 if s.triangles.len() > MAX_SURFACE_TRIANGLES {
-                    return Err(file_err(ln, format!("more than {MAX_SURFACE_TRIANGLES} triangles; simplify (decimate) the model")));
+                    return Err(file_err(
+                        ln,
+                        format!("more than {MAX_SURFACE_TRIANGLES} triangles; simplify (decimate) the model"),
+                    ));
                 }
             }
             _ => {}
@@ -457,7 +485,13 @@ impl TriGrid {
             return TriGrid { lo, h, dims, start, items };
         }
         // Unreachable in practice (a single cell always fits); keep one cell of everything.
-        TriGrid { lo, h: norm(ext).max(1e-12) * 2.0, dims: [1, 1, 1], start: vec![0, tris.len() as u32], items: tris.to_vec() }
+        TriGrid {
+            lo,
+            h: norm(ext).max(1e-12) * 2.0,
+            dims: [1, 1, 1],
+            start: vec![0, tris.len() as u32],
+            items: tris.to_vec(),
+        }
     }
 
     fn cell_of(lo: [f64; 3], h: f64, dims: [usize; 3], p: [f64; 3]) -> [usize; 3] {
@@ -498,7 +532,6 @@ impl TriGrid {
         best
     }
 }
-
 
 /// Whether segment p→q crosses the interior of triangle (a, b, c), away from its edges and
 /// the segment's ends by a relative margin (touching contacts are not intersections).
@@ -699,7 +732,10 @@ pub fn check_surface(s: &mut TriSurface) -> Result<SurfaceReport, FemError> {
     let boxes: Vec<([f64; 3], [f64; 3])> = (0..n)
         .map(|t| {
             let c = s.corners(t);
-            (std::array::from_fn(|i| c[0][i].min(c[1][i]).min(c[2][i])), std::array::from_fn(|i| c[0][i].max(c[1][i]).max(c[2][i])))
+            (
+                std::array::from_fn(|i| c[0][i].min(c[1][i]).min(c[2][i])),
+                std::array::from_fn(|i| c[0][i].max(c[1][i]).max(c[2][i])),
+            )
         })
         .collect();
     'cells: for z in 0..grid.dims[2] {
@@ -781,7 +817,8 @@ pub fn check_surface(s: &mut TriSurface) -> Result<SurfaceReport, FemError> {
     }
     rep.flipped = flip.iter().filter(|&&f| f).count();
     if rep.flipped > 0 {
-        rep.warnings.push(format!("reversed {} of {n} triangles to make the normals point outward consistently", rep.flipped));
+        rep.warnings
+            .push(format!("reversed {} of {n} triangles to make the normals point outward consistently", rep.flipped));
     }
     rep.volume = s.signed_volume();
     if !(rep.volume > 1e-9 * diag * diag * diag) {

@@ -69,7 +69,9 @@ pub fn auto_resolution(s: &TriSurface, budget: usize) -> usize {
         return AUTO_RESOLUTION_RANGE.0;
     }
     let fill = (s.signed_volume().abs() / ext.iter().map(|e| e.max(1e-12 * longest)).product::<f64>()).clamp(1e-3, 1.0);
-    let estimate = |r: usize| -> f64 { fill * ext.iter().map(|e| ((r as f64 * e / longest).ceil().max(1.0)) + 1.0).product::<f64>() };
+    let estimate = |r: usize| -> f64 {
+        fill * ext.iter().map(|e| ((r as f64 * e / longest).ceil().max(1.0)) + 1.0).product::<f64>()
+    };
     let (lo_r, hi_r) = AUTO_RESOLUTION_RANGE;
     (lo_r..=hi_r).take_while(|&r| estimate(r) <= budget as f64).last().unwrap_or(lo_r)
 }
@@ -138,10 +140,17 @@ fn signed_volume(p: &[[f64; 3]], t: &[u32; 4]) -> f64 {
 /// cells; [`FemError::Mesh`] if no cube is inside (the object is thinner than a cube) or the
 /// mesh would have more than [`MAX_IMPORT_VERTICES`] vertices (both say which resolution to
 /// use instead).
-pub fn voxelise(s: &TriSurface, opts: &VoxelOptions, progress: &dyn Fn(&str, f32)) -> Result<(TetMesh, VoxelReport), FemError> {
+pub fn voxelise(
+    s: &TriSurface,
+    opts: &VoxelOptions,
+    progress: &dyn Fn(&str, f32),
+) -> Result<(TetMesh, VoxelReport), FemError> {
     let mut rep = VoxelReport::default();
     if opts.resolution < 2 {
-        return Err(FemError::InvalidOptions(format!("resolution {} is too coarse; use at least 2 voxels along the longest side", opts.resolution)));
+        return Err(FemError::InvalidOptions(format!(
+            "resolution {} is too coarse; use at least 2 voxels along the longest side",
+            opts.resolution
+        )));
     }
     let (lo, hi) = s.bounds();
     let ext = sub(hi, lo);
@@ -182,12 +191,8 @@ pub fn voxelise(s: &TriSurface, opts: &VoxelOptions, progress: &dyn Fn(&str, f32
     let mut ranges = Vec::with_capacity(tris.len());
     for &t in &tris {
         let c = s.corners(t as usize);
-        let r = col_range(c[0][0].min(c[1][0]).min(c[2][0]), c[0][0].max(c[1][0]).max(c[2][0]), origin[0], nx).zip(col_range(
-            c[0][1].min(c[1][1]).min(c[2][1]),
-            c[0][1].max(c[1][1]).max(c[2][1]),
-            origin[1],
-            ny,
-        ));
+        let r = col_range(c[0][0].min(c[1][0]).min(c[2][0]), c[0][0].max(c[1][0]).max(c[2][0]), origin[0], nx)
+            .zip(col_range(c[0][1].min(c[1][1]).min(c[2][1]), c[0][1].max(c[1][1]).max(c[2][1]), origin[1], ny));
         if let Some(((x0, x1), (y0, y1))) = r {
             for y in y0..=y1 {
                 for x in x0..=x1 {
@@ -360,7 +365,8 @@ pub fn voxelise(s: &TriSurface, opts: &VoxelOptions, progress: &dyn Fn(&str, f32
         }
     }
     if nodes.len() > MAX_IMPORT_VERTICES {
-        let suggest = ((opts.resolution as f64) * (MAX_IMPORT_VERTICES as f64 / nodes.len() as f64).cbrt() * 0.95).floor() as usize;
+        let suggest = ((opts.resolution as f64) * (MAX_IMPORT_VERTICES as f64 / nodes.len() as f64).cbrt() * 0.95)
+            .floor() as usize;
         return Err(FemError::Mesh(format!(
             "resolution {} gives {} vertices, over the limit of {MAX_IMPORT_VERTICES}; use a resolution of about {} or less",
             opts.resolution,
@@ -489,7 +495,10 @@ pub fn voxelise(s: &TriSurface, opts: &VoxelOptions, progress: &dyn Fn(&str, f32
             nodes = orig;
             rep.snapped = 0;
             rep.snap_undone = bverts.len();
-            rep.warnings.push("moving the boundary vertices onto the surface kept distorting elements; the voxel staircase was kept".into());
+            rep.warnings.push(
+                "moving the boundary vertices onto the surface kept distorting elements; the voxel staircase was kept"
+                    .into(),
+            );
         }
     }
     let mesh = TetMesh::from_linear(nodes, &tets)?;
