@@ -159,12 +159,18 @@ impl NoteId {
     pub const ANY: u8 = u8::MAX;
 }
 
-/// A voice ended (silent, stolen or choked) `offset` samples into the last `render` call.
+/// A voice ended (silent, stolen or choked) `offset` samples into a `render` call.
+///
+/// A voice that falls silent ends inside a `render` call: `offset` counts from that call's
+/// first sample. A voice stolen or choked between two calls (by `note_on` or `choke`) ends
+/// where the next call starts: `offset` 0 of that call. Drained after each call, the notices
+/// are therefore in time order and inside the rendered span (CLAP requires output events in
+/// time order).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Terminated {
     /// Which note.
     pub note: NoteId,
-    /// Sample offset within the `render` call in which it ended.
+    /// Sample offset within the `render` call in (or before) which it ended.
     pub offset: u32,
 }
 
@@ -695,6 +701,8 @@ impl Engine {
             self.clock += n as u64;
             self.rendered_in_call = pos as u32;
         }
+        // Steals and chokes before the next call happen at that call's first sample.
+        self.rendered_in_call = 0;
     }
 
     /// Maximum modes per voice.

@@ -49,6 +49,9 @@ pub struct ResonatorBank {
     len: usize,
     /// Lane-wise per-sample accumulators, `MAX_KERNEL_BLOCK × LANES`.
     acc: Vec<f32>,
+    /// Use the AVX2/FMA kernel: decided in [`new`](Self::new), so the audio thread never runs
+    /// the CPU and environment checks.
+    avx2: bool,
 }
 
 impl ResonatorBank {
@@ -62,7 +65,19 @@ impl ResonatorBank {
             pi: vec![0.0; padded],
             len: 0,
             acc: vec![0.0; MAX_KERNEL_BLOCK * LANES],
+            avx2: avx2_available(),
         }
+    }
+
+    /// Whether this bank runs the AVX2/FMA kernel (else the portable one).
+    pub fn uses_avx2(&self) -> bool {
+        self.avx2
+    }
+
+    /// Chooses the kernel: `true` for AVX2/FMA, honoured only where the CPU has them; `false`
+    /// for the portable kernel (tests compare the two). Realtime-safe.
+    pub fn set_avx2(&mut self, on: bool) {
+        self.avx2 = on && avx2_available();
     }
 
     /// Maximum number of modes.
@@ -147,7 +162,7 @@ impl ResonatorBank {
         acc.fill(0.0);
         #[cfg(target_arch = "x86_64")]
         {
-            if avx2_available() {
+            if self.avx2 {
                 // SAFETY: AVX2 and FMA were detected at run time; all slices hold `padded`
                 // modes (capacity is a multiple of LANES) and `acc` holds n × LANES floats.
                 unsafe {
@@ -187,7 +202,9 @@ fn reduce(acc: &[f32], out: &mut [f32]) {
     }
 }
 
-/// Whether the AVX2/FMA kernel is used on this machine (cached after the first call).
+/// Whether the AVX2/FMA kernel is used on this machine (cached after the first call; set
+/// `STRUCK_NO_SIMD` to force the portable kernel). Reads the environment on its first call:
+/// not for the audio thread ([`ResonatorBank::new`] calls it).
 #[cfg(target_arch = "x86_64")]
 pub fn avx2_available() -> bool {
     use std::sync::atomic::{AtomicU8, Ordering};

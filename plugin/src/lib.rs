@@ -36,6 +36,9 @@ pub struct Struck {
     editor_shared: Arc<editor::EditorShared>,
     /// The editor's A/B clip playing, if any.
     clip_player: editor::ClipPlayer,
+    /// The last MIDI CC 74 (MPE timbre) of each channel, 0..=1: the strike position of that
+    /// channel's next notes (MPE sends a note's initial timbre just before its note-on).
+    channel_timbre: [Option<f32>; 16],
 }
 
 impl Default for Struck {
@@ -55,6 +58,7 @@ impl Struck {
             sample_rate: 48_000.0,
             editor_shared: Arc::new(editor::EditorShared::default()),
             clip_player: editor::ClipPlayer::default(),
+            channel_timbre: [None; 16],
         }
     }
 }
@@ -142,7 +146,15 @@ impl Struck {
 
     fn handle_event(&mut self, event: NoteEvent<()>) {
         let strike = match &event {
-            NoteEvent::NoteOn { key: Key::Number(key), velocity, .. } => Some(self.strike_for(*key, *velocity)),
+            NoteEvent::NoteOn { key: Key::Number(key), velocity, channel, .. } => {
+                let mut strike = self.strike_for(*key, *velocity);
+                if let Some(position) =
+                    channel.number().and_then(|c| self.channel_timbre.get(usize::from(c))).copied().flatten()
+                {
+                    strike.position = position;
+                }
+                Some(strike)
+            }
             _ => None,
         };
         let Some(engine) = self.engine.as_mut() else { return };
@@ -168,8 +180,12 @@ impl Struck {
                 engine.set_note_position(note(voice_id, channel, key), brightness)
             }
             NoteEvent::MidiChannelPressure { channel, pressure, .. } => engine.set_channel_pressure(channel, pressure),
-            // MPE timbre (CC 74) on a member channel → strike position of that channel's notes.
+            // MPE timbre (CC 74) on a member channel → strike position of that channel's sounding
+            // notes, and of its next ones.
             NoteEvent::MidiCC { channel, cc: 74, value, .. } => {
+                if let Some(slot) = self.channel_timbre.get_mut(usize::from(channel)) {
+                    *slot = Some(value);
+                }
                 engine.set_note_position(NoteId { voice_id: None, channel, key: NoteId::ANY }, value)
             }
             NoteEvent::PolyModulation {
@@ -231,6 +247,7 @@ impl Plugin for Struck {
     }
 
     fn reset(&mut self) {
+        self.channel_timbre = [None; 16];
         let sp = self.sound_params();
         let object = self.object_index();
         if let Some(e) = self.engine.as_mut() {

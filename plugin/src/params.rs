@@ -137,21 +137,116 @@ pub struct CustomKnobs {
     pub caughey_10k_per_s: f32,
 }
 
-fn object_name(lib: &Arc<Library>) -> Arc<dyn Fn(i32) -> String + Send + Sync> {
+type ValueToString<T> = Arc<dyn Fn(T) -> String + Send + Sync>;
+type StringToValue<T> = Arc<dyn Fn(&str) -> Option<T> + Send + Sync>;
+
+fn object_name(lib: &Arc<Library>) -> ValueToString<i32> {
     let lib = lib.clone();
     Arc::new(move |v| lib.banks.get(v as usize).map_or_else(|| format!("#{v}"), |b| b.name.clone()))
 }
 
-fn material_name(lib: &Arc<Library>) -> Arc<dyn Fn(i32) -> String + Send + Sync> {
+fn material_name(lib: &Arc<Library>) -> ValueToString<i32> {
     let lib = lib.clone();
-    Arc::new(move |v| lib.materials.get(v as usize).map_or_else(|| "Custom".to_string(), |m| m.name.clone()))
+    Arc::new(move |v| lib.materials.get(v as usize).map_or_else(|| CUSTOM.to_string(), |m| m.name.clone()))
 }
 
-/// Formats a multiplier with its pitch change in semitones (pitch ∝ sqrt(ratio)).
-fn ratio_with_semitones(sqrt_law: bool) -> Arc<dyn Fn(f32) -> String + Send + Sync> {
+/// Name of the material parameter's last value.
+const CUSTOM: &str = "Custom";
+
+/// Picks an entry of a list by what a user or host typed: its index, its exact name or id
+/// (any case), else the first whose name or id starts with the text, else the first that
+/// contains it.
+fn pick(text: &str, entries: &[(&str, &str)]) -> Option<i32> {
+    let t = text.trim().to_lowercase();
+    if t.is_empty() {
+        return None;
+    }
+    if let Ok(i) = t.trim_start_matches('#').parse::<i32>() {
+        return (0..entries.len() as i32).contains(&i).then_some(i);
+    }
+    let exact = entries.iter().position(|(name, id)| name.to_lowercase() == t || id.to_lowercase() == t);
+    let starts = || entries.iter().position(|(name, id)| name.to_lowercase().starts_with(&t) || id.starts_with(&t));
+    let contains =
+        || entries.iter().position(|(name, id)| name.to_lowercase().contains(&t) || id.to_lowercase().contains(&t));
+    exact.or_else(starts).or_else(contains).map(|i| i as i32)
+}
+
+fn object_from_name(lib: &Arc<Library>) -> StringToValue<i32> {
+    let lib = lib.clone();
+    Arc::new(move |s| {
+        let entries: Vec<(&str, &str)> = lib.banks.iter().map(|b| (b.name.as_str(), b.id.as_str())).collect();
+        pick(s, &entries)
+    })
+}
+
+fn material_from_name(lib: &Arc<Library>) -> StringToValue<i32> {
+    let lib = lib.clone();
+    Arc::new(move |s| {
+        let mut entries: Vec<(&str, &str)> = lib.materials.iter().map(|m| (m.name.as_str(), m.id.as_str())).collect();
+        entries.push((CUSTOM, "custom"));
+        pick(s, &entries)
+    })
+}
+
+/// The first number in `text` (after an optional `×`, `x` or `*`), e.g. "-12 dB" → −12,
+/// "×0.050 (+51.9 st)" → 0.05, "4.0 1/s" → 4.
+fn leading_number(text: &str) -> Option<f32> {
+    let t = text.trim().trim_start_matches(['×', '*', 'x', 'X']).trim_start();
+    let end = t
+        .char_indices()
+        .find(|&(i, c)| {
+            !(c.is_ascii_digit() || c == '.' || ((c == '-' || c == '+') && (i == 0 || t[..i].ends_with(['e', 'E']))))
+                && !((c == 'e' || c == 'E') && i > 0)
+        })
+        .map_or(t.len(), |(i, _)| i);
+    let number = t[..end].trim_end_matches(['e', 'E']);
+    number.parse::<f32>().ok().filter(|v| v.is_finite())
+}
+
+/// Formats with `digits` significant digits (at most 3 decimals), so that text → value → text
+/// gives back the same text at `f32` precision, as hosts and clap-validator check (a fixed 3
+/// decimals on a value of thousands asks for 7 significant digits, more than the parameter's
+/// normalised ↔ plain mapping keeps).
+fn v2s_significant(digits: i32) -> ValueToString<f32> {
+    fn format(v: f32, digits: i32) -> String {
+        if v == 0.0 || !v.is_finite() {
+            return format!("{:.1}", 0.0);
+        }
+        let decimals = (digits - 1 - v.abs().log10().floor() as i32).clamp(0, 3) as usize;
+        format!("{v:.decimals$}")
+    }
+    Arc::new(move |v| {
+        // Round once, then format the rounded value by its own magnitude (999.96 → "1000").
+        let rounded: f32 = format(v, digits).parse().unwrap_or(v);
+        format(rounded, digits)
+    })
+}
+
+/// Parses a plain number with an optional unit ("-12 dB", "-12dB", "-12", "40 1/s").
+fn s2v_number() -> StringToValue<f32> {
+    Arc::new(leading_number)
+}
+
+/// Formats a multiplier with its pitch change in semitones (pitch ∝ sqrt(ratio) when
+/// `sqrt_law`, ∝ 1/ratio otherwise).
+fn ratio_with_semitones(sqrt_law: bool) -> ValueToString<f32> {
     Arc::new(move |v| {
         let st = if sqrt_law { 6.0 * v.log2() } else { -12.0 * v.log2() };
         format!("×{v:.3} ({st:+.1} st)")
+    })
+}
+
+/// Parses what [`ratio_with_semitones`] writes, a bare multiplier ("0.05", "×0.05"), or a
+/// pitch change alone ("+12 st", "-7st"), the inverse of the semitone law.
+fn s2v_ratio_or_semitones(sqrt_law: bool) -> StringToValue<f32> {
+    Arc::new(move |s| {
+        let t = s.trim();
+        let st = t.trim_end_matches(|c: char| c.is_whitespace() || c == ')');
+        if !t.starts_with(['×', '*', 'x', 'X', '(']) && st.ends_with("st") {
+            let semis = leading_number(st.trim_end_matches("st").trim_start_matches('('))?;
+            return Some(if sqrt_law { 2f32.powf(semis / 6.0) } else { 2f32.powf(-semis / 12.0) });
+        }
+        leading_number(t)
     })
 }
 
@@ -161,13 +256,15 @@ impl StruckParams {
         let default_material = lib.default_material_index() as i32;
         StruckParams {
             object: IntParam::new("Object", 0, IntRange::Linear { min: 0, max: lib.banks.len().max(1) as i32 - 1 })
-                .with_value_to_string(object_name(lib)),
+                .with_value_to_string(object_name(lib))
+                .with_string_to_value(object_from_name(lib)),
             material: IntParam::new(
                 "Material",
                 default_material,
                 IntRange::Linear { min: 0, max: lib.materials.len() as i32 },
             )
-            .with_value_to_string(material_name(lib)),
+            .with_value_to_string(material_name(lib))
+            .with_string_to_value(material_from_name(lib)),
             damping_model: EnumParam::new("Damping model", DampingModelParam::Rayleigh),
             alpha1_per_s: FloatParam::new(
                 "Base damping α₁",
@@ -175,35 +272,41 @@ impl StruckParams {
                 FloatRange::Skewed { min: 0.0, max: 2000.0, factor: FloatRange::skew_factor(-2.5) },
             )
             .with_unit(" 1/s")
-            .with_value_to_string(formatters::v2s_f32_rounded(3)),
+            .with_value_to_string(v2s_significant(4))
+            .with_string_to_value(s2v_number()),
             damping_1k_per_s: FloatParam::new(
                 "Damping at 1 kHz",
                 4.0,
                 FloatRange::Skewed { min: 0.0, max: 5000.0, factor: FloatRange::skew_factor(-2.5) },
             )
             .with_unit(" 1/s")
-            .with_value_to_string(formatters::v2s_f32_rounded(3)),
+            .with_value_to_string(v2s_significant(4))
+            .with_string_to_value(s2v_number()),
             exponent: FloatParam::new("Exponent", 1.0, FloatRange::Linear { min: 0.05, max: 2.0 })
-                .with_value_to_string(formatters::v2s_f32_rounded(3)),
+                .with_value_to_string(formatters::v2s_f32_rounded(3))
+                .with_string_to_value(s2v_number()),
             caughey_10k_per_s: FloatParam::new(
                 "Caughey c at 10 kHz",
                 0.0,
                 FloatRange::Skewed { min: 0.0, max: 1e5, factor: FloatRange::skew_factor(-2.5) },
             )
             .with_unit(" 1/s")
-            .with_value_to_string(formatters::v2s_f32_rounded(2)),
+            .with_value_to_string(v2s_significant(4))
+            .with_string_to_value(s2v_number()),
             decay_scale: FloatParam::new(
                 "Decay scale",
                 1.0,
                 FloatRange::Skewed { min: 0.05, max: 20.0, factor: FloatRange::skew_factor(-2.0) },
             )
-            .with_value_to_string(Arc::new(|v| format!("×{v:.3}"))),
+            .with_value_to_string(Arc::new(|v| format!("×{v:.3}")))
+            .with_string_to_value(s2v_number()),
             modulus_ratio: FloatParam::new(
                 "Stiffness γ/γ₀",
                 1.0,
                 FloatRange::Skewed { min: 0.001, max: 1000.0, factor: FloatRange::skew_factor(-2.6) },
             )
-            .with_value_to_string(ratio_with_semitones(true)),
+            .with_value_to_string(ratio_with_semitones(true))
+            .with_string_to_value(s2v_ratio_or_semitones(true)),
             material_pitch: BoolParam::new("Material sets pitch", false),
             root_note: IntParam::new("Root note", 60, IntRange::Linear { min: 0, max: 127 }),
             key_tuning: BoolParam::new("Keys tune the object", true),
@@ -213,7 +316,8 @@ impl StruckParams {
                 1.0,
                 FloatRange::Skewed { min: 0.05, max: 20.0, factor: FloatRange::skew_factor(-2.0) },
             )
-            .with_value_to_string(ratio_with_semitones(false)),
+            .with_value_to_string(ratio_with_semitones(false))
+            .with_string_to_value(s2v_ratio_or_semitones(false)),
             strike_position: FloatParam::new("Strike position", 0.3, FloatRange::Linear { min: 0.0, max: 1.0 })
                 .with_poly_modulation_id(POSITION_POLY_MOD_ID)
                 .with_value_to_string(formatters::v2s_f32_percentage(1))
@@ -241,21 +345,25 @@ impl StruckParams {
                 FloatRange::Skewed { min: 0.0, max: 500.0, factor: FloatRange::skew_factor(-2.0) },
             )
             .with_unit(" 1/s")
-            .with_value_to_string(formatters::v2s_f32_rounded(2)),
+            .with_value_to_string(v2s_significant(4))
+            .with_string_to_value(s2v_number()),
             pressure_damping_per_s: FloatParam::new(
                 "Pressure damping",
                 40.0,
                 FloatRange::Skewed { min: 0.0, max: 500.0, factor: FloatRange::skew_factor(-2.0) },
             )
             .with_unit(" 1/s")
-            .with_value_to_string(formatters::v2s_f32_rounded(2)),
+            .with_value_to_string(v2s_significant(4))
+            .with_string_to_value(s2v_number()),
             quality_db: FloatParam::new("Quality", 60.0, FloatRange::Linear { min: 12.0, max: 120.0 })
                 .with_unit(" dB")
-                .with_value_to_string(formatters::v2s_f32_rounded(0)),
+                .with_value_to_string(formatters::v2s_f32_rounded(0))
+                .with_string_to_value(s2v_number()),
             gain_db: FloatParam::new("Gain", 0.0, FloatRange::Linear { min: -60.0, max: 12.0 })
                 .with_smoother(SmoothingStyle::Linear(20.0))
                 .with_unit(" dB")
-                .with_value_to_string(formatters::v2s_f32_rounded(1)),
+                .with_value_to_string(formatters::v2s_f32_rounded(1))
+                .with_string_to_value(s2v_number()),
             editor_size: Mutex::new(crate::editor::DEFAULT_SIZE),
             capture: Mutex::new(None),
         }

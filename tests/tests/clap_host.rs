@@ -28,9 +28,11 @@ use std::path::{Path, PathBuf};
 use clack_extensions::audio_ports::{AudioPortInfoBuffer, PluginAudioPorts};
 use clack_extensions::params::PluginParams;
 use clack_extensions::state::PluginState;
-use clack_host::events::event_types::{NoteOnEvent, ParamValueEvent};
+use clack_host::events::event_types::{NoteOffEvent, NoteOnEvent, ParamValueEvent};
+use clack_host::events::Match;
 use clack_host::prelude::*;
 use struck::cli::{configured_host, note_events, NoteSpec, SoundOptions};
+use struck::offline::{note_off, note_on, TimedEvent};
 
 const PLUGIN_ID: &CStr = c"org.struck.struck";
 const SAMPLE_RATE: u32 = 48_000;
@@ -143,9 +145,27 @@ fn instantiate(entry: &PluginEntry) -> PluginInstance<TestHost> {
     .expect("instantiate Struck")
 }
 
+/// A note event of a test phrase: note-on (key, velocity 1..=127) or note-off (key).
+#[derive(Clone, Copy, Debug)]
+enum Note {
+    On(u8, u8),
+    Off(u8),
+}
+
 /// Activates `instance` (48 kHz, blocks of at most 512), renders `num_samples` of stereo output
 /// with one note-on (key 60, velocity 100/127) at sample 0, and deactivates it again.
 fn render_note(instance: &mut PluginInstance<TestHost>, num_samples: usize) -> [Vec<f32>; 2] {
+    render_events(instance, num_samples, &[(0, Note::On(KEY, VELOCITY))])
+}
+
+/// Activates `instance` (48 kHz, blocks of at most 512), renders `num_samples` of stereo output
+/// with `notes` (sorted by sample; MIDI channel 1, no note ids, as a MIDI host sends them) at
+/// their exact samples, and deactivates it again.
+fn render_events(
+    instance: &mut PluginInstance<TestHost>,
+    num_samples: usize,
+    notes: &[(usize, Note)],
+) -> [Vec<f32>; 2] {
     let config = PluginAudioConfiguration {
         sample_rate: f64::from(SAMPLE_RATE),
         min_frames_count: 1,
@@ -154,9 +174,7 @@ fn render_note(instance: &mut PluginInstance<TestHost>, num_samples: usize) -> [
     let stopped = instance.activate(|_, _| (), config).expect("activate");
     let mut processor = stopped.start_processing().expect("start processing");
 
-    let velocity = f64::from(f32::from(VELOCITY) / 127.0); // what the offline host sends
-    let note_on = NoteOnEvent::new(0, Pckn::new(0u16, 0u16, u16::from(KEY), 1u32), velocity);
-    let mut in_events = EventBuffer::with_capacity(4);
+    let mut in_events = EventBuffer::with_capacity(notes.len());
     // The plugin reports NOTE_END (and possibly other events) back: collect and drop them.
     let mut out_events = EventBuffer::with_capacity(256);
     let mut block = [vec![0.0f32; BLOCK], vec![0.0f32; BLOCK]];
@@ -164,11 +182,24 @@ fn render_note(instance: &mut PluginInstance<TestHost>, num_samples: usize) -> [
     let mut out = [Vec::with_capacity(num_samples), Vec::with_capacity(num_samples)];
 
     let mut pos = 0;
+    let mut next = 0;
     while pos < num_samples {
         let n = BLOCK.min(num_samples - pos);
         in_events.clear();
-        if pos == 0 {
-            in_events.push(&note_on);
+        while next < notes.len() && notes[next].0 < pos + n {
+            let (at, note) = notes[next];
+            let time = (at - pos) as u32;
+            match note {
+                Note::On(key, velocity) => {
+                    // What the offline host sends: velocity / 127 in f32.
+                    let v = f64::from(f32::from(velocity) / 127.0);
+                    in_events.push(&NoteOnEvent::new(time, Pckn::new(0u16, 0u16, u16::from(key), Match::All), v));
+                }
+                Note::Off(key) => {
+                    in_events.push(&NoteOffEvent::new(time, Pckn::new(0u16, 0u16, u16::from(key), Match::All), 0.0));
+                }
+            }
+            next += 1;
         }
         out_events.clear();
         for ch in &mut block {
@@ -294,6 +325,70 @@ fn clap_binary_matches_offline_host_and_round_trips_state() {
     );
 
     println!("clap_host test body took {:.2?}", started.elapsed());
+}
+
+/// The phrase every host renders (tests/hosts/phrase.json): (sample, note) pairs, sorted,
+/// and its length in samples.
+fn host_phrase() -> (Vec<(usize, Note)>, usize) {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join("hosts/phrase.json")).expect("tests/hosts/phrase.json");
+    let v: serde_json::Value = serde_json::from_str(&text).expect("phrase.json is JSON");
+    assert_eq!(v["sample_rate"].as_u64(), Some(u64::from(SAMPLE_RATE)), "phrase sample rate");
+    let sr = f64::from(SAMPLE_RATE);
+    let at = |x: &serde_json::Value| (x.as_f64().expect("a time in seconds") * sr).round() as usize;
+    let mut notes = Vec::new();
+    for n in v["notes"].as_array().expect("notes") {
+        let key = n["key"].as_u64().expect("key") as u8;
+        notes.push((at(&n["on"]), Note::On(key, n["velocity"].as_u64().expect("velocity") as u8)));
+        notes.push((at(&n["off"]), Note::Off(key)));
+    }
+    // Stable: at equal times, the phrase file's order.
+    notes.sort_by_key(|(t, _)| *t);
+    (notes, at(&v["seconds"]))
+}
+
+/// The CLAP binary renders the host phrase as the offline host does, and leaves it in
+/// `target/host-renders/clap-phrase.wav` (32-bit float, stereo) for the VST3 host test
+/// (tests/hosts/pedalboard_host.py), which must render the same through VST3.
+#[test]
+fn clap_binary_renders_the_host_phrase() {
+    let entry = load_entry();
+    let (notes, num_samples) = host_phrase();
+    let mut a = instantiate(&entry);
+    let clap = render_events(&mut a, num_samples, &notes);
+
+    let mut offline = configured_host(&SoundOptions::default(), BLOCK).unwrap();
+    let events: Vec<TimedEvent> = notes
+        .iter()
+        .map(|&(at, note)| TimedEvent {
+            sample: at as u64,
+            event: match note {
+                Note::On(key, velocity) => note_on(key, f32::from(velocity) / 127.0),
+                Note::Off(key) => note_off(key),
+            },
+        })
+        .collect();
+    let (reference, _) = offline.render(&events, num_samples, BLOCK);
+    assert!(rms(&clap[0]) > 1e-3, "the CLAP render of the phrase is silent");
+    let (d, i, ch) = max_diff(&clap, &reference);
+    println!("phrase: CLAP vs offline max |diff| {d:.3e}");
+    assert!(d <= 1e-5, "phrase: CLAP and offline differ by {d:e} at channel {ch}, sample {i}");
+
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("workspace root").join("target/host-renders");
+    std::fs::create_dir_all(&dir).expect("create target/host-renders");
+    let spec = hound::WavSpec {
+        channels: 2,
+        sample_rate: SAMPLE_RATE,
+        bits_per_sample: 32,
+        sample_format: hound::SampleFormat::Float,
+    };
+    let tmp = dir.join("clap-phrase.wav.tmp");
+    let mut w = hound::WavWriter::create(&tmp, spec).expect("create the phrase WAV");
+    for i in 0..num_samples {
+        w.write_sample(clap[0][i]).and_then(|()| w.write_sample(clap[1][i])).expect("write the phrase WAV");
+    }
+    w.finalize().expect("finish the phrase WAV");
+    std::fs::rename(&tmp, dir.join("clap-phrase.wav")).expect("rename the phrase WAV");
 }
 
 /// An X server for the GUI test: `$DISPLAY` if set, else a private Xvfb (killed on drop).

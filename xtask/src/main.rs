@@ -1,7 +1,8 @@
 //! Project tasks: `cargo xtask bundle struck --release` (nice-plug-xtask), plus
 //! `cargo xtask demo` (bundles, then renders the demo phrase), `cargo xtask banks`
-//! (regenerates the factory FEM banks) and `cargo xtask test`
-//! (bundles the debug CLAP for the host test, then runs the whole test suite).
+//! (regenerates the factory FEM banks) and `cargo xtask test` (installs what the tests need,
+//! bundles the debug plugin into `target/test-bundled`, runs the whole test suite, the
+//! third-party validators and the pedalboard VST3 host test).
 
 use std::process::Command;
 
@@ -106,6 +107,117 @@ fn banks() -> Result<(), String> {
     }
 }
 
+/// Where `cargo xtask test` puts the debug bundles it tests, apart from the release bundles
+/// in `target/bundled` that `cargo xtask demo` makes for users.
+const TEST_BUNDLES: &str = "target/test-bundled";
+
+/// Bundles the debug plugin with allocation assertions into [`TEST_BUNDLES`], leaving
+/// `target/bundled` as it was (nice-plug-xtask always writes there, so a release bundle found
+/// there is moved aside and back).
+fn bundle_for_tests() -> Result<(), String> {
+    use std::fs;
+    use std::path::Path;
+    let (bundled, kept, test) =
+        (Path::new("target/bundled"), Path::new("target/bundled.kept"), Path::new(TEST_BUNDLES));
+    // An earlier run stopped between the two renames: put the user's bundles back first.
+    if kept.exists() && !bundled.exists() {
+        fs::rename(kept, bundled).map_err(|e| format!("cannot restore target/bundled: {e}"))?;
+    }
+    let had = bundled.exists();
+    if had {
+        if kept.exists() {
+            fs::remove_dir_all(kept).map_err(|e| format!("cannot clear target/bundled.kept: {e}"))?;
+        }
+        fs::rename(bundled, kept).map_err(|e| format!("cannot move target/bundled aside: {e}"))?;
+    }
+    let built = nice_plug_xtask::main_with_args(
+        "cargo xtask",
+        ["bundle", "struck", "--features", "assert_process_allocs"].map(String::from),
+    )
+    .map_err(|e| format!("bundling the test plugin failed: {e:#}"));
+    let moved = built.and_then(|()| {
+        if test.exists() {
+            fs::remove_dir_all(test).map_err(|e| format!("cannot clear {TEST_BUNDLES}: {e}"))?;
+        }
+        fs::rename(bundled, test).map_err(|e| format!("cannot move the test bundles to {TEST_BUNDLES}: {e}"))
+    });
+    if had {
+        if bundled.exists() {
+            let _ = fs::remove_dir_all(bundled);
+        }
+        fs::rename(kept, bundled).map_err(|e| format!("cannot restore target/bundled: {e}"))?;
+    }
+    moved
+}
+
+/// Runs a command, reporting whether it succeeded (a failure to start is a failure).
+fn step(name: &str, cmd: &mut Command) -> bool {
+    eprintln!("+ {name}");
+    match cmd.status() {
+        Ok(s) if s.success() => true,
+        Ok(s) => {
+            eprintln!("xtask: {name} failed ({s})");
+            false
+        }
+        Err(e) => {
+            eprintln!("xtask: cannot run {name}: {e}");
+            false
+        }
+    }
+}
+
+/// `cargo xtask test [cargo test args]`: installs what the tests need (tests/setup.sh), bundles
+/// the debug plugin into [`TEST_BUNDLES`], runs every test binary of the workspace (all of
+/// them, even when one fails), then the third-party validators (clap-validator and Steinberg's
+/// VST3 validator, `--extensive`) and the pedalboard VST3 host test on those bundles. Fails if
+/// any of these failed, after running them all.
+fn test(extra: &[String]) -> Result<(), String> {
+    nice_plug_xtask::chdir_workspace_root().map_err(|e| e.to_string())?;
+    if !step("tests/setup.sh", Command::new("bash").arg("tests/setup.sh")) {
+        return Err("tests/setup.sh could not install what the tests need".into());
+    }
+    bundle_for_tests()?;
+    let root = std::env::current_dir().map_err(|e| e.to_string())?;
+    let clap = root.join(TEST_BUNDLES).join("Struck.clap");
+    let vst3 = root.join(TEST_BUNDLES).join("Struck.vst3");
+    let mut failed = Vec::new();
+
+    let cargo_bin = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let mut cargo_test = Command::new(&cargo_bin);
+    cargo_test.args(["test", "--workspace", "--no-fail-fast"]).args(extra).env("STRUCK_CLAP", &clap);
+    if !step("cargo test --workspace --no-fail-fast", &mut cargo_test) {
+        failed.push("cargo test");
+    }
+
+    let validate = root.join("../shared/validators/validate");
+    if validate.exists() {
+        let mut v = Command::new("bash");
+        v.arg(&validate).arg(&clap).arg(&vst3).arg("--extensive");
+        if !step("third-party validators (clap-validator, vst3-validator --extensive)", &mut v) {
+            failed.push("validators");
+        }
+    } else if std::env::var_os("CI").is_some() {
+        eprintln!("xtask: the validators are missing: expected {}", validate.display());
+        failed.push("validators (missing)");
+    } else {
+        eprintln!("xtask: validators not found at {} (shared/ beside the checkout): skipped", validate.display());
+    }
+
+    let python = root.join("target/test-venv/bin/python");
+    let mut pb = Command::new(python);
+    pb.arg("tests/hosts/pedalboard_host.py").arg(&vst3).arg("target/host-renders/clap-phrase.wav");
+    if !step("pedalboard VST3 host test", &mut pb) {
+        failed.push("pedalboard");
+    }
+
+    if failed.is_empty() {
+        eprintln!("xtask test: all passed (cargo test, validators, pedalboard)");
+        Ok(())
+    } else {
+        Err(format!("failed: {}", failed.join(", ")))
+    }
+}
+
 fn run() -> Result<(), String> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
@@ -117,25 +229,7 @@ fn run() -> Result<(), String> {
             Ok(())
         }
         Some("banks") => banks(),
-        Some("test") => {
-            // The CLAP host test loads the debug bundle built with allocation assertions.
-            nice_plug_xtask::chdir_workspace_root().map_err(|e| e.to_string())?;
-            nice_plug_xtask::main_with_args(
-                "cargo xtask",
-                ["bundle", "struck", "--features", "assert_process_allocs"].map(String::from),
-            )
-            .map_err(|e| format!("bundling the test plugin failed: {e:#}"))?;
-            // SAFETY: single-threaded at this point; the variable is read by the child.
-            unsafe {
-                std::env::set_var(
-                    "STRUCK_CLAP",
-                    std::env::current_dir().map_err(|e| e.to_string())?.join("target/bundled/Struck.clap"),
-                )
-            };
-            let mut test = vec!["test", "--workspace"];
-            test.extend(args[1..].iter().map(String::as_str));
-            cargo(&test)
-        }
+        Some("test") => test(&args[1..]),
         _ => nice_plug_xtask::main().map_err(|e| format!("{e:#}")),
     }
 }
