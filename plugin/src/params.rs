@@ -203,23 +203,26 @@ fn leading_number(text: &str) -> Option<f32> {
     number.parse::<f32>().ok().filter(|v| v.is_finite())
 }
 
-/// Formats with `digits` significant digits (at most 3 decimals), so that text → value → text
-/// gives back the same text at `f32` precision, as hosts and clap-validator check (a fixed 3
-/// decimals on a value of thousands asks for 7 significant digits, more than the parameter's
-/// normalised ↔ plain mapping keeps).
-fn v2s_significant(digits: i32) -> ValueToString<f32> {
-    fn format(v: f32, digits: i32) -> String {
+/// `v` with `digits` significant digits and at most `max_decimals` decimals, so that text →
+/// value → text gives back the same text at `f32` precision, as hosts and clap-validator
+/// check (a fixed 3 decimals on a value of thousands asks for 7 significant digits, more
+/// than the parameter's normalised ↔ plain mapping keeps; on ×0.0012 it keeps too few).
+fn significant(v: f32, digits: i32, max_decimals: i32) -> String {
+    fn format(v: f32, digits: i32, max_decimals: i32) -> String {
         if v == 0.0 || !v.is_finite() {
             return format!("{:.1}", 0.0);
         }
-        let decimals = (digits - 1 - v.abs().log10().floor() as i32).clamp(0, 3) as usize;
+        let decimals = (digits - 1 - v.abs().log10().floor() as i32).clamp(0, max_decimals) as usize;
         format!("{v:.decimals$}")
     }
-    Arc::new(move |v| {
-        // Round once, then format the rounded value by its own magnitude (999.96 → "1000").
-        let rounded: f32 = format(v, digits).parse().unwrap_or(v);
-        format(rounded, digits)
-    })
+    // Round once, then format the rounded value by its own magnitude (999.96 → "1000").
+    let rounded: f32 = format(v, digits, max_decimals).parse().unwrap_or(v);
+    format(rounded, digits, max_decimals)
+}
+
+/// Formats with 4 significant digits (at most 3 decimals); see [`significant`].
+fn v2s_significant(digits: i32) -> ValueToString<f32> {
+    Arc::new(move |v| significant(v, digits, 3))
 }
 
 /// Parses a plain number with an optional unit ("-12 dB", "-12dB", "-12", "40 1/s").
@@ -231,8 +234,11 @@ fn s2v_number() -> StringToValue<f32> {
 /// `sqrt_law`, ∝ 1/ratio otherwise).
 fn ratio_with_semitones(sqrt_law: bool) -> ValueToString<f32> {
     Arc::new(move |v| {
-        let st = if sqrt_law { 6.0 * v.log2() } else { -12.0 * v.log2() };
-        format!("×{v:.3} ({st:+.1} st)")
+        // The semitones follow from the value as written, so the text round-trips.
+        let text = significant(v, 4, 5);
+        let shown: f32 = text.parse().unwrap_or(v);
+        let st = if sqrt_law { 6.0 * shown.log2() } else { -12.0 * shown.log2() };
+        format!("×{text} ({st:+.1} st)")
     })
 }
 
