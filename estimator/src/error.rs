@@ -38,6 +38,20 @@ pub enum EstimateError {
         /// The file's rate in Hz.
         sample_rate: u32,
     },
+    /// A float WAV holds a NaN or infinite sample.
+    #[error("{path}: sample {frame} of channel {channel} ({seconds:.3} s) is {value}; the file is damaged or was written by a faulty program, so re-export or re-record it")]
+    NonFinite {
+        /// The file.
+        path: PathBuf,
+        /// Index of the first such frame (0-based).
+        frame: usize,
+        /// Its channel (0-based).
+        channel: usize,
+        /// Its time from the start, seconds.
+        seconds: f64,
+        /// The value: NaN, inf or -inf.
+        value: f32,
+    },
     /// No impact could be found in any file.
     #[error("no impacts found in {files} file(s); record taps well above the background noise, with a short silence between them")]
     NoImpacts {

@@ -1,6 +1,6 @@
 //! `struck bank build | info | shapes`: the FEM bank builder on the command line.
 
-use crate::cli::outln;
+use crate::cli::{end_progress_line, outln, show_progress, warn};
 use presets::fem::import::{build_bank_from_import, import_mesh_file, ImportOptions};
 use presets::fem::{self, BuildOptions, Shape};
 use presets::Bank;
@@ -97,9 +97,9 @@ fn progress() -> impl Fn(&str, f32) {
     move |stage: &str, f: f32| {
         let line = format!("{stage:>10} {:3.0}%", (f.clamp(0.0, 1.0) * 100.0).floor());
         if *last.borrow() != line {
-            eprint!("\r{line}");
+            show_progress(&line);
             if stage == "done" {
-                eprintln!();
+                end_progress_line();
             }
             *last.borrow_mut() = line;
         }
@@ -140,11 +140,17 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
             if modes == 0 || modes > presets::MAX_BANK_MODES {
                 return Err(format!("--modes must be 1..={}", presets::MAX_BANK_MODES));
             }
+            if points == 0 || points > presets::MAX_BANK_POINTS {
+                return Err(format!("--points must be 1..={}", presets::MAX_BANK_POINTS));
+            }
+            // The output is checked before the (long) solve: writable, and not the mesh read.
+            let inputs: Vec<&Path> = mesh.iter().map(PathBuf::as_path).collect();
+            presets::output::check_output(&out, &inputs).map_err(|e| e.to_string())?;
             let opts = BuildOptions {
                 max_modes: modes,
                 max_freq_hz: max_freq,
                 resolution: resolution.unwrap_or(BuildOptions::default().resolution),
-                strike_points: points.clamp(1, presets::MAX_BANK_POINTS),
+                strike_points: points,
             };
             let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("bank");
             let id = kebab(id.as_deref().unwrap_or(stem));
@@ -161,14 +167,12 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
                 (None, Some(path)) => {
                     let iopts = ImportOptions { scale: scale.unwrap_or(1.0), resolution, snap: true };
                     let show = progress();
-                    let imported = import_mesh_file(&path, &iopts, &show).map_err(|e| {
-                        eprintln!(); // end the progress line
-                        format!("{}: {e}", path.display())
-                    })?;
-                    eprintln!();
+                    let imported =
+                        import_mesh_file(&path, &iopts, &show).map_err(|e| format!("{}: {e}", path.display()))?;
+                    end_progress_line();
                     eprintln!("{}", imported.summary);
                     for w in &imported.warnings {
-                        eprintln!("warning: {w}");
+                        warn(w);
                     }
                     let source = path
                         .file_name()
@@ -179,6 +183,7 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
                 _ => return Err("give either --shape with --dims, or --mesh".into()),
             };
             bank.save(&out).map_err(|e| e.to_string())?;
+            end_progress_line();
             eprintln!(
                 "wrote {}: {} modes ({:.1}–{:.0} Hz), {} strike points; {} vertices, {} elements, {} DOFs; {:.1} s, peak memory {}",
                 out.display(),

@@ -1,9 +1,10 @@
 //! `struck features` and `struck estimate`: the estimator on the command line (SCIENCE.md
 //! §3–5). Progress goes to stderr; results are JSON.
 
-use crate::cli::outln;
+use crate::cli::{end_progress_line, outln, show_progress, warn};
 use crate::library::Library;
-use presets::{DampingSpec, Material, SCHEMA_VERSION};
+use presets::{output, DampingSpec, Material, SCHEMA_VERSION};
+use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
@@ -19,9 +20,9 @@ fn progress_printer(label: &'static str) -> impl Fn(f32) {
         let pct = (p.clamp(0.0, 1.0) * 100.0) as i32;
         if pct / 5 != last.get() / 5 {
             last.set(pct);
-            eprint!("\r{label}: {pct:3}%");
+            show_progress(&format!("{label}: {pct:3}%"));
             if pct >= 100 {
-                eprintln!();
+                end_progress_line();
             }
         }
     }
@@ -40,8 +41,9 @@ pub fn features(files: &[PathBuf], channel: Option<usize>, json: bool) -> Result
     let report =
         estimator::extract_features(files, &opts, &progress_printer("features"), &cancel).map_err(|e| e.to_string())?;
     for w in &report.warnings {
-        eprintln!("warning: {w}");
+        warn(w);
     }
+    end_progress_line();
     for s in &report.skipped {
         eprintln!("skipped impact in {} at {:.3} s: {}", s.file, s.onset_s, s.reason);
     }
@@ -78,6 +80,10 @@ pub struct EstimateArgs {
 
 /// `struck estimate …`: fits the material and writes it (and the report).
 ///
+/// The outputs are checked (writable folders, none of them an input, distinct) before the
+/// analysis, and written through temporary files renamed only once both are complete: a
+/// failed run leaves existing files untouched.
+///
 /// # Errors
 /// Bad arguments, the estimator's reason, or unwritable outputs.
 pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
@@ -94,6 +100,17 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
         },
         None => None,
     };
+    // The outputs must be none of the inputs (recordings, a bank file) and distinct.
+    let mut inputs: Vec<&Path> = args.files.iter().map(PathBuf::as_path).collect();
+    if let Some(o) = args.object.as_deref().map(Path::new).filter(|p| p.is_file()) {
+        inputs.push(o);
+    }
+    let mut outputs = vec![args.out.as_path()];
+    outputs.extend(args.report.as_deref());
+    output::check_distinct(&outputs).map_err(|e| e.to_string())?;
+    for out in &outputs {
+        output::check_output(out, &inputs).map_err(|e| e.to_string())?;
+    }
     let bank = bank.as_ref();
     let opts = estimator::Options {
         model,
@@ -106,7 +123,7 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
     let report =
         estimator::estimate(&args.files, &opts, &progress_printer("estimate"), &cancel).map_err(|e| e.to_string())?;
     for w in &report.warnings {
-        eprintln!("warning: {w}");
+        warn(w);
     }
     let damping = report.damping();
     let stem = args.out.file_stem().and_then(|s| s.to_str()).unwrap_or("material");
@@ -138,9 +155,24 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
         damping: DampingSpec::from_damping(&damping),
         notes: report.warnings.join("; "),
     };
-    material.save(&args.out).map_err(|e| e.to_string())?;
-    if let Some(path) = &args.report {
-        write_json(path, &report)?;
+    material.validate().map_err(|e| format!("the fitted material is not valid ({e}); nothing was written"))?;
+    // Both files are complete on disk before either replaces anything.
+    let mut material_file = staged(&args.out, material.to_json().as_bytes())?;
+    let mut report_file = match &args.report {
+        Some(path) => {
+            let mut text = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
+            text.push('\n');
+            Some(staged(path, text.as_bytes())?)
+        }
+        None => None,
+    };
+    material_file.sync().map_err(|e| e.to_string())?;
+    if let Some(f) = report_file.as_mut() {
+        f.sync().map_err(|e| e.to_string())?;
+    }
+    material_file.commit().map_err(|e| e.to_string())?;
+    if let Some(f) = report_file {
+        f.commit().map_err(|e| e.to_string())?;
     }
     Ok(format!(
         "wrote {}: {} {:?} params {:?} from {} features in {} impacts",
@@ -153,7 +185,9 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
     ))
 }
 
-fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<(), String> {
-    let text = serde_json::to_string_pretty(value).map_err(|e| e.to_string())?;
-    std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
+/// `bytes` written to a temporary file for `path`, not yet committed.
+fn staged(path: &Path, bytes: &[u8]) -> Result<output::AtomicFile, String> {
+    let mut f = output::AtomicFile::create(path).map_err(|e| e.to_string())?;
+    f.write_all(bytes).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    Ok(f)
 }

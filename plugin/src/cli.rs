@@ -9,6 +9,29 @@ macro_rules! outln {
 }
 pub(crate) use outln;
 
+/// Whether a progress line (drawn with `\r`, no newline) is on stderr.
+static PROGRESS_OPEN: AtomicBool = AtomicBool::new(false);
+
+/// Draws `line` as the progress line on stderr (redrawn in place with `\r`).
+pub fn show_progress(line: &str) {
+    eprint!("\r{line}");
+    PROGRESS_OPEN.store(true, Ordering::Relaxed);
+}
+
+/// Ends an unfinished progress line with a newline, so that what follows (a warning, an
+/// error) starts on its own line. Does nothing if no progress line is open.
+pub fn end_progress_line() {
+    if PROGRESS_OPEN.swap(false, Ordering::Relaxed) {
+        eprintln!();
+    }
+}
+
+/// Prints `warning: …` on stderr on a line of its own.
+pub fn warn(message: &str) {
+    end_progress_line();
+    eprintln!("warning: {message}");
+}
+
 use crate::library::Library;
 use crate::offline::{note_off, note_on, set_timing, OfflineHost, TimedEvent};
 use dsp::Damping;
@@ -16,6 +39,7 @@ use nice_plug::midi::{Channel, Key, VoiceID};
 use nice_plug::prelude::{Enum, NoteEvent};
 use presets::Material;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Object, material and parameter choices shared by `modes` and `render`.
 #[derive(Clone, Debug)]
@@ -177,10 +201,7 @@ pub fn configured_host(opts: &SoundOptions, max_block: usize) -> Result<OfflineH
     for kv in &opts.set {
         let (k, v) = kv.split_once('=').ok_or_else(|| format!("--set expects id=value, got '{kv}'"))?;
         let v: f32 = v.trim().parse().map_err(|_| format!("--set {k}: '{v}' is not a number"))?;
-        if !v.is_finite() {
-            return Err(format!("--set {k}: value must be finite"));
-        }
-        host.set_param(k.trim(), v).map_err(|e| e.to_string())?;
+        host.set_param_checked(k.trim(), v).map_err(|e| format!("--set {}: {e}", kv.trim()))?;
     }
     host.reset();
     Ok(host)
@@ -307,15 +328,42 @@ pub fn note_events(notes: &[NoteSpec], sample_rate: f64) -> Vec<TimedEvent> {
     ev
 }
 
+/// Bytes of a 32-bit float stereo frame.
+const WAV_FRAME_BYTES: u64 = 8;
+/// Largest WAV header hound writes (RIFF, WAVE_FORMAT_EXTENSIBLE `fmt `, `data` header): 68
+/// bytes, of which the RIFF size field counts all but the first 8.
+const WAV_HEADER_BYTES_COUNTED: u64 = 60;
+
+/// Frames of the longest stereo 32-bit float WAV: its RIFF size field (a `u32`) must hold the
+/// data and the header.
+pub const MAX_WAV_FRAMES: u64 = (u32::MAX as u64 - WAV_HEADER_BYTES_COUNTED) / WAV_FRAME_BYTES;
+
+/// The files a render reads (`--midi`, and `--object` / `--material` given as files): the
+/// output must be none of them.
+fn render_inputs(opts: &RenderOptions) -> Vec<PathBuf> {
+    let mut inputs: Vec<PathBuf> = opts.midi.iter().cloned().collect();
+    for q in [&opts.sound.object, &opts.sound.material] {
+        if Path::new(q).is_file() {
+            inputs.push(PathBuf::from(q));
+        }
+    }
+    inputs
+}
+
 /// Renders per the options and writes the WAV; returns a one-line summary.
 ///
+/// The WAV is streamed to disk block by block (memory stays bounded whatever the length),
+/// into a temporary file in the output's folder that replaces `out` only once complete: a
+/// failed render leaves an existing `out` untouched.
+///
 /// # Errors
-/// Bad options, unreadable MIDI, unwritable output.
+/// Bad options, an unreadable, corrupt or empty MIDI file, a WAV over 4 GiB, an output that
+/// is one of the inputs or cannot be written.
 pub fn render(opts: &RenderOptions) -> Result<String, String> {
     if opts.block_size == 0 || opts.block_size > 65_536 {
         return Err(format!("--block-size {} is outside 1..=65536", opts.block_size));
     }
-    let mut host = configured_host(&opts.sound, opts.block_size)?;
+    crate::offline::check_sample_rate(opts.sound.sample_rate as f32).map_err(|e| e.to_string())?;
     let sr = f64::from(opts.sound.sample_rate);
     let mut events = Vec::new();
     if let Some(text) = &opts.notes {
@@ -335,6 +383,16 @@ pub fn render(opts: &RenderOptions) -> Result<String, String> {
         return Err(format!("--seconds {seconds} is outside (0, 3600]"));
     }
     let total = (seconds * sr).round() as usize;
+    // WAV sizes are 32-bit: refuse now rather than write a wrapped (corrupt) header later.
+    if total as u64 > MAX_WAV_FRAMES {
+        let bytes = total as u64 * WAV_FRAME_BYTES + WAV_HEADER_BYTES_COUNTED + 8;
+        return Err(format!(
+            "the WAV would be {:.2} GiB ({seconds} s at {} Hz, stereo 32-bit float) but WAV files stop at 4 GiB; render at most {:.0} s at this rate",
+            bytes as f64 / f64::from(1u32 << 30),
+            opts.sound.sample_rate,
+            (MAX_WAV_FRAMES as f64 / sr).floor()
+        ));
+    }
     // Notes still held at the end are released there (hosts do the same on stop).
     let mut offs: Vec<TimedEvent> = events
         .iter()
@@ -349,24 +407,32 @@ pub fn render(opts: &RenderOptions) -> Result<String, String> {
     for e in &mut events {
         set_timing(&mut e.event, 0);
     }
-    // Check the output is writable before spending time rendering.
+    // Check the output before spending time rendering.
+    let inputs = render_inputs(opts);
+    let input_refs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+    presets::output::check_not_input(&opts.out, &input_refs).map_err(|e| e.to_string())?;
+    let mut host = configured_host(&opts.sound, opts.block_size)?;
+    let mut file = presets::output::AtomicFile::create(&opts.out).map_err(|e| e.to_string())?;
     let spec = hound::WavSpec {
         channels: 2,
         sample_rate: opts.sound.sample_rate,
         bits_per_sample: 32,
         sample_format: hound::SampleFormat::Float,
     };
-    let mut writer =
-        hound::WavWriter::create(&opts.out, spec).map_err(|e| format!("cannot write {}: {e}", opts.out.display()))?;
-    let (audio, _) = host.render(&events, total, opts.block_size);
+    let write_err = |e: hound::Error| format!("cannot write {}: {e}", opts.out.display());
+    let mut writer = hound::WavWriter::new(&mut file, spec).map_err(write_err)?;
     let mut peak = 0.0f32;
-    for i in 0..total {
-        for ch in &audio {
-            peak = peak.max(ch[i].abs());
-            writer.write_sample(ch[i]).map_err(|e| format!("cannot write {}: {e}", opts.out.display()))?;
+    host.render_blocks(&events, total, opts.block_size, |left, right| {
+        for (&l, &r) in left.iter().zip(right) {
+            peak = peak.max(l.abs()).max(r.abs());
+            writer.write_sample(l)?;
+            writer.write_sample(r)?;
         }
-    }
-    writer.finalize().map_err(|e| format!("cannot write {}: {e}", opts.out.display()))?;
+        Ok(())
+    })
+    .map_err(write_err)?;
+    writer.finalize().map_err(write_err)?;
+    file.commit().map_err(|e| e.to_string())?;
     let lib = host.plugin().library().clone();
     let p = host.plugin().struck_params();
     let obj = lib.banks.get(p.object.value() as usize).map_or("?", |b| b.name.as_str());
@@ -388,7 +454,7 @@ pub fn render(opts: &RenderOptions) -> Result<String, String> {
 pub fn print_objects(json: bool) -> Result<(), String> {
     let lib = Library::factory();
     for e in &lib.load_errors {
-        eprintln!("warning: user bank skipped: {e}");
+        warn(&format!("user bank skipped: {e}"));
     }
     if json {
         let v: Vec<_> = lib

@@ -9,7 +9,8 @@ use nice_plug::prelude::NoteEvent;
 ///
 /// # Errors
 /// A one-line reason if the bytes are not a MIDI file this can read (SMPTE timing is
-/// supported; the file must be format 0 or 1).
+/// supported; the file must be format 0 or 1), are corrupt (midly's `strict` checks: a track
+/// cut short, a bad event, a wrong track count), or hold no note.
 pub fn read_midi(bytes: &[u8], sample_rate: f64) -> Result<Vec<TimedEvent>, String> {
     let smf = midly::Smf::parse(bytes).map_err(|e| format!("not a readable MIDI file: {e}"))?;
     // Seconds per tick: from the header (SMPTE) or from tempo events (metrical).
@@ -78,6 +79,9 @@ pub fn read_midi(bytes: &[u8], sample_rate: f64) -> Result<Vec<TimedEvent>, Stri
             }
             _ => {}
         }
+    }
+    if !out.iter().any(|e| matches!(e.event, NoteEvent::NoteOn { .. })) {
+        return Err("the MIDI file holds no notes (no note-on event in any track)".into());
     }
     Ok(out)
 }

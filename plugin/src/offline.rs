@@ -67,6 +67,25 @@ impl ActivateContext<Struck> for Activate {
     fn set_current_voice_capacity(&self, _capacity: u32) {}
 }
 
+/// Sample rates the offline host runs at, Hz.
+pub const SAMPLE_RATES: std::ops::RangeInclusive<f32> = 8_000.0..=768_000.0;
+
+/// Checks that the offline host can run at `sample_rate`.
+///
+/// # Errors
+/// [`HostError::Config`] outside [`SAMPLE_RATES`].
+pub fn check_sample_rate(sample_rate: f32) -> Result<(), HostError> {
+    if SAMPLE_RATES.contains(&sample_rate) {
+        Ok(())
+    } else {
+        Err(HostError::Config(format!(
+            "sample rate {sample_rate} Hz is outside {}..={} Hz",
+            SAMPLE_RATES.start(),
+            SAMPLE_RATES.end()
+        )))
+    }
+}
+
 /// Hosts one instance of the plugin offline.
 pub struct OfflineHost {
     plugin: Struck,
@@ -94,6 +113,22 @@ pub enum HostError {
     /// The sample rate or block size cannot be used.
     #[error("{0}")]
     Config(String),
+    /// A value outside the parameter's range (or a fraction for a stepped parameter).
+    #[error("{id} ({name}) takes {kind} from {min} to {max}, not {value} (see `struck params`)")]
+    OutOfRange {
+        /// Parameter id.
+        id: String,
+        /// Its display name.
+        name: String,
+        /// The value given.
+        value: f32,
+        /// Lowest plain value.
+        min: f32,
+        /// Highest plain value.
+        max: f32,
+        /// "whole numbers" (integer, enum and bool parameters) or "values".
+        kind: &'static str,
+    },
 }
 
 impl OfflineHost {
@@ -110,9 +145,7 @@ impl OfflineHost {
     /// # Errors
     /// As [`new`](Self::new).
     pub fn with_plugin(plugin: Struck, sample_rate: f32, max_block: usize) -> Result<Self, HostError> {
-        if !(8_000.0..=768_000.0).contains(&sample_rate) {
-            return Err(HostError::Config(format!("sample rate {sample_rate} Hz is outside 8000..=768000 Hz")));
-        }
+        check_sample_rate(sample_rate)?;
         if max_block == 0 || max_block > 65_536 {
             return Err(HostError::Config(format!("block size {max_block} is outside 1..=65536")));
         }
@@ -176,6 +209,35 @@ impl OfflineHost {
         Ok(())
     }
 
+    /// Sets a parameter like [`set_param`](Self::set_param), but refuses a value outside its
+    /// range (or not a whole number for an integer, enum or bool parameter) instead of
+    /// clamping it: for values typed by a user.
+    ///
+    /// # Errors
+    /// [`HostError::UnknownParam`], [`HostError::OutOfRange`].
+    pub fn set_param_checked(&mut self, id: &str, plain: f32) -> Result<(), HostError> {
+        let ptr = self.params.get(id).ok_or_else(|| HostError::UnknownParam(id.to_string()))?;
+        // SAFETY: see the Send impl.
+        let (a, b, stepped, name) =
+            unsafe { (ptr.preview_plain(0.0), ptr.preview_plain(1.0), ptr.step_count().is_some(), ptr.name()) };
+        let (min, max) = (a.min(b), a.max(b));
+        // Ranges are computed in f32: allow their last bit of rounding at the ends.
+        let slack = (max - min).abs() * 1e-6;
+        let inside = plain.is_finite() && plain >= min - slack && plain <= max + slack;
+        if !inside || (stepped && plain.fract() != 0.0) {
+            let kind = if stepped { "whole numbers" } else { "values" };
+            return Err(HostError::OutOfRange {
+                id: id.to_string(),
+                name: name.to_string(),
+                value: plain,
+                min,
+                max,
+                kind,
+            });
+        }
+        self.set_param(id, plain.clamp(min, max))
+    }
+
     /// A parameter's plain value.
     ///
     /// # Errors
@@ -201,8 +263,30 @@ impl OfflineHost {
         num_samples: usize,
         block_size: usize,
     ) -> ([Vec<f32>; 2], SentEvents) {
+        let mut out = [Vec::with_capacity(num_samples), Vec::with_capacity(num_samples)];
+        let Ok(sent) = self.render_blocks(events, num_samples, block_size, |l, r| {
+            out[0].extend_from_slice(l);
+            out[1].extend_from_slice(r);
+            Ok::<(), std::convert::Infallible>(())
+        });
+        (out, sent)
+    }
+
+    /// As [`render`](Self::render), but hands each block's left and right samples to `sink`
+    /// instead of keeping them, so memory stays bounded by the block size whatever the length
+    /// (the command line's `render` streams to disk this way). Stops at the first error of
+    /// `sink`. Returns the events the plugin sent.
+    ///
+    /// # Errors
+    /// The first error `sink` returns.
+    pub fn render_blocks<E>(
+        &mut self,
+        events: &[TimedEvent],
+        num_samples: usize,
+        block_size: usize,
+        mut sink: impl FnMut(&[f32], &[f32]) -> Result<(), E>,
+    ) -> Result<SentEvents, E> {
         let block_size = block_size.clamp(1, self.max_block);
-        let mut out = [vec![0.0; num_samples], vec![0.0; num_samples]];
         let mut sent_all = Vec::new();
         let mut ev = 0;
         let mut pos = 0;
@@ -217,12 +301,11 @@ impl OfflineHost {
                 ev += 1;
             }
             self.process_block(n);
-            out[0][pos..pos + n].copy_from_slice(&self.left[..n]);
-            out[1][pos..pos + n].copy_from_slice(&self.right[..n]);
+            sink(&self.left[..n], &self.right[..n])?;
             sent_all.extend(self.sent.drain(..).map(|e| (start + u64::from(e.timing()), e)));
             pos += n;
         }
-        (out, sent_all)
+        Ok(sent_all)
     }
 
     /// One `process()` call of `n` samples with `block_events`, into `left`/`right`.

@@ -164,7 +164,8 @@ impl Bank {
     /// Validates, then writes pretty JSON to `path` (through a temporary file and a rename).
     ///
     /// # Errors
-    /// As [`Bank::validate`] (nothing is written), or [`PresetError::Io`] naming `path`.
+    /// As [`Bank::validate`] (nothing is written), or [`PresetError::Output`] naming `path`
+    /// (an existing file is then untouched).
     pub fn save(&self, path: &Path) -> Result<(), PresetError> {
         self.validate()?;
         json::write(path, &self.to_json())

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 /// Every variant carries the data needed to fix the problem, and its message says what to do.
 #[derive(Debug, thiserror::Error)]
 pub enum PresetError {
-    /// Reading or writing a file failed.
+    /// Reading a file failed.
     #[error("could not access preset file `{}`: {source}. Check that the path exists and that Struck may read and write it", path.display())]
     Io {
         /// The file that was being read or written.
@@ -16,6 +16,10 @@ pub enum PresetError {
         #[source]
         source: std::io::Error,
     },
+
+    /// Writing a file failed (nothing was replaced).
+    #[error(transparent)]
+    Output(#[from] crate::output::OutputError),
 
     /// The text is not valid JSON, or does not have the shape of a material or bank.
     #[error("{what} is not a valid preset: {message} (line {line}, column {column}). Fix the JSON there, or re-export the preset from Struck")]

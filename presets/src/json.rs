@@ -60,18 +60,11 @@ pub(crate) fn read(path: &Path) -> Result<String, PresetError> {
     std::fs::read_to_string(path).map_err(|source| PresetError::Io { path: path.to_path_buf(), source })
 }
 
-/// Writes `text` to `path` through a temporary sibling file and a rename, so that a crash
-/// mid-write never leaves a half-written preset behind.
+/// Writes `text` to `path` through a temporary file in the same folder and a rename
+/// ([`crate::output::AtomicFile`]), so that a failed or interrupted write never leaves a
+/// half-written preset behind nor truncates the old one.
 pub(crate) fn write(path: &Path, text: &str) -> Result<(), PresetError> {
-    let io = |source| PresetError::Io { path: path.to_path_buf(), source };
-    let mut tmp_name = path.file_name().map(|n| n.to_os_string()).unwrap_or_default();
-    tmp_name.push(".tmp");
-    let tmp = path.with_file_name(tmp_name);
-    std::fs::write(&tmp, text).map_err(io)?;
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        io(e)
-    })
+    Ok(crate::output::write_atomically(path, text.as_bytes())?)
 }
 
 /// Checks that `id` is non-empty kebab-case: `a-z`, `0-9` and single inner hyphens.

@@ -24,6 +24,7 @@ pub mod factory;
 pub mod fem;
 mod json;
 mod material;
+pub mod output;
 
 pub use bank::{Bank, BankReference, StrikePoint, MAX_BANK_MODES, MAX_BANK_POINTS};
 pub use damping::{DampingModel, DampingSpec, AUDIBLE_LAMBDA_MAX, AUDIBLE_LAMBDA_MIN, MAX_EXPONENT};

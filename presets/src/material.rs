@@ -71,7 +71,8 @@ impl Material {
     ///
     /// # Errors
     /// [`PresetError::Invalid`] / [`PresetError::SchemaVersion`] if the material is invalid
-    /// (nothing is written), [`PresetError::Io`] naming `path` if writing fails.
+    /// (nothing is written), [`PresetError::Output`] naming `path` if writing fails (an
+    /// existing file is then untouched).
     pub fn save(&self, path: &Path) -> Result<(), PresetError> {
         self.validate()?;
         json::write(path, &self.to_json())

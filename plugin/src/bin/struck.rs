@@ -1,7 +1,8 @@
 //! `struck`: list objects and materials, show the modes a strike sounds, and render notes
 //! offline through the plugin's own `process()`.
 
-use clap::{Parser, Subcommand};
+use clap::error::ErrorKind;
+use clap::{CommandFactory, Parser, Subcommand};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use struck::cli::{self, RenderOptions, SoundOptions};
@@ -34,20 +35,23 @@ enum Command {
         json: bool,
     },
     /// The modes a strike would sound.
+    // Negative values are values (`--poisson -0.2`, `--seconds -1`), not unknown options.
+    #[command(allow_negative_numbers = true)]
     Modes {
         #[command(flatten)]
         sound: SoundArgs,
         /// MIDI key (Pitched key mode transposes from the root note).
-        #[arg(long, default_value_t = 60)]
+        #[arg(long, default_value_t = 60, value_parser = clap::value_parser!(u8).range(0..=127))]
         note: u8,
         /// MIDI velocity 1..=127.
-        #[arg(long, default_value_t = 100)]
+        #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u8).range(1..=127))]
         velocity: u8,
         /// Machine-readable output.
         #[arg(long)]
         json: bool,
     },
     /// Extract the impacts and modal features of recordings (WAV).
+    #[command(allow_negative_numbers = true)]
     Features {
         /// WAV files.
         #[arg(required = true)]
@@ -60,6 +64,7 @@ enum Command {
         json: bool,
     },
     /// Estimate a material (damping law) from recordings of a struck object.
+    #[command(allow_negative_numbers = true)]
     Estimate {
         /// WAV files.
         #[arg(required = true)]
@@ -89,6 +94,7 @@ enum Command {
         command: BankCommand,
     },
     /// Render notes to a WAV file through the plugin's process().
+    #[command(allow_negative_numbers = true)]
     Render {
         #[command(flatten)]
         sound: SoundArgs,
@@ -114,13 +120,14 @@ enum Command {
 #[derive(Subcommand)]
 enum BankCommand {
     /// Modal analysis (10-node tetrahedra) of a built-in shape or a mesh file into a bank.
+    #[command(allow_negative_numbers = true)]
     Build {
         /// Built-in shape: bar, plate, block, circular-plate, tube, bowl, cup, bell, sphere-shell.
         #[arg(long, conflicts_with = "mesh", required_unless_present = "mesh")]
         shape: Option<String>,
         /// The shape's dimensions in metres, comma separated, in the order given by
         /// `struck bank shapes` (e.g. bar: length,width,thickness).
-        #[arg(long, requires = "shape")]
+        #[arg(long, requires = "shape", allow_hyphen_values = true)]
         dims: Option<String>,
         /// A mesh file: Gmsh .msh 2.2/4.1 ASCII tetrahedra, or a closed surface in .obj or
         /// .stl (ASCII or binary), which is voxelised (see --resolution).
@@ -288,12 +295,73 @@ impl From<BankCommand> for struck::banks::BankCommand {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
-    match run(cli) {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => match e.kind() {
+            // `--help` and `--version` are not errors: clap prints them to stdout.
+            ErrorKind::DisplayHelp | ErrorKind::DisplayVersion => {
+                let _ = e.print();
+                return ExitCode::SUCCESS;
+            }
+            // `struck` or `struck bank` alone: clap would print the whole help as an error.
+            ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => return fail(&missing_subcommand(&e)),
+            _ => return fail(&clap_one_line(&e)),
+        },
+    };
+    let result = run(cli);
+    cli::end_progress_line();
+    match result {
         Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("struck: error: {e}");
-            ExitCode::FAILURE
-        }
+        Err(e) => fail(&e),
     }
+}
+
+/// Prints `struck: error: MESSAGE` as one line on stderr (after ending any progress line)
+/// and returns the failure exit code (1).
+fn fail(message: &str) -> ExitCode {
+    cli::end_progress_line();
+    let one: Vec<&str> = message.lines().map(str::trim).filter(|l| !l.is_empty()).collect();
+    eprintln!("struck: error: {}", one.join("; "));
+    ExitCode::FAILURE
+}
+
+/// The command the user typed, e.g. `struck bank build`: the subcommand names among the
+/// arguments, followed down clap's command tree.
+fn command_path() -> String {
+    let mut cmd = Cli::command();
+    let mut path = vec!["struck".to_string()];
+    for arg in std::env::args().skip(1) {
+        let Some(sub) = cmd.find_subcommand(&arg).cloned() else {
+            continue;
+        };
+        path.push(sub.get_name().to_string());
+        cmd = sub;
+    }
+    path.join(" ")
+}
+
+/// "missing subcommand" in one line, listing the subcommands from clap's help text.
+fn missing_subcommand(e: &clap::Error) -> String {
+    let text = e.render().to_string();
+    let names: Vec<&str> = text
+        .lines()
+        .skip_while(|l| !l.starts_with("Commands:"))
+        .skip(1)
+        .take_while(|l| l.starts_with("  "))
+        .filter_map(|l| l.split_whitespace().next())
+        .filter(|n| *n != "help")
+        .collect();
+    format!("missing subcommand (one of: {}; see `{} --help`)", names.join(", "), command_path())
+}
+
+/// clap's error in one line: its first line, then its context lines (the missing arguments,
+/// `tip: …`) joined with "; ", without the usage block, and where to read more.
+fn clap_one_line(e: &clap::Error) -> String {
+    let text = e.render().to_string();
+    let mut lines = text.lines().take_while(|l| !l.starts_with("Usage:")).map(str::trim).filter(|l| !l.is_empty());
+    let first = lines.next().unwrap_or("invalid arguments");
+    let first = first.strip_prefix("error: ").unwrap_or(first).trim_end_matches(':');
+    let context: Vec<&str> = lines.filter(|l| !l.starts_with("For more information")).collect();
+    let message = if context.is_empty() { first.to_string() } else { format!("{first}: {}", context.join("; ")) };
+    format!("{message} (see `{} --help`)", command_path())
 }

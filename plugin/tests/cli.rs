@@ -1,0 +1,535 @@
+//! The `struck` binary as a user runs it: exit codes, the one-line `struck: error: …` on
+//! stderr, outputs that are never lost or corrupted, streaming render memory, and input files
+//! (MIDI, WAV) that are corrupt or unusual.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+const STRUCK: &str = env!("CARGO_BIN_EXE_struck");
+
+/// A fresh scratch folder for one test.
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("struck-cli-bin-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// `struck ARGS` with no user folder of banks and materials.
+fn command(dir: &Path, args: &[&str]) -> Command {
+    let mut c = Command::new(STRUCK);
+    c.args(args).env("STRUCK_USER_DIR", dir.join("user")).stdin(Stdio::null());
+    c
+}
+
+fn struck(dir: &Path, args: &[&str]) -> Output {
+    command(dir, args).output().unwrap()
+}
+
+/// `struck ARGS` with file sizes limited to `blocks` (of 512 or 1024 bytes, as the shell
+/// counts them) and SIGXFSZ ignored, so that writes past the limit fail with EFBIG the way a
+/// full disk fails them.
+fn struck_with_file_limit(dir: &Path, blocks: u32, args: &[&str]) -> Output {
+    let mut c = Command::new("sh");
+    c.arg("-c").arg(format!("ulimit -f {blocks} && trap '' XFSZ && exec \"$0\" \"$@\"")).arg(STRUCK).args(args);
+    c.env("STRUCK_USER_DIR", dir.join("user")).stdin(Stdio::null()).output().unwrap()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Checks the failure contract and returns the message: exit code 1, nothing on stdout, and
+/// exactly one `struck: error: …` line on stderr, at the start of a line, after any
+/// progress output.
+fn error_line(o: &Output) -> String {
+    let err = stderr(o);
+    assert_eq!(o.status.code(), Some(1), "exit code; stderr: {err}");
+    assert!(o.stdout.is_empty(), "stdout: {}", String::from_utf8_lossy(&o.stdout));
+    let hits: Vec<&str> = err.split('\n').filter(|l| l.contains("struck: error:")).collect();
+    assert_eq!(hits.len(), 1, "one error line expected: {err:?}");
+    assert!(hits[0].starts_with("struck: error: "), "the error must start its own line: {err:?}");
+    assert!(err.ends_with('\n') && err.split('\n').rev().nth(1) == Some(hits[0]), "the error comes last: {err:?}");
+    hits[0]["struck: error: ".len()..].to_string()
+}
+
+/// Names of the files in `dir`.
+fn listing(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> =
+        std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn help_and_version_print_normally_and_exit_0() {
+    let dir = scratch("help");
+    for args in [&["--help"][..], &["--version"], &["render", "--help"], &["bank", "build", "--help"], &["help"]] {
+        let o = struck(&dir, args);
+        assert_eq!(o.status.code(), Some(0), "{args:?}: {}", stderr(&o));
+        assert!(!o.stdout.is_empty() && o.stderr.is_empty(), "{args:?}");
+    }
+    let o = struck(&dir, &["--version"]);
+    assert!(String::from_utf8_lossy(&o.stdout).starts_with("struck "));
+}
+
+#[test]
+fn argument_errors_are_one_line_and_exit_1() {
+    let dir = scratch("args");
+    let out = dir.join("x.wav");
+    let out = out.to_str().unwrap();
+    let cases: &[(&[&str], &str)] = &[
+        (&[], "subcommand"),
+        (&["bogus"], "bogus"),
+        (&["render", "--bogus"], "--bogus"),
+        (&["render", "--notes", "60:100"], "--out"),
+        (&["render", "--out", out, "--block-size", "abc"], "abc"),
+        (&["render", "--out", out, "--sample-rate", "-5"], "-5"),
+        (&["bank", "build", "--out", out], "--shape"),
+        (&["bank"], "subcommand"),
+        (&["modes", "--note", "300"], "300"),
+        (&["estimate", "--out", out], "FILES"),
+    ];
+    for (args, names) in cases {
+        let o = struck(&dir, args);
+        let e = error_line(&o);
+        assert!(e.contains(names), "{args:?}: {e}");
+        assert!(e.contains("--help"), "{args:?} should point at the help: {e}");
+    }
+    // Errors of the commands themselves follow the same contract.
+    let e = error_line(&struck(&dir, &["render", "--object", "no-such-object", "--out", out]));
+    assert!(e.contains("unknown object 'no-such-object'"), "{e}");
+    assert!(!Path::new(out).exists());
+}
+
+#[test]
+fn negative_numbers_are_values_not_options() {
+    let dir = scratch("negative");
+    let out = dir.join("x.wav");
+    let out = out.to_str().unwrap();
+    // Each reaches Struck's own range check (naming the value), not clap's "unexpected argument".
+    let e = error_line(&struck(&dir, &["render", "--notes", "60:100", "--seconds", "-1", "--out", out]));
+    assert!(e.contains("--seconds -1 is outside"), "{e}");
+    let e = error_line(&struck(&dir, &["modes", "--position", "-0.5"]));
+    assert!(e.contains("--position -0.5 is outside"), "{e}");
+    let e = error_line(&struck(&dir, &["render", "--set", "dscale=-3", "--out", out]));
+    assert!(e.contains("dscale") && e.contains("-3"), "{e}");
+    let bank = dir.join("b.json");
+    let bank = bank.to_str().unwrap();
+    let build = ["bank", "build", "--shape", "bar", "--dims", "0.5,0.03,0.01", "--out", bank];
+    let e = error_line(&struck(&dir, &[&build[..], &["--poisson", "-2"]].concat()));
+    assert!(e.to_lowercase().contains("poisson"), "{e}");
+    let e = error_line(&struck(&dir, &["bank", "build", "--shape", "bar", "--dims", "-0.5,0.03,0.01", "--out", bank]));
+    assert!(e.contains("positive lengths"), "{e}");
+    // A negative Poisson's ratio within (-1, 0.5) is a valid (auxetic) material: it builds.
+    let o = struck(
+        &dir,
+        &[&build[..], &["--poisson", "-0.2", "--modes", "4", "--resolution", "6", "--points", "4"]].concat(),
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(presets::Bank::load(Path::new(bank)).is_ok());
+}
+
+#[test]
+fn out_of_range_set_values_are_errors_naming_the_range() {
+    let dir = scratch("set");
+    let e = error_line(&struck(&dir, &["modes", "--set", "size=500"]));
+    assert!(e.contains("--set size=500") && e.contains("size (") && e.contains("from 0.05 to 20"), "{e}");
+    let e = error_line(&struck(&dir, &["modes", "--set", "root=1000"]));
+    assert!(e.contains("root") && e.contains("whole numbers from 0 to 127"), "{e}");
+    let e = error_line(&struck(&dir, &["modes", "--set", "root=60.5"]));
+    assert!(e.contains("whole numbers"), "{e}");
+    let e = error_line(&struck(&dir, &["modes", "--set", "matpitch=2"]));
+    assert!(e.contains("matpitch") && e.contains("from 0 to 1"), "{e}");
+    let e = error_line(&struck(&dir, &["modes", "--set", "size=nan"]));
+    assert!(e.contains("size"), "{e}");
+    // In range, including both ends: accepted.
+    for ok in ["size=0.05", "size=20", "root=127", "matpitch=1"] {
+        let o = struck(&dir, &["modes", "--set", ok, "--json"]);
+        assert_eq!(o.status.code(), Some(0), "{ok}: {}", stderr(&o));
+    }
+}
+
+/// A format-0 MIDI file (96 ppq): `track` wrapped in its header and chunk.
+fn midi(track: &[u8]) -> Vec<u8> {
+    let mut f = b"MThd\x00\x00\x00\x06\x00\x00\x00\x01\x00\x60MTrk".to_vec();
+    f.extend((track.len() as u32).to_be_bytes());
+    f.extend(track);
+    f
+}
+
+#[test]
+fn corrupt_and_empty_midi_files_are_errors() {
+    let dir = scratch("midi");
+    let out = dir.join("x.wav");
+    let note = [0x00, 0x90, 60, 100, 0x60, 0x80, 60, 0, 0x00, 0xFF, 0x2F, 0x00];
+    let good = midi(&note);
+    // A track cut short: the chunk says 12 bytes, 5 are there.
+    let mut truncated = good.clone();
+    truncated.truncate(good.len() - 7);
+    // A valid file without any note.
+    let no_notes = midi(&[0x00, 0xFF, 0x51, 0x03, 0x07, 0xA1, 0x20, 0x00, 0xFF, 0x2F, 0x00]);
+    // A bad event: a data byte with its top bit set inside a note-on.
+    let mut bad_event = note;
+    bad_event[3] = 0xF5;
+    let cases: [(&str, Vec<u8>, &str); 5] = [
+        ("empty.mid", vec![], "not a readable MIDI file"),
+        ("garbage.mid", b"MThd garbage".to_vec(), "not a readable MIDI file"),
+        ("truncated.mid", truncated, "not a readable MIDI file"),
+        ("bad-event.mid", midi(&bad_event), "not a readable MIDI file"),
+        ("no-notes.mid", no_notes, "holds no notes"),
+    ];
+    for (name, bytes, says) in cases {
+        let path = dir.join(name);
+        std::fs::write(&path, bytes).unwrap();
+        let o = struck(&dir, &["render", "--midi", path.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+        let e = error_line(&o);
+        assert!(e.contains(name) && e.contains(says), "{name}: {e}");
+        assert!(!out.exists(), "{name}: no output after a failed render");
+    }
+    let path = dir.join("good.mid");
+    std::fs::write(&path, good).unwrap();
+    let o = struck(&dir, &["render", "--midi", path.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(listing(&dir).iter().all(|n| !n.starts_with('.')), "no temporary file is left: {:?}", listing(&dir));
+}
+
+/// A WAV file assembled by hand: `fmt ` (format tag 1 = PCM, 3 = float), then `chunks`
+/// (each with its RIFF pad byte when odd-sized), then `data`.
+fn wav_bytes(format: u16, channels: u16, rate: u32, bits: u16, chunks: &[(&[u8; 4], &[u8])], data: &[u8]) -> Vec<u8> {
+    let mut body = b"WAVE".to_vec();
+    let mut chunk = |id: &[u8; 4], payload: &[u8]| {
+        body.extend_from_slice(id);
+        body.extend((payload.len() as u32).to_le_bytes());
+        body.extend_from_slice(payload);
+        if payload.len() % 2 == 1 {
+            body.push(0);
+        }
+    };
+    let block = channels * bits / 8;
+    let mut fmt = Vec::new();
+    fmt.extend(format.to_le_bytes());
+    fmt.extend(channels.to_le_bytes());
+    fmt.extend(rate.to_le_bytes());
+    fmt.extend((rate * u32::from(block)).to_le_bytes());
+    fmt.extend(block.to_le_bytes());
+    fmt.extend(bits.to_le_bytes());
+    chunk(b"fmt ", &fmt);
+    for (id, payload) in chunks {
+        chunk(id, payload);
+    }
+    chunk(b"data", data);
+    let mut f = b"RIFF".to_vec();
+    f.extend((body.len() as u32).to_le_bytes());
+    f.extend(body);
+    f
+}
+
+/// Renders `notes` with the binary to a stereo float WAV; returns its interleaved samples.
+fn render_to(dir: &Path, out: &Path, notes: &str, seconds: &str) -> Vec<f32> {
+    let o = struck(dir, &["render", "--notes", notes, "--seconds", seconds, "--out", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    hound::WavReader::open(out).unwrap().samples::<f32>().map(Result::unwrap).collect()
+}
+
+fn f32_bytes(x: &[f32]) -> Vec<u8> {
+    x.iter().flat_map(|v| v.to_le_bytes()).collect()
+}
+
+#[test]
+fn nan_and_inf_samples_are_named_with_file_and_index() {
+    let dir = scratch("nan");
+    let mut x = render_to(&dir, &dir.join("strike.wav"), "60:100", "1");
+    // Frame 1234 of the right channel.
+    x[2 * 1234 + 1] = f32::NAN;
+    let nan = dir.join("nan.wav");
+    std::fs::write(&nan, wav_bytes(3, 2, 48_000, 32, &[], &f32_bytes(&x))).unwrap();
+    let e = error_line(&struck(&dir, &["features", nan.to_str().unwrap()]));
+    assert!(e.contains("nan.wav: sample 1234 of channel 1 (0.026 s) is NaN"), "{e}");
+    let mut y: Vec<f32> = x.iter().step_by(2).copied().collect();
+    y[1234] = 0.0;
+    y[7] = f32::NEG_INFINITY;
+    let inf = dir.join("inf.wav");
+    std::fs::write(&inf, wav_bytes(3, 1, 48_000, 32, &[], &f32_bytes(&y))).unwrap();
+    let e = error_line(&struck(&dir, &["features", inf.to_str().unwrap()]));
+    assert!(e.contains("inf.wav: sample 7 of channel 0 (0.000 s) is -inf"), "{e}");
+
+    // After a good file's progress line, the error still starts its own line.
+    let o = struck(&dir, &["features", dir.join("strike.wav").to_str().unwrap(), nan.to_str().unwrap()]);
+    assert!(stderr(&o).contains("\rfeatures:"), "the first file shows progress: {:?}", stderr(&o));
+    let e = error_line(&o);
+    assert!(e.contains("is NaN"), "{e}");
+}
+
+#[test]
+fn a_wav_with_an_odd_sized_chunk_before_the_data_reads_like_the_plain_file() {
+    let dir = scratch("odd");
+    let x = render_to(&dir, &dir.join("strike.wav"), "60:100@0.2", "1.5");
+    let data = f32_bytes(&x);
+    let plain = dir.join("plain.wav");
+    std::fs::write(&plain, wav_bytes(3, 2, 48_000, 32, &[], &data)).unwrap();
+    // A LIST/INFO chunk of 13 bytes (odd: a pad byte follows it), as tag editors write.
+    let odd = dir.join("odd.wav");
+    let info = b"INFOINAM\x05\x00\x00\x00bells";
+    assert_eq!(info.len() % 2, 1);
+    std::fs::write(&odd, wav_bytes(3, 2, 48_000, 32, &[(b"LIST", &info[..])], &data)).unwrap();
+    let features = |p: &Path| {
+        let o = struck(&dir, &["features", p.to_str().unwrap(), "--json"]);
+        assert_eq!(o.status.code(), Some(0), "{}: {}", p.display(), stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let impacts = v["impacts"].as_array().unwrap().clone();
+        assert!(!impacts.is_empty(), "{}: no impact found", p.display());
+        impacts.iter().map(|i| i["features"].clone()).collect::<Vec<_>>()
+    };
+    assert_eq!(features(&odd), features(&plain));
+}
+
+/// Contents that must survive a failed run.
+const PRECIOUS: &[u8] = b"precious: must survive a failed run";
+
+#[test]
+fn render_never_replaces_an_input_or_a_file_on_failure() {
+    let dir = scratch("render-out");
+    let out = dir.join("out.wav");
+    std::fs::write(&out, PRECIOUS).unwrap();
+    let out_s = out.to_str().unwrap();
+    // A write that fails mid-render (the file size limit stands for a full disk): 10 s of
+    // stereo float is 3.8 MB, the limit at most 100 KiB.
+    let o = struck_with_file_limit(&dir, 100, &["render", "--notes", "60:100", "--seconds", "10", "--out", out_s]);
+    let e = error_line(&o);
+    assert!(e.starts_with(&format!("cannot write {out_s}")), "{e}");
+    assert_eq!(std::fs::read(&out).unwrap(), PRECIOUS);
+    assert_eq!(listing(&dir), ["out.wav"], "the temporary file is removed");
+
+    // Inputs given as outputs: the MIDI file, a material file, a bank file; also through
+    // another spelling of the path and a symbolic link.
+    let mid = dir.join("in.mid");
+    std::fs::write(&mid, midi(&[0x00, 0x90, 60, 100, 0x60, 0x80, 60, 0, 0x00, 0xFF, 0x2F, 0x00])).unwrap();
+    let mid_s = mid.to_str().unwrap();
+    let dotted = dir.join(".").join("in.mid");
+    let link = dir.join("link.mid");
+    std::os::unix::fs::symlink(&mid, &link).unwrap();
+    for spelling in [mid.clone(), dotted, link] {
+        let e = error_line(&struck(&dir, &["render", "--midi", mid_s, "--out", spelling.to_str().unwrap()]));
+        assert!(e.contains("it is also an input"), "{e}");
+    }
+    let material = dir.join("m.json");
+    presets::factory_material("glass-ren2013").unwrap().save(&material).unwrap();
+    let bank = dir.join("b.json");
+    let lib = struck::library::Library::factory();
+    let mut b = lib.banks[0].clone();
+    b.id = "my-bank".into();
+    b.save(&bank).unwrap();
+    for (flag, file) in [("--material", &material), ("--object", &bank)] {
+        let before = std::fs::read(file).unwrap();
+        let f = file.to_str().unwrap();
+        let e = error_line(&struck(&dir, &["render", flag, f, "--notes", "60:100", "--out", f]));
+        assert!(e.contains("it is also an input"), "{flag}: {e}");
+        assert_eq!(std::fs::read(file).unwrap(), before);
+    }
+    assert_eq!(std::fs::read(&mid).unwrap()[..4], *b"MThd");
+
+    // Folders that do not exist or are not folders, and an output that is a folder.
+    let e = error_line(&struck(&dir, &["render", "--out", dir.join("nowhere/x.wav").to_str().unwrap()]));
+    assert!(e.contains("nowhere") && e.contains("does not exist"), "{e}");
+    let e = error_line(&struck(&dir, &["render", "--out", dir.join("out.wav/x.wav").to_str().unwrap()]));
+    assert!(e.contains("out.wav/x.wav"), "{e}");
+    let e = error_line(&struck(&dir, &["render", "--out", dir.to_str().unwrap()]));
+    assert!(e.contains("it is a folder"), "{e}");
+    assert_eq!(std::fs::read(&out).unwrap(), PRECIOUS);
+
+    // A successful render replaces the file.
+    let o = struck(&dir, &["render", "--notes", "60:100", "--seconds", "0.5", "--out", out_s]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(hound::WavReader::open(&out).unwrap().duration(), 24_000);
+    assert!(listing(&dir).iter().all(|n| !n.starts_with('.')), "{:?}", listing(&dir));
+}
+
+#[test]
+fn a_wav_over_4_gib_is_refused_at_once() {
+    let dir = scratch("4gib");
+    let out = dir.join("big.wav");
+    let t = Instant::now();
+    let o = struck(&dir, &["render", "--seconds", "3600", "--sample-rate", "192000", "--out", out.to_str().unwrap()]);
+    let e = error_line(&o);
+    assert!(t.elapsed() < Duration::from_secs(3), "refused after {:?}", t.elapsed());
+    assert!(e.contains("5.15 GiB") && e.contains("4 GiB") && e.contains("at most 2796 s"), "{e}");
+    assert!(listing(&dir).is_empty(), "{:?}", listing(&dir));
+    // Just under the limit is accepted as far as the size goes (the folder check follows).
+    let e = error_line(&struck(
+        &dir,
+        &["render", "--seconds", "2796", "--sample-rate", "192000", "--out", dir.join("no/x.wav").to_str().unwrap()],
+    ));
+    assert!(e.contains("does not exist"), "{e}");
+}
+
+/// Peak resident memory (VmHWM, KiB) of a `struck` run, polled from /proc until it exits.
+fn peak_rss_kib(mut cmd: Command) -> u64 {
+    let mut child = cmd.stdout(Stdio::null()).stderr(Stdio::piped()).spawn().unwrap();
+    let status = format!("/proc/{}/status", child.id());
+    let mut peak = 0;
+    loop {
+        if let Ok(s) = std::fs::read_to_string(&status) {
+            if let Some(kib) = s.lines().find_map(|l| l.strip_prefix("VmHWM:")) {
+                peak = peak.max(kib.trim().trim_end_matches("kB").trim().parse().unwrap_or(0));
+            }
+        }
+        if let Some(st) = child.try_wait().unwrap() {
+            assert!(st.success(), "render failed");
+            return peak;
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
+#[test]
+fn a_long_render_streams_in_bounded_memory() {
+    let dir = scratch("rss");
+    let run = |seconds: &str, name: &str| {
+        let out = dir.join(name);
+        let c = command(
+            &dir,
+            &[
+                "render",
+                "--notes",
+                "60:100",
+                "--seconds",
+                seconds,
+                "--sample-rate",
+                "96000",
+                "--out",
+                out.to_str().unwrap(),
+            ],
+        );
+        let kib = peak_rss_kib(c);
+        let frames = hound::WavReader::open(&out).unwrap().duration();
+        let _ = std::fs::remove_file(&out);
+        (kib, frames)
+    };
+    let (short, n_short) = run("1", "short.wav");
+    // 120 s at 96 kHz: 88 MiB of stereo float, which an in-memory render would hold.
+    let (long, n_long) = run("120", "long.wav");
+    assert_eq!((n_short, n_long), (96_000, 11_520_000));
+    eprintln!("peak RSS: 1 s render {short} KiB, 120 s render {long} KiB");
+    assert!(long < short + 8 * 1024, "peak RSS grew from {short} KiB (1 s) to {long} KiB (120 s)");
+}
+
+#[test]
+fn the_streamed_wav_equals_the_in_memory_render() {
+    use struck::cli::{configured_host, note_events, parse_notes, SoundOptions};
+    let dir = scratch("identical");
+    let out = dir.join("x.wav");
+    let notes = "60:100@0.3,67:90@0.7+0.25,48:127+0.6";
+    let o = struck(
+        &dir,
+        &[
+            "render",
+            "--notes",
+            notes,
+            "--seconds",
+            "1.5",
+            "--sample-rate",
+            "44100",
+            "--block-size",
+            "333",
+            "--material",
+            "glass-ren2013",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let wav: Vec<f32> = hound::WavReader::open(&out).unwrap().samples::<f32>().map(Result::unwrap).collect();
+    let opts = SoundOptions { material: "glass-ren2013".into(), sample_rate: 44_100, ..SoundOptions::default() };
+    let mut host = configured_host(&opts, 333).unwrap();
+    let events = note_events(&parse_notes(notes).unwrap(), 44_100.0);
+    let ([l, r], _) = host.render(&events, 66_150, 333);
+    let interleaved: Vec<f32> = l.iter().zip(&r).flat_map(|(a, b)| [*a, *b]).collect();
+    assert_eq!(wav.len(), interleaved.len());
+    assert!(wav.iter().any(|v| v.abs() > 1e-3));
+    let same = wav.iter().zip(&interleaved).all(|(a, b)| a.to_bits() == b.to_bits());
+    assert!(same, "the streamed WAV differs from the in-memory render");
+}
+
+/// A recording of three strikes, made by the binary.
+fn strikes(dir: &Path) -> PathBuf {
+    let rec = dir.join("rec.wav");
+    render_to(dir, &rec, "60:100@0.2,60:110@0.5+1,60:90@0.8+2", "3");
+    rec
+}
+
+#[test]
+fn estimate_never_replaces_an_input_or_a_file_on_failure() {
+    let dir = scratch("estimate-out");
+    let rec = strikes(&dir);
+    let rec_s = rec.to_str().unwrap();
+    let before = std::fs::read(&rec).unwrap();
+    let link = dir.join("link.wav");
+    std::os::unix::fs::symlink(&rec, &link).unwrap();
+    for out in [rec.clone(), link] {
+        let o = struck(&dir, &["estimate", rec_s, "--out", out.to_str().unwrap()]);
+        let e = error_line(&o);
+        assert!(e.contains("it is also an input"), "{e}");
+        assert!(!stderr(&o).contains("estimate:"), "refused before the analysis");
+    }
+    let m = dir.join("m.json");
+    let m_s = m.to_str().unwrap();
+    let e = error_line(&struck(&dir, &["estimate", rec_s, "--out", m_s, "--report", m_s]));
+    assert!(e.contains("m.json") && e.contains("two outputs"), "{e}");
+    let e = error_line(&struck(&dir, &["estimate", rec_s, "--out", m_s, "--report", rec_s]));
+    assert!(e.contains("it is also an input"), "{e}");
+    let e = error_line(&struck(&dir, &["estimate", rec_s, "--out", dir.join("nowhere/m.json").to_str().unwrap()]));
+    assert!(e.contains("does not exist"), "{e}");
+    assert_eq!(std::fs::read(&rec).unwrap(), before);
+
+    // The analysis succeeds but the files cannot be written (no byte fits): both old files stay.
+    let report = dir.join("r.json");
+    std::fs::write(&m, PRECIOUS).unwrap();
+    std::fs::write(&report, PRECIOUS).unwrap();
+    let args = ["estimate", rec_s, "--out", m_s, "--report", report.to_str().unwrap()];
+    let e = error_line(&struck_with_file_limit(&dir, 0, &args));
+    assert!(e.starts_with("cannot write"), "{e}");
+    assert_eq!(std::fs::read(&m).unwrap(), PRECIOUS);
+    assert_eq!(std::fs::read(&report).unwrap(), PRECIOUS);
+    assert_eq!(listing(&dir), ["link.wav", "m.json", "r.json", "rec.wav"], "no temporary file is left");
+
+    // Unlimited, both are replaced with valid files.
+    let o = struck(&dir, &args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    presets::Material::load(&m).unwrap();
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+    assert!(r["impacts"].as_array().is_some_and(|a| a.len() == 3), "{r}");
+}
+
+#[test]
+fn bank_build_never_replaces_its_mesh_or_a_file_on_failure_and_checks_the_folder_first() {
+    let dir = scratch("bank-out");
+    let obj = dir.join("box.obj");
+    let mesh = "v 0 0 0\nv 0.2 0 0\nv 0 0.03 0\nv 0 0 0.02\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+    std::fs::write(&obj, mesh).unwrap();
+    let obj_s = obj.to_str().unwrap();
+    let e = error_line(&struck(&dir, &["bank", "build", "--mesh", obj_s, "--out", obj_s]));
+    assert!(e.contains("it is also an input"), "{e}");
+    assert_eq!(std::fs::read_to_string(&obj).unwrap(), mesh);
+
+    // A missing folder is reported before a long solve starts.
+    let big = ["bank", "build", "--shape", "plate", "--dims", "0.4,0.3,0.003", "--resolution", "80", "--modes", "300"];
+    let t = Instant::now();
+    let e = error_line(&struck(&dir, &[&big[..], &["--out", dir.join("nowhere/p.json").to_str().unwrap()]].concat()));
+    assert!(e.contains("does not exist"), "{e}");
+    assert!(t.elapsed() < Duration::from_secs(3), "refused after {:?}", t.elapsed());
+
+    // The solve succeeds but the bank cannot be written: the old file stays.
+    let out = dir.join("bar.json");
+    std::fs::write(&out, PRECIOUS).unwrap();
+    let small = ["bank", "build", "--shape", "bar", "--dims", "0.5,0.03,0.01", "--resolution", "6", "--modes", "4"];
+    let args = [&small[..], &["--points", "4", "--out", out.to_str().unwrap()]].concat();
+    let e = error_line(&struck_with_file_limit(&dir, 0, &args));
+    assert!(e.starts_with(&format!("cannot write {}", out.display())), "{e}");
+    assert_eq!(std::fs::read(&out).unwrap(), PRECIOUS);
+    assert_eq!(listing(&dir), ["bar.json", "box.obj"]);
+    // --points outside its range is an error, not a silent clamp.
+    let e = error_line(&struck(&dir, &[&small[..], &["--points", "0", "--out", out.to_str().unwrap()]].concat()));
+    assert!(e.contains("--points must be 1..="), "{e}");
+}

@@ -1,0 +1,387 @@
+//! Writing files without ever losing the old one.
+//!
+//! Every file Struck writes (rendered WAVs, materials, banks, estimator reports) goes to a
+//! temporary file in the destination's folder and is renamed over the destination only once it
+//! is complete ([`AtomicFile`]). A failed or interrupted write leaves an existing file as it
+//! was: it is never truncated first. [`check_output`] makes the checks that can fail (missing
+//! or read-only folder, destination that is a folder, read-only file, output that is one of the
+//! inputs) before long work starts.
+
+use std::fs::{self, File, OpenOptions};
+use std::io::{self, BufWriter, Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU32, Ordering};
+
+/// Why an output file cannot be written. Every message starts with "cannot write PATH" and
+/// says what to do.
+#[derive(Debug, thiserror::Error)]
+pub enum OutputError {
+    /// The destination's folder does not exist.
+    #[error("cannot write {}: the folder {} does not exist; create it first", path.display(), folder.display())]
+    NoFolder {
+        /// The destination.
+        path: PathBuf,
+        /// Its folder.
+        folder: PathBuf,
+    },
+    /// A temporary file cannot be created in the destination's folder.
+    #[error("cannot write {}: cannot create a file in {} ({source}); choose a writable folder", path.display(), folder.display())]
+    FolderNotWritable {
+        /// The destination.
+        path: PathBuf,
+        /// Its folder.
+        folder: PathBuf,
+        /// What the system said.
+        #[source]
+        source: io::Error,
+    },
+    /// The destination is a folder.
+    #[error("cannot write {}: it is a folder; give a file name", path.display())]
+    IsAFolder {
+        /// The destination.
+        path: PathBuf,
+    },
+    /// The destination exists and is read-only.
+    #[error("cannot write {}: the existing file is read-only; make it writable or choose another name", path.display())]
+    ReadOnly {
+        /// The destination.
+        path: PathBuf,
+    },
+    /// The destination is one of the command's inputs.
+    #[error("cannot write {}: it is also an input ({}); choose another output file", path.display(), input.display())]
+    SameAsInput {
+        /// The destination.
+        path: PathBuf,
+        /// The input it names.
+        input: PathBuf,
+    },
+    /// The same file is given for two outputs.
+    #[error("cannot write {}: it is given for two outputs; give each output its own file", path.display())]
+    Twice {
+        /// The file.
+        path: PathBuf,
+    },
+    /// Writing, syncing or renaming failed.
+    #[error("cannot write {}: {source}", path.display())]
+    Io {
+        /// The destination.
+        path: PathBuf,
+        /// What the system said.
+        #[source]
+        source: io::Error,
+    },
+}
+
+/// The folder `path` is in (`.` for a bare file name).
+fn folder_of(path: &Path) -> PathBuf {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    }
+}
+
+/// Whether `a` and `b` name the same existing file (after following links; hard links
+/// included on Unix). `false` if either does not exist.
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    let (Ok(ma), Ok(mb)) = (fs::metadata(a), fs::metadata(b)) else {
+        return false;
+    };
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        ma.dev() == mb.dev() && ma.ino() == mb.ino()
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = (ma, mb);
+        matches!((fs::canonicalize(a), fs::canonicalize(b)), (Ok(x), Ok(y)) if x == y)
+    }
+}
+
+/// Checks, before long work, that `path` can be written and is none of `inputs`: its folder
+/// exists and accepts a new file (one is created and removed), it is not a folder, not a
+/// read-only file, and not the same file as an input.
+///
+/// # Errors
+/// The first problem found, as an [`OutputError`].
+pub fn check_output(path: &Path, inputs: &[&Path]) -> Result<(), OutputError> {
+    check_not_input(path, inputs)?;
+    // Creating (and dropping) the temporary file proves the folder is writable.
+    AtomicFile::create(path).map(drop)
+}
+
+/// Checks that `path` is none of `inputs` (the same file through any spelling or link).
+///
+/// # Errors
+/// [`OutputError::SameAsInput`] naming the input.
+pub fn check_not_input(path: &Path, inputs: &[&Path]) -> Result<(), OutputError> {
+    match inputs.iter().find(|input| same_file(path, input)) {
+        Some(input) => Err(OutputError::SameAsInput { path: path.to_path_buf(), input: input.to_path_buf() }),
+        None => Ok(()),
+    }
+}
+
+/// Checks that `outputs` are distinct files: `--out x --report x` would keep only one.
+///
+/// # Errors
+/// [`OutputError::Twice`] naming the repeated path.
+pub fn check_distinct(outputs: &[&Path]) -> Result<(), OutputError> {
+    for (i, a) in outputs.iter().enumerate() {
+        for b in &outputs[i + 1..] {
+            let same = a == b || same_file(a, b) || matches!((absolute(a), absolute(b)), (Some(x), Some(y)) if x == y);
+            if same {
+                return Err(OutputError::Twice { path: b.to_path_buf() });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// `path` with its folder canonicalised (the file itself need not exist).
+fn absolute(path: &Path) -> Option<PathBuf> {
+    let folder = fs::canonicalize(folder_of(path)).ok()?;
+    Some(folder.join(path.file_name()?))
+}
+
+/// Distinguishes temporary files of one process.
+static COUNTER: AtomicU32 = AtomicU32::new(0);
+
+/// A file being written: a temporary file beside the destination, renamed over it by
+/// [`commit`](Self::commit). Dropped without a commit (an error, a panic), the temporary file
+/// is removed and the destination is untouched.
+///
+/// Writes are buffered; the file is flushed and synced to disk before the rename.
+#[derive(Debug)]
+pub struct AtomicFile {
+    dest: PathBuf,
+    tmp: PathBuf,
+    /// `None` only once committed.
+    file: Option<BufWriter<File>>,
+}
+
+impl AtomicFile {
+    /// Creates the temporary file for `dest` (a hidden `.NAME.PID-N.tmp` in the same folder,
+    /// with the existing file's permissions if there is one).
+    ///
+    /// # Errors
+    /// [`OutputError::IsAFolder`], [`OutputError::ReadOnly`], [`OutputError::NoFolder`],
+    /// [`OutputError::FolderNotWritable`] or [`OutputError::Io`].
+    pub fn create(dest: &Path) -> Result<Self, OutputError> {
+        let path = dest.to_path_buf();
+        let existing = fs::metadata(dest).ok();
+        if let Some(m) = &existing {
+            if m.is_dir() {
+                return Err(OutputError::IsAFolder { path });
+            }
+            if m.permissions().readonly() {
+                return Err(OutputError::ReadOnly { path });
+            }
+        }
+        let Some(name) = dest.file_name() else {
+            return Err(OutputError::IsAFolder { path });
+        };
+        let folder = folder_of(dest);
+        match fs::metadata(&folder) {
+            Ok(m) if m.is_dir() => {}
+            Ok(_) => {
+                let source = io::Error::new(io::ErrorKind::NotADirectory, "not a folder");
+                return Err(OutputError::FolderNotWritable { path, folder, source });
+            }
+            Err(_) => return Err(OutputError::NoFolder { path, folder }),
+        }
+        let pid = std::process::id();
+        let mut attempt = 0;
+        loop {
+            let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+            let mut tmp_name = std::ffi::OsString::from(".");
+            tmp_name.push(name);
+            tmp_name.push(format!(".{pid}-{n}.tmp"));
+            let tmp = folder.join(tmp_name);
+            match OpenOptions::new().write(true).create_new(true).open(&tmp) {
+                Ok(file) => {
+                    if let Some(m) = &existing {
+                        // Keep the replaced file's mode (e.g. group-readable); best effort.
+                        let _ = file.set_permissions(m.permissions());
+                    }
+                    return Ok(AtomicFile { dest: path, tmp, file: Some(BufWriter::with_capacity(1 << 16, file)) });
+                }
+                // A leftover of a killed run with the same pid and counter: try the next name.
+                Err(e) if e.kind() == io::ErrorKind::AlreadyExists && attempt < 100 => attempt += 1,
+                Err(source) => return Err(OutputError::FolderNotWritable { path, folder, source }),
+            }
+        }
+    }
+
+    /// The destination.
+    pub fn path(&self) -> &Path {
+        &self.dest
+    }
+
+    /// Flushes the buffer and syncs the temporary file to disk, without renaming it: with
+    /// several outputs, sync them all before committing any, so that a full disk leaves every
+    /// destination untouched.
+    ///
+    /// # Errors
+    /// [`OutputError::Io`] (the destination is untouched).
+    pub fn sync(&mut self) -> Result<(), OutputError> {
+        let path = self.dest.clone();
+        let io = |source| OutputError::Io { path, source };
+        match self.writer().and_then(|w| w.flush().and_then(|()| w.get_ref().sync_all())) {
+            Ok(()) => Ok(()),
+            Err(e) => Err(io(e)),
+        }
+    }
+
+    /// Flushes, syncs and renames the temporary file over the destination.
+    ///
+    /// # Errors
+    /// [`OutputError::Io`]; the temporary file is then removed and the destination untouched.
+    pub fn commit(mut self) -> Result<(), OutputError> {
+        self.sync()?;
+        let io = |source| OutputError::Io { path: self.dest.clone(), source };
+        // Dropping the writer closes the file (its buffer is empty after `sync`).
+        drop(self.file.take());
+        if let Err(e) = fs::rename(&self.tmp, &self.dest) {
+            let _ = fs::remove_file(&self.tmp);
+            return Err(io(e));
+        }
+        // The rename is durable once the folder itself is synced (best effort: not every
+        // platform can open a folder).
+        if let Ok(dir) = File::open(folder_of(&self.dest)) {
+            let _ = dir.sync_all();
+        }
+        Ok(())
+    }
+
+    fn writer(&mut self) -> io::Result<&mut BufWriter<File>> {
+        self.file.as_mut().ok_or_else(|| io::Error::other("the file was already committed"))
+    }
+}
+
+impl Write for AtomicFile {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        self.writer()?.write(buf)
+    }
+    fn write_all(&mut self, buf: &[u8]) -> io::Result<()> {
+        self.writer()?.write_all(buf)
+    }
+    fn flush(&mut self) -> io::Result<()> {
+        self.writer()?.flush()
+    }
+}
+
+impl Seek for AtomicFile {
+    fn seek(&mut self, pos: SeekFrom) -> io::Result<u64> {
+        self.writer()?.seek(pos)
+    }
+}
+
+impl Drop for AtomicFile {
+    fn drop(&mut self) {
+        if let Some(writer) = self.file.take() {
+            // Not committed: discard (without flushing the buffer into a file about to go).
+            let (file, _) = writer.into_parts();
+            drop(file);
+            let _ = fs::remove_file(&self.tmp);
+        }
+    }
+}
+
+/// Writes `bytes` to `path` through an [`AtomicFile`].
+///
+/// # Errors
+/// As [`AtomicFile::create`] and [`AtomicFile::commit`].
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
+    let mut f = AtomicFile::create(path)?;
+    f.write_all(bytes).map_err(|source| OutputError::Io { path: path.to_path_buf(), source })?;
+    f.commit()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scratch(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("struck-output-{}-{name}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    /// Files in `dir` other than `keep`.
+    fn others(dir: &Path, keep: &str) -> Vec<String> {
+        fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n != keep)
+            .collect()
+    }
+
+    #[test]
+    fn a_dropped_file_leaves_the_old_one_and_no_temporary() {
+        let dir = scratch("drop");
+        let dest = dir.join("out.txt");
+        fs::write(&dest, "old").unwrap();
+        let mut f = AtomicFile::create(&dest).unwrap();
+        f.write_all(&[b'x'; 100_000]).unwrap();
+        // Mid-write, the destination still holds the old content.
+        assert_eq!(fs::read_to_string(&dest).unwrap(), "old");
+        drop(f);
+        assert_eq!(fs::read_to_string(&dest).unwrap(), "old");
+        assert!(others(&dir, "out.txt").is_empty(), "{:?}", others(&dir, "out.txt"));
+        let _ = fs::remove_dir_all(dir);
+    }
+
+    #[test]
+    fn a_commit_replaces_the_file_and_keeps_its_mode() {
+        let dir = scratch("commit");
+        let dest = dir.join("out.txt");
+        fs::write(&dest, "old").unwrap();
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            fs::set_permissions(&dest, fs::Permissions::from_mode(0o640)).unwrap();
+        }
+        write_atomically(&dest, b"new").unwrap();
+        assert_eq!(fs::read_to_string(&dest).unwrap(), "new");
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            assert_eq!(fs::metadata(&dest).unwrap().permissions().mode() & 0o777, 0o640);
+        }
+        assert!(others(&dir, "out.txt").is_empty());
+        let _ = fs::remove_dir_all(dir);
+    }
+
+    #[test]
+    fn bad_destinations_are_refused_before_any_write() {
+        let dir = scratch("refuse");
+        let missing = dir.join("no-such-folder").join("x.json");
+        assert!(matches!(check_output(&missing, &[]), Err(OutputError::NoFolder { .. })));
+        assert!(matches!(check_output(&dir, &[]), Err(OutputError::IsAFolder { .. })));
+        let input = dir.join("in.wav");
+        fs::write(&input, "input").unwrap();
+        // The same file through another spelling of its path.
+        let other_spelling = dir.join(".").join("in.wav");
+        let e = check_output(&other_spelling, &[&input]).unwrap_err();
+        assert!(matches!(e, OutputError::SameAsInput { .. }), "{e}");
+        assert!(e.to_string().starts_with("cannot write "), "{e}");
+        assert_eq!(fs::read_to_string(&input).unwrap(), "input");
+        let ro = dir.join("ro.json");
+        fs::write(&ro, "keep").unwrap();
+        let mut p = fs::metadata(&ro).unwrap().permissions();
+        p.set_readonly(true);
+        fs::set_permissions(&ro, p).unwrap();
+        assert!(matches!(check_output(&ro, &[]), Err(OutputError::ReadOnly { .. })));
+        assert!(check_output(&dir.join("fine.json"), &[&input]).is_ok());
+        assert!(!dir.join("fine.json").exists());
+        assert!(check_distinct(&[&dir.join("a.json"), &dir.join("./a.json")]).is_err());
+        assert!(check_distinct(&[&dir.join("a.json"), &dir.join("b.json")]).is_ok());
+        assert_eq!(others(&dir, "").len(), 2, "only in.wav and ro.json remain");
+        let mut p = fs::metadata(&ro).unwrap().permissions();
+        #[allow(clippy::permissions_set_readonly_false)]
+        p.set_readonly(false);
+        fs::set_permissions(&ro, p).unwrap();
+        let _ = fs::remove_dir_all(dir);
+    }
+}
