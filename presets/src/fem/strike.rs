@@ -219,12 +219,11 @@ pub(crate) fn strike_path(geom: &Geometry, n: usize) -> Vec<PathPoint> {
                 rmax = rmax.max((x[0] * x[0] + x[1] * x[1]).sqrt());
             }
             let circ = 2.0 * PI * rmax.max(1e-12);
-            let out: Vec<PathPoint>;
             if *top_view {
                 // Archimedean spiral from the pole outwards, equal spacing along it:
                 // s ∝ √(arc), about √(n/π) turns (spacing along ≈ spacing across turns).
                 let turns = (n as f64 / PI).sqrt().max(1.0);
-                out = (0..n)
+                (0..n)
                     .map(|i| {
                         let f = ((i as f64 + 0.5) / n as f64).sqrt();
                         let s = s0 + (s1 - s0) * f;
@@ -236,11 +235,11 @@ pub(crate) fn strike_path(geom: &Geometry, n: usize) -> Vec<PathPoint> {
                             label: format!("r = {:.2}, {:.0} deg", s / rev.len, th.to_degrees() % 360.0),
                         }
                     })
-                    .collect();
+                    .collect()
             } else {
                 // Helix: turns chosen so spacing along the path ≈ spacing between turns.
                 let turns = (n as f64 * (s1 - s0) / circ).sqrt().max(1.0);
-                out = (0..n)
+                (0..n)
                     .map(|i| {
                         let f = (i as f64 + 0.5) / n as f64;
                         let s = s0 + (s1 - s0) * f;
@@ -249,9 +248,8 @@ pub(crate) fn strike_path(geom: &Geometry, n: usize) -> Vec<PathPoint> {
                         let a = (th / (2.0 * PI)).fract();
                         PathPoint { position: x, xy: [a, f], label: format!("s = {f:.2}, {:.0} deg", a * 360.0) }
                     })
-                    .collect();
+                    .collect()
             }
-            out
         }
     }
 }
