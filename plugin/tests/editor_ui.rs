@@ -228,13 +228,13 @@ fn files_arrive_by_path_field_browser_and_drop_and_a_capture_applies_and_persist
     // A dropped file is added.
     h.input_mut().dropped_files.push(Arc::new(Dropped(wav.clone())));
     h.run_steps(2);
-    assert_eq!(h.state().ui.capture_files(), [wav.clone()]);
+    assert_eq!(h.state().ui.capture_files(), std::slice::from_ref(&wav));
     // The same file again through the path field: no duplicate.
     h.get_by_label("Recording path").type_text(&wav.display().to_string());
     h.run_steps(1);
     h.get_by_label("Add").click();
     h.run_steps(2);
-    assert_eq!(h.state().ui.capture_files(), [wav.clone()]);
+    assert_eq!(h.state().ui.capture_files(), std::slice::from_ref(&wav));
 
     // Analyse on the background thread, then pick up the result.
     h.get_by_label("Analyse").click();

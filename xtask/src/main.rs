@@ -26,9 +26,12 @@ fn bundle(release: bool) -> Result<(), String> {
     nice_plug_xtask::main_with_args("cargo xtask", args).map_err(|e| format!("bundling failed: {e:#}"))
 }
 
+/// One factory FEM bank: id, name, shape, dims, E, ρ, ν, resolution, modes.
+type FemBank = (&'static str, &'static str, &'static str, &'static str, f64, f64, f64, usize, usize);
+
 /// The factory FEM library: id, name, shape, dims (m), E (Pa), ρ (kg/m³), ν, resolution,
 /// modes. Realistic objects; materials are only the reference (any material plays on any bank).
-const FEM_BANKS: &[(&str, &str, &str, &str, f64, f64, f64, usize, usize)] = &[
+const FEM_BANKS: &[FemBank] = &[
     ("fem-bar", "Bar (FEM, aluminium 30 cm)", "bar", "0.3,0.04,0.01", 69e9, 2700.0, 0.33, 36, 100),
     ("fem-plate", "Plate (FEM, steel 40 × 30 cm)", "plate", "0.4,0.3,0.004", 200e9, 7850.0, 0.3, 28, 100),
     (

@@ -117,6 +117,8 @@ enum Command {
     },
 }
 
+// Parsed once per run: the size difference between the variants does not matter.
+#[allow(clippy::large_enum_variant)]
 #[derive(Subcommand)]
 enum BankCommand {
     /// Modal analysis (10-node tetrahedra) of a built-in shape or a mesh file into a bank.

@@ -67,10 +67,13 @@ pub(super) struct Job {
     object: Option<CapturedObject>,
 }
 
+/// Where a background job leaves its result: `None` until done, then the samples or an error.
+type JobResult = Arc<Mutex<Option<Result<Vec<f32>, String>>>>;
+
 /// A clip being built for the A/B comparison.
 pub(super) struct AbJob {
     side: super::ab::Side,
-    result: Arc<Mutex<Option<Result<Vec<f32>, String>>>>,
+    result: JobResult,
 }
 
 /// Capture panel state.

@@ -44,7 +44,7 @@ pub fn fmt_value(v: f64) -> String {
     let a = v.abs();
     if a == 0.0 {
         "0".into()
-    } else if a >= 1e6 || a < 1e-3 {
+    } else if !(1e-3..1e6).contains(&a) {
         format!("{v:.0e}")
     } else if a >= 1000.0 {
         format!("{}k", v / 1000.0)

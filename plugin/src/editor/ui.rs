@@ -108,11 +108,11 @@ impl EditorUi {
             ui.separator();
             ui.label(format!("Sounding modes {modes}"));
             ui.separator();
-            ui.label(format!("Object {}", self.params.object.to_string()));
+            ui.label(format!("Object {}", self.params.object));
             ui.separator();
-            ui.label(format!("Material {}", self.params.material.to_string()));
+            ui.label(format!("Material {}", self.params.material));
             ui.separator();
-            ui.label(format!("Strike {}", self.params.strike_position.to_string()));
+            ui.label(format!("Strike {}", self.params.strike_position));
         });
     }
 
