@@ -18,7 +18,7 @@
 //!   `request_callback`, as hosts do).
 //!
 //! Which binary: `$STRUCK_CLAP` if set (`cargo xtask test` bundles the debug plugin and sets
-//! it to `target/bundled/Struck.clap`), else `target/debug/libstruck.so` (built by `cargo test`
+//! it to `target/test-bundled/Struck.clap`), else `target/debug/libstruck.so` (built by `cargo test`
 //! as the tests' dependency), else `target/bundled/Struck.clap` (the test does not build it: run `cargo xtask bundle struck` or
 //! `cargo build -p struck` first, or the test may exercise a stale binary).
 
