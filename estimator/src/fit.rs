@@ -11,8 +11,31 @@ use errorfunctions::RealErrorFunctions;
 use serde::{Deserialize, Serialize};
 
 use crate::features::solve_small;
-use crate::optim::newton;
+use crate::optim::{newton, Constraints, OptResult};
 use crate::EstimateError;
+
+const TWO_PI: f64 = std::f64::consts::TAU;
+/// Lowest eigenvalue where a fitted law must have c(λ) ≥ 0: (2π · 20 Hz)² rad²/s², as the
+/// presets crate validates materials (`presets::damping::AUDIBLE_LAMBDA_MIN`).
+pub const AUDIBLE_LAMBDA_MIN: f64 = (TWO_PI * 20.0) * (TWO_PI * 20.0);
+/// Highest such eigenvalue: (2π · 24 kHz)² rad²/s² (`presets::damping::AUDIBLE_LAMBDA_MAX`).
+pub const AUDIBLE_LAMBDA_MAX: f64 = (TWO_PI * 24_000.0) * (TWO_PI * 24_000.0);
+/// Exponent range of the power and hybrid laws, (0, 2] in the presets; the fits keep it in
+/// [`MIN_EXPONENT`, `MAX_EXPONENT`].
+pub const MAX_EXPONENT: f64 = 2.0;
+/// Smallest exponent the fits allow (> 0 as the presets require).
+pub const MIN_EXPONENT: f64 = 1e-3;
+/// Lower limit of the EMG Gaussian spread σ, relative to the median c of the points. Without
+/// it the EMG likelihood of few points is largest as σ → 0 (the curve then runs along the
+/// lower hull, the density degenerates to a shifted exponential whose location MLE is the
+/// lower bound), so the optimiser walks ln σ → −∞ until its iteration cap. 0.1 % is about the
+/// mean damping error of extraction at 40 dB (RESULTS.md §1).
+pub const SIGMA_FLOOR: f64 = 0.001;
+/// Upper limit of the EMG rate η relative to 1/median c: a mean support damping under 0.01 %
+/// of the median c is none at all (η → ∞ is the Gaussian limit).
+pub const ETA_MAX: f64 = 1e4;
+/// Grid points (log-spaced, 20 Hz–24 kHz) where the Caughey fits enforce c(λ) ≥ 0.
+const CAUGHEY_GRID: usize = 48;
 
 /// Damping model family.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
@@ -100,8 +123,15 @@ pub struct FitResult {
     pub bic: Option<f64>,
     /// Optimiser iterations (sum over starts).
     pub iterations: usize,
-    /// Whether the optimiser met its tolerance.
+    /// Whether the optimiser met its tolerance (KKT conditions under the constraints).
     pub converged: bool,
+    /// Constraints that hold with equality at the result, e.g. "alpha1 >= 0" or
+    /// "sigma >= floor" (the fit sits on the edge of the physically valid region).
+    #[serde(default)]
+    pub active_bounds: Vec<String>,
+    /// What the caller should know about this fit (not converged, parameters at a bound).
+    #[serde(default)]
+    pub warnings: Vec<String>,
     /// Number of (λ, c) points.
     pub n_points: usize,
 }
@@ -125,6 +155,175 @@ pub fn to_damping(model: ModelKind, p: &[f64]) -> dsp::Damping {
         ModelKind::Caughey => dsp::Damping::Caughey { coeffs: [g(0), g(1), g(2), 0.0], order: 3 },
         ModelKind::Power => dsp::Damping::Power { alpha1: g(0), alpha2: g(1) },
         ModelKind::Hybrid => dsp::Damping::Hybrid { alpha1: g(0), alpha2: g(1), alpha3: g(2) },
+    }
+}
+
+/// Checks that SI parameters describe a physically valid law, with the rules of the presets
+/// crate's material validation: coefficients of Rayleigh, power and hybrid ≥ 0, exponents in
+/// (0, 2], and c(λ) finite and ≥ 0 from 20 Hz to 24 kHz ([`AUDIBLE_LAMBDA_MIN`]..=
+/// [`AUDIBLE_LAMBDA_MAX`]; for Caughey checked at its stationary point and on a grid).
+///
+/// # Errors
+/// A message naming the parameter or frequency that breaks the rule.
+pub fn check_physical(model: ModelKind, p: &[f64]) -> Result<(), String> {
+    if p.len() != model.n_params() || p.iter().any(|v| !v.is_finite()) {
+        return Err(format!("{} parameters must be {} finite numbers, found {p:?}", model.name(), model.n_params()));
+    }
+    let nonneg: &[usize] = match model {
+        ModelKind::Rayleigh => &[0, 1],
+        ModelKind::Power => &[0],
+        ModelKind::Hybrid => &[0, 1],
+        ModelKind::Caughey => &[],
+    };
+    for &i in nonneg {
+        if p[i] < 0.0 {
+            return Err(format!("params[{i}] of the {} law is {} < 0", model.name(), p[i]));
+        }
+    }
+    let exp = match model {
+        ModelKind::Power => Some(p[1]),
+        ModelKind::Hybrid => Some(p[2]),
+        _ => None,
+    };
+    if let Some(e) = exp {
+        if !(e > 0.0 && e <= MAX_EXPONENT) {
+            return Err(format!("the {} exponent {e} is outside (0, {MAX_EXPONENT}]", model.name()));
+        }
+    }
+    let d = to_damping(model, p);
+    let mut lambdas: Vec<f64> = (0..=256)
+        .map(|i| AUDIBLE_LAMBDA_MIN * (AUDIBLE_LAMBDA_MAX / AUDIBLE_LAMBDA_MIN).powf(i as f64 / 256.0))
+        .collect();
+    if model == ModelKind::Caughey && p[2] > 0.0 {
+        let v = -p[1] / (2.0 * p[2]);
+        if v > AUDIBLE_LAMBDA_MIN && v < AUDIBLE_LAMBDA_MAX {
+            lambdas.push(v);
+        }
+    }
+    for l in lambdas {
+        let c = d.c(l);
+        let scale = match model {
+            ModelKind::Caughey => p[0].abs() + (p[1] * l).abs() + (p[2] * l * l).abs(),
+            _ => c.abs(),
+        };
+        if !c.is_finite() || c < -1e-12 * scale {
+            return Err(format!("c = {c:.3e} 1/s at {:.0} Hz is negative", l.sqrt() / TWO_PI));
+        }
+    }
+    Ok(())
+}
+
+/// Constraints on the normalised curve parameters (the first `kind.n_params()` of `n`)
+/// that keep the law physically valid ([`check_physical`]): coefficients ≥ 0, exponents in
+/// [[`MIN_EXPONENT`], [`MAX_EXPONENT`]], and for Caughey c ≥ 0 on a log grid of the audible
+/// range (plus `cuts`, extra points in normalised x found by [`caughey_dip`]).
+fn curve_constraints(kind: ModelKind, d: &Data, n: usize, cuts: &[f64]) -> Constraints {
+    let mut c = Constraints::default();
+    match kind {
+        ModelKind::Rayleigh => {
+            c.bound(n, 0, 0.0, false, "alpha1 >= 0");
+            c.bound(n, 1, 0.0, false, "alpha2 >= 0");
+        }
+        ModelKind::Power => {
+            c.bound(n, 0, 0.0, false, "alpha1 >= 0");
+            c.bound(n, 1, MIN_EXPONENT, false, format!("exponent alpha2 >= {MIN_EXPONENT}"));
+            c.bound(n, 1, MAX_EXPONENT, true, format!("exponent alpha2 <= {MAX_EXPONENT}"));
+        }
+        ModelKind::Hybrid => {
+            c.bound(n, 0, 0.0, false, "alpha1 >= 0");
+            c.bound(n, 1, 0.0, false, "alpha2 >= 0");
+            c.bound(n, 2, MIN_EXPONENT, false, format!("exponent alpha3 >= {MIN_EXPONENT}"));
+            c.bound(n, 2, MAX_EXPONENT, true, format!("exponent alpha3 <= {MAX_EXPONENT}"));
+        }
+        ModelKind::Caughey => {
+            let (lo, hi) = (AUDIBLE_LAMBDA_MIN / d.ls, AUDIBLE_LAMBDA_MAX / d.ls);
+            let grid = (0..=CAUGHEY_GRID).map(|i| lo * (hi / lo).powf(i as f64 / CAUGHEY_GRID as f64));
+            for x in grid.chain(cuts.iter().copied()) {
+                let norm = (1.0 + x * x + x * x * x * x).sqrt();
+                let mut row = vec![0.0; n];
+                row[0] = 1.0 / norm;
+                row[1] = x / norm;
+                row[2] = x * x / norm;
+                // A margin of 1e-9 × median c keeps round-off from crossing zero.
+                c.push(row, 1e-9 / norm, format!("c >= 0 at {:.0} Hz", (x * d.ls).sqrt() / TWO_PI));
+            }
+        }
+    }
+    c
+}
+
+/// For Caughey parameters (normalised), the x of the vertex inside the audible range where
+/// c dips below zero between the grid points, if any.
+fn caughey_dip(d: &Data, a: &[f64]) -> Option<f64> {
+    let (lo, hi) = (AUDIBLE_LAMBDA_MIN / d.ls, AUDIBLE_LAMBDA_MAX / d.ls);
+    if a[2] <= 0.0 {
+        return None;
+    }
+    let v = -a[1] / (2.0 * a[2]);
+    let c = a[0] + v * (a[1] + a[2] * v);
+    let scale = a[0].abs() + (a[1] * v).abs() + (a[2] * v * v).abs();
+    (v > lo && v < hi && c < -1e-13 * scale).then_some(v)
+}
+
+/// Moves curve parameters into the valid region where a simple clamp does it (bounds);
+/// returns false if they still break a constraint (Caughey).
+fn make_feasible(kind: ModelKind, d: &Data, a: &mut [f64]) -> bool {
+    match kind {
+        ModelKind::Rayleigh => a[..2].iter_mut().for_each(|v| *v = v.max(0.0)),
+        ModelKind::Power => {
+            a[0] = a[0].max(0.0);
+            a[1] = a[1].clamp(MIN_EXPONENT, MAX_EXPONENT);
+        }
+        ModelKind::Hybrid => {
+            a[0] = a[0].max(0.0);
+            a[1] = a[1].max(0.0);
+            a[2] = a[2].clamp(MIN_EXPONENT, MAX_EXPONENT);
+        }
+        ModelKind::Caughey => {}
+    }
+    a.iter().all(|v| v.is_finite()) && curve_constraints(kind, d, a.len(), &[]).feasible(a, 1e-12)
+}
+
+/// An objective for [`newton`]: value, gradient and Hessian (row-major) at x.
+type Objective<'a> = dyn FnMut(&[f64], &mut [f64], &mut [f64]) -> f64 + 'a;
+
+/// Runs the constrained Newton method from `start`; for Caughey adds a cut wherever the
+/// result dips below zero between grid points and solves again (at most 12 rounds; a
+/// dip left after them, of round-off size, is lifted by raising the constant term).
+/// `limits` = (iteration cap, gradient tolerance, largest step per coordinate) of [`newton`].
+fn solve_constrained(
+    kind: ModelKind,
+    d: &Data,
+    start: &[f64],
+    extra: &dyn Fn(&mut Constraints, usize),
+    limits: (usize, f64, f64),
+    f: &mut Objective,
+) -> (OptResult, Vec<String>) {
+    let (max_iter, gtol, max_step) = limits;
+    let n = start.len();
+    let mut cuts: Vec<f64> = Vec::new();
+    let mut its = 0;
+    loop {
+        let mut cons = curve_constraints(kind, d, n, &cuts);
+        extra(&mut cons, n);
+        let mut r = newton(&mut *f, start, &cons, max_iter, gtol, max_step);
+        its += r.iterations;
+        r.iterations = its;
+        if kind == ModelKind::Caughey {
+            if let Some(v) = caughey_dip(d, &r.x) {
+                if cuts.len() < 36 {
+                    // The dip and its neighbourhood: a quadratic touching zero moves its
+                    // vertex a little with each cut.
+                    cuts.extend([0.97 * v, v, 1.03 * v]);
+                    continue;
+                }
+                // Still a dip of round-off size after 12 rounds: lift the curve by it.
+                let c = r.x[0] + v * (r.x[1] + r.x[2] * v);
+                r.x[0] += -c + 1e-9;
+            }
+        }
+        let names = r.active.iter().map(|&i| cons.names[i].clone()).collect();
+        return (r, names);
     }
 }
 
@@ -166,11 +365,44 @@ struct Data {
     c: Vec<f64>,
     ls: f64,
     cs: f64,
+    /// Density of the EMG fit's uniform outlier component, ε / (range of c) (normalised).
+    outlier_density: f64,
+    /// Per-point measurement standard deviation of c (normalised); all 0 for a
+    /// homoscedastic fit (no per-point uncertainties given).
+    m: Vec<f64>,
+    /// Least-squares weights (mean 1): 1/mᵢ² when the uncertainties are known, else 1.
+    w: Vec<f64>,
 }
 
-fn normalise(points: &[(f64, f64)], model: ModelKind) -> Result<Data, EstimateError> {
+impl Data {
+    /// Whether the points carry their own uncertainties.
+    fn hetero(&self) -> bool {
+        self.m.iter().any(|&v| v > 0.0)
+    }
+}
+
+/// Relative accuracy of an extracted decay beyond the Cramér–Rao bound of its noise: what
+/// overlapping partials, the analysis window and a not-quite-exponential envelope leave
+/// (the extractor's mean damping error on clean multi-mode impacts, RESULTS.md §1, is
+/// 0.1–1 %). It is added in quadrature to each feature's own uncertainty, so a noiseless
+/// feature is not taken as exact.
+pub const EXTRACTION_REL_ERROR: f64 = 0.005;
+
+/// Lower limit of the heteroscedastic EMG's extra spread σ (on top of each point's own
+/// uncertainty), relative to the median c: there σ → 0 is a proper limit (the points' own
+/// uncertainties keep the density finite), so the floor only keeps ln σ bounded.
+pub const SIGMA_FLOOR_HETERO: f64 = 1e-6;
+
+/// Weight ε of the uniform outlier component in the EMG likelihood: a point far below the
+/// curve (a decay extracted much too slow, issue 10) or far above it costs at most
+/// ln(ε / range of c) instead of dragging the curve (Sterling thesis §4.2.5's EMG, made robust
+/// as a two-component mixture: (1 − ε) EMG + ε uniform over the observed c range).
+pub const OUTLIER_WEIGHT: f64 = 0.01;
+
+fn normalise(points: &[(f64, f64)], sigmas: Option<&[f64]>, model: ModelKind) -> Result<Data, EstimateError> {
     for (i, &(l, c)) in points.iter().enumerate() {
-        if !(l.is_finite() && c.is_finite() && l > 0.0) {
+        let s_ok = sigmas.is_none_or(|s| s.get(i).is_some_and(|v| v.is_finite() && *v >= 0.0));
+        if !(l.is_finite() && c.is_finite() && l > 0.0 && s_ok) {
             return Err(EstimateError::InvalidPoint { index: i, lambda: l, c });
         }
     }
@@ -187,7 +419,26 @@ fn normalise(points: &[(f64, f64)], model: ModelKind) -> Result<Data, EstimateEr
     cs.sort_by(f64::total_cmp);
     let cs = cs[cs.len() / 2].max(1e-12);
     let x: Vec<f64> = points.iter().map(|p| p.0 / ls).collect();
-    Ok(Data { lnx: x.iter().map(|v| v.ln()).collect(), x, c: points.iter().map(|p| p.1 / cs).collect(), ls, cs })
+    let c: Vec<f64> = points.iter().map(|p| p.1 / cs).collect();
+    let (cmin, cmax) = c.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+    let range = (1.1 * (cmax - cmin)).max(1e-6);
+    // Each point's uncertainty: its own (given) and the extractor's relative accuracy, in
+    // quadrature; floored at 1e-9 of the median c so that no point has infinite weight.
+    let (m, w) = match sigmas {
+        Some(sg) => {
+            let m: Vec<f64> = sg
+                .iter()
+                .zip(&c)
+                .map(|(&s, &ci)| ((s / cs).powi(2) + (EXTRACTION_REL_ERROR * ci).powi(2)).sqrt().max(1e-9))
+                .collect();
+            let mut w: Vec<f64> = m.iter().map(|v| 1.0 / (v * v)).collect();
+            let mean = w.iter().sum::<f64>() / w.len() as f64;
+            w.iter_mut().for_each(|v| *v /= mean);
+            (m, w)
+        }
+        None => (vec![0.0; c.len()], vec![1.0; c.len()]),
+    };
+    Ok(Data { lnx: x.iter().map(|v| v.ln()).collect(), x, c, ls, cs, outlier_density: OUTLIER_WEIGHT / range, m, w })
 }
 
 /// Normalised curve parameters → SI parameters.
@@ -212,53 +463,75 @@ pub fn ln_erfc(s: f64) -> f64 {
     }
 }
 
-/// d ln erfc(s)/ds = −2 e^(−s²)/(√π erfc(s)) = −2/(√π erfcx(s)).
+/// (ln erfc(s), d ln erfc/ds) with one erfc or erfcx evaluation.
 #[inline]
-fn dln_erfc(s: f64) -> f64 {
+fn ln_erfc_d(s: f64) -> (f64, f64) {
     const TWO_OVER_SQRT_PI: f64 = std::f64::consts::FRAC_2_SQRT_PI;
-    if s < -26.0 {
-        0.0
+    if s > 0.0 {
+        let e = s.erfcx();
+        (e.ln() - s * s, -TWO_OVER_SQRT_PI / e)
+    } else if s < -26.0 {
+        (std::f64::consts::LN_2, 0.0)
     } else {
-        -TWO_OVER_SQRT_PI / s.erfcx()
+        let e = RealErrorFunctions::erfc(s);
+        (e.ln(), -TWO_OVER_SQRT_PI * (-s * s).exp() / e)
     }
 }
 
-/// Mean negative EMG log-likelihood (normalised units) and its gradient.
+/// Mean negative log-likelihood of the robust EMG (normalised units) and its gradient:
+/// [`emg_nll_hess`] without the Hessian, written out separately as a check of it.
 /// Parameters: curve params a, then ln σ, ln η.
-/// Thesis eq. 4.10: ℓᵢ = ln(η/2) + η(μᵢ − cᵢ) + η²σ²/2 + ln erfc(sᵢ), sᵢ = (μᵢ + ησ² − cᵢ)/(√2σ).
+/// Thesis eq. 4.10: ℓᵢ = ln(η/2) + η(μᵢ − cᵢ) + η²σ²/2 + ln erfc(sᵢ), sᵢ = (μᵢ + ησ² − cᵢ)/(√2σ);
+/// with the outlier component: Lᵢ = ln((1 − ε) e^ℓᵢ + ε/R).
 #[cfg(test)]
 fn emg_nll(kind: ModelKind, d: &Data, p: &[f64], g: &mut [f64]) -> f64 {
     let k = kind.n_params();
-    let (sigma, eta) = (p[k].exp(), p[k + 1].exp());
-    let sq2s = std::f64::consts::SQRT_2 * sigma;
+    let (sigma0, eta) = (p[k].exp(), p[k + 1].exp());
     let mut mg = [0.0; 4];
     g.iter_mut().for_each(|v| *v = 0.0);
     let mut ll = 0.0;
-    let (mut gs, mut ge) = (0.0, 0.0);
-    let base = eta.ln() - std::f64::consts::LN_2 + 0.5 * eta * eta * sigma * sigma;
+    let ln1e = (1.0 - OUTLIER_WEIGHT).ln();
     for i in 0..d.x.len() {
+        // The point's spread Sᵢ = √(σ² + mᵢ²) and dSᵢ/d ln σ = σ²/Sᵢ.
+        let sigma = sigma0.hypot(d.m[i]);
+        let ds = sigma0 * sigma0 / sigma;
+        let sq2s = std::f64::consts::SQRT_2 * sigma;
+        let base = eta.ln() - std::f64::consts::LN_2 + 0.5 * eta * eta * sigma * sigma;
         let mu = model_eval(kind, &p[..k], d.x[i], d.lnx[i], &mut mg);
         let r = mu - d.c[i];
         let s = (r + eta * sigma * sigma) / sq2s;
-        ll += base + eta * r + ln_erfc(s);
-        let t = dln_erfc(s);
+        let l = base + eta * r + ln_erfc(s);
+        let (lm, w) = mix(ln1e + l, d.outlier_density.ln());
+        ll += lm;
+        // d ln erfc/ds = −2 e^(−s²)/(√π erfc(s)) = −2/(√π erfcx(s)).
+        let t = -std::f64::consts::FRAC_2_SQRT_PI / s.erfcx();
         // ∂ℓ/∂μ = η + t/(√2σ)
         let dmu = eta + t / sq2s;
         for j in 0..k {
-            g[j] += dmu * mg[j];
+            g[j] += w * dmu * mg[j];
         }
-        // ∂ℓ/∂σ = η²σ + t(−r/(√2σ²) + η/√2)
-        gs += eta * eta * sigma + t * (-r / (sq2s * sigma) + eta / std::f64::consts::SQRT_2);
-        // ∂ℓ/∂η = 1/η + r + ησ² + tσ/√2
-        ge += 1.0 / eta + r + eta * sigma * sigma + t * sigma / std::f64::consts::SQRT_2;
+        // ∂ℓ/∂σ = η²σ + t(−r/(√2σ²) + η/√2); ∂ℓ/∂η = 1/η + r + ησ² + tσ/√2
+        g[k] += w * ds * (eta * eta * sigma + t * (-r / (sq2s * sigma) + eta / std::f64::consts::SQRT_2));
+        g[k + 1] += w * eta * (1.0 / eta + r + eta * sigma * sigma + t * sigma / std::f64::consts::SQRT_2);
     }
     let n = d.x.len() as f64;
-    for v in g[..k].iter_mut() {
-        *v = -*v / n;
-    }
-    g[k] = -gs * sigma / n;
-    g[k + 1] = -ge * eta / n;
+    g.iter_mut().for_each(|v| *v = -*v / n);
     -ll / n
+}
+
+/// ln(e^a + e^lb) and the EMG component's responsibility w = e^a / (e^a + e^lb), stable for
+/// any a.
+#[inline]
+fn mix(a: f64, lb: f64) -> (f64, f64) {
+    if a > lb + 40.0 {
+        (a, 1.0)
+    } else if a >= lb {
+        let q = (lb - a).exp();
+        (a + q.ln_1p(), 1.0 / (1.0 + q))
+    } else {
+        let q = (a - lb).exp();
+        (lb + q.ln_1p(), q / (1.0 + q))
+    }
 }
 
 /// ∂²c/∂aⱼ∂aₖ of the model (zero for the linear models).
@@ -282,66 +555,87 @@ fn model_hess(kind: ModelKind, a: &[f64], x: f64, lnx: f64, h: &mut [[f64; 3]; 3
     let _ = x;
 }
 
-/// [`emg_nll`] plus its analytic Hessian `h` (row-major, (k+2)², same parameters).
-/// With r = μ − c, s = (r + ησ²)/(√2σ), t = d ln erfc/ds and t' = −t(2s + t):
-/// ℓ_μμ = t' s_μ², ℓ_μσ = t' s_μ s_σ − t/(√2σ²), ℓ_μη = 1 + t' s_μ s_η,
+/// Mean negative log-likelihood of the robust EMG, Lᵢ = ln((1 − ε) e^ℓᵢ + ε/R) with ℓᵢ the
+/// EMG log-density (thesis eq. 4.10) and ε/R the uniform outlier density
+/// ([`OUTLIER_WEIGHT`]), with its gradient and analytic Hessian `h` (row-major, (k+2)²) in
+/// (a, ln σ, ln η). Per point, with r = μ − c, s = (r + ησ²)/(√2σ), t = d ln erfc/ds and
+/// t' = −t(2s + t): ℓ_μμ = t' s_μ², ℓ_μσ = t' s_μ s_σ − t/(√2σ²), ℓ_μη = 1 + t' s_μ s_η,
 /// ℓ_σσ = η² + t' s_σ² + t √2 r/σ³, ℓ_ση = 2ησ + t' s_σ s_η + t/√2, ℓ_ηη = −1/η² + σ² + t' s_η²,
-/// with s_μ = 1/(√2σ), s_σ = −r/(√2σ²) + η/√2, s_η = σ/√2; then the chain rule to (a, ln σ, ln η).
+/// with s_μ = 1/(√2σ), s_σ = −r/(√2σ²) + η/√2, s_η = σ/√2; the chain rule to (a, ln σ, ln η)
+/// gives ∇ℓᵢ, ∇²ℓᵢ; then ∇Lᵢ = wᵢ∇ℓᵢ and ∇²Lᵢ = wᵢ∇²ℓᵢ + wᵢ(1 − wᵢ)∇ℓᵢ∇ℓᵢᵀ with wᵢ the EMG
+/// component's responsibility.
 fn emg_nll_hess(kind: ModelKind, d: &Data, p: &[f64], g: &mut [f64], h: &mut [f64]) -> f64 {
     let k = kind.n_params();
     let np = k + 2;
-    let (sigma, eta) = (p[k].exp(), p[k + 1].exp());
+    let (sigma0, eta) = (p[k].exp(), p[k + 1].exp());
     let sq2 = std::f64::consts::SQRT_2;
-    let sq2s = sq2 * sigma;
     let mut mg = [0.0; 4];
     let mut mh = [[0.0; 3]; 3];
+    let mut gi = [0.0; 5];
+    let mut hi = [0.0; 25];
     g.iter_mut().for_each(|v| *v = 0.0);
     h.iter_mut().for_each(|v| *v = 0.0);
     let mut ll = 0.0;
-    let (mut ls, mut le, mut lss, mut lse, mut lee) = (0.0, 0.0, 0.0, 0.0, 0.0);
-    let base = eta.ln() - std::f64::consts::LN_2 + 0.5 * eta * eta * sigma * sigma;
-    let s_mu = 1.0 / sq2s;
-    let s_eta = sigma / sq2;
+    let ln1e = (1.0 - OUTLIER_WEIGHT).ln();
+    let ln_out = d.outlier_density.ln();
+    let ln_eta_half = eta.ln() - std::f64::consts::LN_2;
     for i in 0..d.x.len() {
+        // Heteroscedastic: the point's spread is Sᵢ = √(σ² + mᵢ²) (mᵢ its own uncertainty),
+        // with S' = dSᵢ/d ln σ = σ²/Sᵢ and S'' = 2σ²/Sᵢ − σ⁴/Sᵢ³ (both σ when mᵢ = 0).
+        let sigma = sigma0.hypot(d.m[i]);
+        let s1 = sigma0 * sigma0 / sigma;
+        let s2 = 2.0 * s1 - s1 * s1 / sigma;
+        let sq2s = sq2 * sigma;
+        let base = ln_eta_half + 0.5 * eta * eta * sigma * sigma;
+        let s_mu = 1.0 / sq2s;
+        let s_eta = sigma / sq2;
         let mu = model_eval(kind, &p[..k], d.x[i], d.lnx[i], &mut mg);
         let r = mu - d.c[i];
         let s = (r + eta * sigma * sigma) / sq2s;
-        ll += base + eta * r + ln_erfc(s);
-        let t = dln_erfc(s);
+        let (le_s, t) = ln_erfc_d(s);
+        let (lm, w) = mix(ln1e + base + eta * r + le_s, ln_out);
+        ll += lm;
         let tp = -t * (2.0 * s + t);
         let s_sig = -r / (sq2s * sigma) + eta / sq2;
         let l_mu = eta + t * s_mu;
         let l_mumu = tp * s_mu * s_mu;
         let l_musig = tp * s_mu * s_sig - t / (sq2s * sigma);
         let l_mueta = 1.0 + tp * s_mu * s_eta;
-        ls += eta * eta * sigma + t * s_sig;
-        le += 1.0 / eta + r + eta * sigma * sigma + t * s_eta;
-        lss += eta * eta + tp * s_sig * s_sig + t * sq2 * r / (sigma * sigma * sigma);
-        lse += 2.0 * eta * sigma + tp * s_sig * s_eta + t / sq2;
-        lee += -1.0 / (eta * eta) + sigma * sigma + tp * s_eta * s_eta;
+        let ls = eta * eta * sigma + t * s_sig;
+        let le = 1.0 / eta + r + eta * sigma * sigma + t * s_eta;
+        let lss = eta * eta + tp * s_sig * s_sig + t * sq2 * r / (sigma * sigma * sigma);
+        let lse = 2.0 * eta * sigma + tp * s_sig * s_eta + t / sq2;
+        let lee = -1.0 / (eta * eta) + sigma * sigma + tp * s_eta * s_eta;
         if kind == ModelKind::Power || kind == ModelKind::Hybrid {
             model_hess(kind, &p[..k], d.x[i], d.lnx[i], &mut mh);
         }
         for a in 0..k {
-            g[a] += l_mu * mg[a];
+            gi[a] = l_mu * mg[a];
             for b in a..k {
-                h[a * np + b] += l_mumu * mg[a] * mg[b] + l_mu * mh[a.min(2)][b.min(2)];
+                hi[a * np + b] = l_mumu * mg[a] * mg[b] + l_mu * mh[a.min(2)][b.min(2)];
             }
-            h[a * np + k] += l_musig * sigma * mg[a];
-            h[a * np + k + 1] += l_mueta * eta * mg[a];
+            hi[a * np + k] = l_musig * s1 * mg[a];
+            hi[a * np + k + 1] = l_mueta * eta * mg[a];
+        }
+        gi[k] = ls * s1;
+        gi[k + 1] = le * eta;
+        hi[k * np + k] = s1 * s1 * lss + s2 * ls;
+        hi[k * np + k + 1] = s1 * eta * lse;
+        hi[(k + 1) * np + k + 1] = eta * eta * lee + eta * le;
+        let w2 = w * (1.0 - w);
+        for a in 0..np {
+            g[a] += w * gi[a];
+            for b in a..np {
+                h[a * np + b] += w * hi[a * np + b] + w2 * gi[a] * gi[b];
+            }
         }
     }
-    let n = d.x.len() as f64;
-    g[k] = ls * sigma;
-    g[k + 1] = le * eta;
-    h[k * np + k] = sigma * sigma * lss + sigma * ls;
-    h[k * np + k + 1] = sigma * eta * lse;
-    h[(k + 1) * np + k + 1] = eta * eta * lee + eta * le;
     for a in 0..np {
         for b in 0..a {
             h[a * np + b] = h[b * np + a];
         }
     }
+    let n = d.x.len() as f64;
     g.iter_mut().for_each(|v| *v = -*v / n);
     h.iter_mut().for_each(|v| *v = -*v / n);
     -ll / n
@@ -356,9 +650,9 @@ fn sse(kind: ModelKind, d: &Data, a: &[f64], g: &mut [f64]) -> f64 {
     let mut f = 0.0;
     for i in 0..d.x.len() {
         let r = model_eval(kind, a, d.x[i], d.lnx[i], &mut mg) - d.c[i];
-        f += 0.5 * r * r;
+        f += 0.5 * d.w[i] * r * r;
         for j in 0..k {
-            g[j] += r * mg[j];
+            g[j] += d.w[i] * r * mg[j];
         }
     }
     let n = d.x.len() as f64;
@@ -377,11 +671,12 @@ fn sse_hess(kind: ModelKind, d: &Data, a: &[f64], g: &mut [f64], h: &mut [f64]) 
     for i in 0..d.x.len() {
         let r = model_eval(kind, a, d.x[i], d.lnx[i], &mut mg) - d.c[i];
         model_hess(kind, a, d.x[i], d.lnx[i], &mut mh);
-        f += 0.5 * r * r;
+        let wi = d.w[i];
+        f += 0.5 * wi * r * r;
         for j in 0..k {
-            g[j] += r * mg[j];
+            g[j] += wi * r * mg[j];
             for l in j..k {
-                h[j * k + l] += mg[j] * mg[l] + r * mh[j.min(2)][l.min(2)];
+                h[j * k + l] += wi * (mg[j] * mg[l] + r * mh[j.min(2)][l.min(2)]);
             }
         }
     }
@@ -403,7 +698,7 @@ fn linear_lsq(d: &Data, k: usize, xs: impl Fn(usize) -> f64, ys: impl Fn(usize) 
     for i in 0..d.x.len() {
         let x = xs(i);
         let y = ys(i);
-        let mut pi = 1.0;
+        let mut pi = d.w[i];
         for r in 0..k {
             let mut pj = 1.0;
             for c in 0..k {
@@ -445,7 +740,27 @@ fn hull_line(xs: &[f64], ys: &[f64]) -> Option<(f64, f64)> {
     None
 }
 
-/// LB fit in normalised units; returns curve params.
+/// [`hull_line`] under a ≥ 0 and b ≥ 0 (xs > 0): the same LP with two bounds added. If the
+/// free optimum breaks a bound, the constrained optimum lies on that bound: the line through
+/// the origin under every point (a = 0, b = min yᵢ/xᵢ) or the flat line (b = 0, a = min yᵢ).
+fn hull_line_nonneg(xs: &[f64], ys: &[f64]) -> Option<(f64, f64)> {
+    if let Some((a, b)) = hull_line(xs, ys) {
+        if a >= 0.0 && b >= 0.0 {
+            return Some((a, b));
+        }
+    }
+    let n = xs.len() as f64;
+    let sx: f64 = xs.iter().sum();
+    let b0 = xs.iter().zip(ys).map(|(x, y)| y / x).fold(f64::INFINITY, f64::min).max(0.0);
+    let a0 = ys.iter().copied().fold(f64::INFINITY, f64::min).max(0.0);
+    if !(a0.is_finite() && b0.is_finite()) {
+        return None;
+    }
+    Some(if b0 * sx >= a0 * n { (0.0, b0) } else { (a0, 0.0) })
+}
+
+/// LB fit in normalised units, inside the physically valid region ([`curve_constraints`]);
+/// returns curve params.
 fn lb_fit(kind: ModelKind, d: &Data) -> Option<Vec<f64>> {
     let mut order: Vec<usize> = (0..d.x.len()).collect();
     order.sort_by(|&a, &b| d.x[a].total_cmp(&d.x[b]));
@@ -454,7 +769,7 @@ fn lb_fit(kind: ModelKind, d: &Data) -> Option<Vec<f64>> {
     let mut ys = vec![0.0; xs_sorted.len()];
     let mut xt = vec![0.0; xs_sorted.len()];
     match kind {
-        ModelKind::Rayleigh => hull_line(&xs_sorted, &cs_sorted).map(|(a, b)| vec![a, b]),
+        ModelKind::Rayleigh => hull_line_nonneg(&xs_sorted, &cs_sorted).map(|(a, b)| vec![a, b]),
         ModelKind::Power => {
             // c = a x^p ⇔ ln c = ln a + p ln x: a line in log–log (c > 0 required).
             if cs_sorted.iter().any(|&c| c <= 0.0) {
@@ -464,30 +779,51 @@ fn lb_fit(kind: ModelKind, d: &Data) -> Option<Vec<f64>> {
                 xt[i] = xs_sorted[i].ln();
                 ys[i] = cs_sorted[i].ln();
             }
-            hull_line(&xt, &ys).map(|(a, b)| vec![a.exp(), b])
+            let (la, p) = hull_line(&xt, &ys)?;
+            if (MIN_EXPONENT..=MAX_EXPONENT).contains(&p) {
+                return Some(vec![la.exp(), p]);
+            }
+            // Exponent at its bound: the highest line of that slope under every point.
+            let p = p.clamp(MIN_EXPONENT, MAX_EXPONENT);
+            let la = xt.iter().zip(&ys).map(|(x, y)| y - p * x).fold(f64::INFINITY, f64::min);
+            Some(vec![la.exp(), p])
         }
         ModelKind::Caughey => {
             // For fixed a₂ the LP in (a₀, a₁) is a hull line of c − a₂x²; its optimal value is
             // concave in a₂ (partial maximisation of a linear objective over a convex set), so
-            // a golden-section search on a₂ finds the LP optimum.
+            // a golden-section search on a₂ finds the LP optimum. Candidates that make c
+            // negative somewhere in the audible range are infeasible; the Rayleigh LB
+            // (a₂ = 0, a₀, a₁ ≥ 0) is always feasible and kept if better.
             let cmax = cs_sorted.iter().fold(0.0f64, |m, v| m.max(v.abs())).max(1.0);
+            let cons = curve_constraints(kind, d, 3, &[]);
             let value = |a2: f64, ys: &mut Vec<f64>| -> Option<(f64, Vec<f64>)> {
                 for i in 0..xs_sorted.len() {
                     ys[i] = cs_sorted[i] - a2 * xs_sorted[i] * xs_sorted[i];
                 }
                 let (a0, a1) = hull_line(&xs_sorted, ys)?;
+                let p = vec![a0, a1, a2];
+                if !cons.feasible(&p, 1e-12) || caughey_dip(d, &p).is_some() {
+                    return None;
+                }
                 let v: f64 = xs_sorted.iter().map(|&x| a0 + a1 * x + a2 * x * x).sum();
-                Some((v, vec![a0, a1, a2]))
+                Some((v, p))
             };
-            golden(-20.0 * cmax, 20.0 * cmax, 80, |a2| value(a2, &mut ys))
+            let obj = |p: &[f64]| -> f64 { xs_sorted.iter().map(|&x| p[0] + p[1] * x + p[2] * x * x).sum() };
+            let gold = golden(-20.0 * cmax, 20.0 * cmax, 80, |a2| value(a2, &mut ys));
+            let ray = hull_line_nonneg(&xs_sorted, &cs_sorted).map(|(a, b)| vec![a, b, 0.0]);
+            match (gold, ray) {
+                (Some(g), Some(r)) => Some(if obj(&g) >= obj(&r) { g } else { r }),
+                (g, r) => g.or(r),
+            }
         }
         ModelKind::Hybrid => {
-            // For fixed exponent p: hull line in (x^p, c). Grid over p, then golden section.
+            // For fixed exponent p: hull line in (x^p, c) with a₀, a₁ ≥ 0. Grid over p, then
+            // golden section.
             let value = |p: f64, ys: &mut Vec<f64>| -> Option<(f64, Vec<f64>)> {
                 for i in 0..xs_sorted.len() {
                     ys[i] = xs_sorted[i].powf(p);
                 }
-                let (a0, a1) = hull_line(ys, &cs_sorted)?;
+                let (a0, a1) = hull_line_nonneg(ys, &cs_sorted)?;
                 let v: f64 = ys.iter().map(|&xp| a0 + a1 * xp).sum();
                 Some((v, vec![a0, a1, p]))
             };
@@ -502,7 +838,7 @@ fn lb_fit(kind: ModelKind, d: &Data) -> Option<Vec<f64>> {
             }
             let (_, bi) = best?;
             let lo = grid[bi.saturating_sub(1)];
-            let hi = grid[(bi + 1).min(grid.len() - 1)];
+            let hi = grid[(bi + 1).min(grid.len() - 1)].min(MAX_EXPONENT);
             golden(lo, hi, 30, |p| value(p, &mut ys))
         }
     }
@@ -550,41 +886,53 @@ fn golden(
     best.map(|b| b.1)
 }
 
-/// LSQ in normalised units: closed form for linear models, BFGS for power/hybrid.
-fn lsq_fit(kind: ModelKind, d: &Data) -> (Vec<f64>, usize, bool) {
-    match kind {
-        ModelKind::Rayleigh => (linear_lsq(d, 2, |i| d.x[i], |i| d.c[i]).unwrap_or(vec![1.0, 0.0]), 0, true),
-        ModelKind::Caughey => (linear_lsq(d, 3, |i| d.x[i], |i| d.c[i]).unwrap_or(vec![1.0, 0.0, 0.0]), 0, true),
-        ModelKind::Power | ModelKind::Hybrid => {
-            let pos = d.c.iter().all(|&c| c > 0.0);
-            let loglog = if pos { linear_lsq(d, 2, |i| d.lnx[i], |i| d.c[i].ln()) } else { None };
-            let (la, p) = loglog.map(|v| (v[0], v[1])).unwrap_or((0.0, 1.0));
-            let starts: Vec<Vec<f64>> = if kind == ModelKind::Power {
-                vec![vec![la.exp(), p], vec![1.0, 1.0], vec![1.0, 0.5]]
-            } else {
-                let ray = linear_lsq(d, 2, |i| d.x[i], |i| d.c[i]).unwrap_or(vec![1.0, 0.0]);
-                vec![vec![ray[0], ray[1], 1.0], vec![0.0, la.exp(), p], vec![0.5 * ray[0], ray[1], 0.5]]
-            };
-            let mut best: Option<(f64, Vec<f64>)> = None;
-            let mut its = 0;
-            let mut conv = false;
-            for s in starts {
-                let r = newton(|a, g, h| sse_hess(kind, d, a, g, h), &s, 200, 1e-12);
-                its += r.iterations;
-                if r.f.is_finite() && best.as_ref().is_none_or(|b| r.f < b.0) {
-                    conv = r.converged;
-                    best = Some((r.f, r.x));
-                }
-            }
-            (best.map(|b| b.1).unwrap_or(starts_fallback(kind)), its, conv)
+/// LSQ in normalised units under the validity constraints ([`curve_constraints`]): the
+/// constrained Newton method on ½ Σ rᵢ² from the closed-form (linear models) or log–log
+/// (power, hybrid) starts, moved into the valid region. Returns (params, iterations,
+/// converged, active constraint names).
+fn lsq_fit(kind: ModelKind, d: &Data) -> (Vec<f64>, usize, bool, Vec<String>) {
+    let pos = d.c.iter().all(|&c| c > 0.0);
+    let loglog = if pos { linear_lsq(d, 2, |i| d.lnx[i], |i| d.c[i].ln()) } else { None };
+    let (la, p) = loglog.map(|v| (v[0], v[1])).unwrap_or((0.0, 1.0));
+    let ray = linear_lsq(d, 2, |i| d.x[i], |i| d.c[i]).unwrap_or(vec![1.0, 0.0]);
+    // Rayleigh and Caughey: a convex quadratic, so one start and full Newton steps.
+    let mut starts: Vec<Vec<f64>> = match kind {
+        ModelKind::Rayleigh => vec![ray.clone()],
+        ModelKind::Caughey => vec![linear_lsq(d, 3, |i| d.x[i], |i| d.c[i]).unwrap_or(vec![1.0, 0.0, 0.0])],
+        ModelKind::Power => vec![vec![la.exp(), p], vec![1.0, 1.0], vec![1.0, 0.5]],
+        ModelKind::Hybrid => vec![vec![ray[0], ray[1], 1.0], vec![0.0, la.exp(), p], vec![0.5 * ray[0], ray[1], 0.5]],
+    };
+    starts.retain_mut(|s| make_feasible(kind, d, s));
+    if starts.is_empty() {
+        // c ≡ 1 (the median) is valid for every model.
+        starts.push(starts_fallback(kind));
+    }
+    let mut best: Option<(f64, Vec<f64>, bool, Vec<String>)> = None;
+    let mut its = 0;
+    for s in starts {
+        let linear = matches!(kind, ModelKind::Rayleigh | ModelKind::Caughey);
+        let max_step = if linear { f64::INFINITY } else { 2.0 };
+        let (r, names) = solve_constrained(kind, d, &s, &|_, _| {}, (200, 1e-12, max_step), &mut |a, g, h| {
+            sse_hess(kind, d, a, g, h)
+        });
+        its += r.iterations;
+        if r.f.is_finite() && best.as_ref().is_none_or(|b| r.f < b.0) {
+            best = Some((r.f, r.x, r.converged, names));
         }
+    }
+    match best {
+        Some((_, x, conv, names)) => (x, its, conv, names),
+        None => (starts_fallback(kind), its, false, Vec::new()),
     }
 }
 
+/// c ≡ 1 in normalised units (the median c): valid for every model.
 fn starts_fallback(kind: ModelKind) -> Vec<f64> {
     match kind {
-        ModelKind::Power => vec![1.0, 1.0],
-        _ => vec![1.0, 0.0, 1.0],
+        ModelKind::Rayleigh => vec![1.0, 0.0],
+        ModelKind::Power => vec![1.0, MIN_EXPONENT],
+        ModelKind::Hybrid => vec![1.0, 0.0, 1.0],
+        ModelKind::Caughey => vec![1.0, 0.0, 0.0],
     }
 }
 
@@ -637,7 +985,41 @@ fn delta_std(to_si: impl Fn(&[f64]) -> Vec<f64>, x: &[f64], cov: &[f64]) -> Vec<
         .collect()
 }
 
+/// Plain-language warnings for a fit: not converged, parameters on a bound.
+fn fit_warnings(
+    model: ModelKind,
+    method: Method,
+    converged: bool,
+    iterations: usize,
+    active: &[String],
+) -> Vec<String> {
+    let tag = format!("{} {} fit", method.name(), model.name());
+    let mut w = Vec::new();
+    if !converged {
+        w.push(format!(
+            "{tag}: the optimiser stopped after {iterations} iterations without converging; the material is approximate (record more taps, or try the lsq method)"
+        ));
+    }
+    for a in active {
+        let what = if a.starts_with("sigma") {
+            "the points scatter less than the extraction's measurement error, so the fit follows the least-damped points (as the lower-bound fit does); record more taps".to_string()
+        } else if a.starts_with("eta") {
+            "no extra (support) damping was detected above the law".to_string()
+        } else {
+            format!("the law sits on the edge of the physically valid region ({a}); a simpler model may describe the recordings as well")
+        };
+        w.push(format!("{tag}: {a} is active: {what}"));
+    }
+    w
+}
+
 /// Fits a damping model to (λ, c) points (λ in rad²/s², c in s⁻¹).
+///
+/// Every fit stays inside the physically valid region ([`check_physical`]: coefficients ≥ 0,
+/// exponents in (0, 2], c(λ) ≥ 0 from 20 Hz to 24 kHz): the constraints are part of the
+/// optimisation (an active-set Newton method, [`crate::optim::newton`]), and the LB fit is
+/// the lower-hull LP with the same bounds. A fit that ends on a bound or without converging
+/// says so in [`FitResult::warnings`].
 ///
 /// # Errors
 /// [`EstimateError::InvalidPoint`] for non-finite values or λ ≤ 0,
@@ -645,7 +1027,32 @@ fn delta_std(to_si: impl Fn(&[f64]) -> Vec<f64>, x: &[f64], cov: &[f64]) -> Vec<
 /// [`EstimateError::Degenerate`] if all λ are equal, [`EstimateError::NoConvergence`] if no
 /// finite fit was found.
 pub fn fit_damping(points: &[(f64, f64)], model: ModelKind, method: Method) -> Result<FitResult, EstimateError> {
-    let d = normalise(points, model)?;
+    fit_damping_weighted(points, None, model, method)
+}
+
+/// [`fit_damping`] with each point's own standard uncertainty of c (s⁻¹, e.g. twice a
+/// feature's `sigma_decay_per_s`; issue 10 part 3). Each point's measurement spread is then
+/// mᵢ = √(σᵢ² + ([`EXTRACTION_REL_ERROR`]·cᵢ)²): the EMG's Gaussian part has variance
+/// σ² + mᵢ² (σ the scatter the measurements do not explain: the thesis §4.2.5 model with
+/// known heteroscedastic measurement error), and LSQ is weighted by 1/mᵢ². LB has no weights.
+/// `None` is the homoscedastic fit of the thesis.
+///
+/// # Errors
+/// As [`fit_damping`]; a negative or non-finite uncertainty is an invalid point.
+pub fn fit_damping_weighted(
+    points: &[(f64, f64)],
+    sigmas: Option<&[f64]>,
+    model: ModelKind,
+    method: Method,
+) -> Result<FitResult, EstimateError> {
+    if sigmas.is_some_and(|s| s.len() != points.len()) {
+        return Err(EstimateError::InvalidPoint {
+            index: points.len().min(sigmas.map_or(0, |s| s.len())),
+            lambda: f64::NAN,
+            c: f64::NAN,
+        });
+    }
+    let d = normalise(points, sigmas, model)?;
     let n = d.x.len();
     let nf = n as f64;
     let k = model.n_params();
@@ -656,11 +1063,14 @@ pub fn fit_damping(points: &[(f64, f64)], model: ModelKind, method: Method) -> R
         let s: f64 = (0..n).map(|i| (model_eval(model, a, d.x[i], d.lnx[i], &mut mg) - d.c[i]).powi(2)).sum();
         (s / nf).sqrt()
     };
-    match method {
+    let result = match method {
         Method::Lb => {
             let a = lb_fit(model, &d).ok_or_else(|| no_conv("no lower hull edge spans the data"))?;
             let params = denorm(model, &a, ls, cs);
-            Ok(FitResult {
+            let cons = curve_constraints(model, &d, k, &[]);
+            let active: Vec<String> =
+                (0..cons.len()).filter(|&i| cons.slack(i, &a).abs() <= 1e-12).map(|i| cons.names[i].clone()).collect();
+            FitResult {
                 model,
                 method,
                 std_errors: vec![None; params.len()],
@@ -674,11 +1084,13 @@ pub fn fit_damping(points: &[(f64, f64)], model: ModelKind, method: Method) -> R
                 bic: None,
                 iterations: 0,
                 converged: true,
+                warnings: fit_warnings(model, method, true, 0, &active),
+                active_bounds: active,
                 n_points: n,
-            })
+            }
         }
         Method::Lsq => {
-            let (a, its, conv) = lsq_fit(model, &d);
+            let (a, its, conv, active) = lsq_fit(model, &d);
             if a.iter().any(|v| !v.is_finite()) {
                 return Err(no_conv("non-finite parameters"));
             }
@@ -697,7 +1109,7 @@ pub fn fit_damping(points: &[(f64, f64)], model: ModelKind, method: Method) -> R
             let sigma = s2.sqrt() * cs;
             let ll = -0.5 * nf * ((std::f64::consts::TAU * sigma * sigma).ln() + 1.0);
             let kk = (k + 1) as f64;
-            Ok(FitResult {
+            FitResult {
                 model,
                 method,
                 params: denorm(model, &a, ls, cs),
@@ -711,24 +1123,30 @@ pub fn fit_damping(points: &[(f64, f64)], model: ModelKind, method: Method) -> R
                 bic: Some(kk * nf.ln() - 2.0 * ll),
                 iterations: its,
                 converged: conv,
+                warnings: fit_warnings(model, method, conv, its, &active),
+                active_bounds: active,
                 n_points: n,
-            })
+            }
         }
         Method::Emg => {
             // Starts: (1) the LB curve with σ, η from the residuals above it; (2) the LSQ
-            // curve shifted down by the EMG moment estimate of the exponential part.
-            let (lsq, mut its, _) = lsq_fit(model, &d);
+            // curve shifted down by the EMG moment estimate of the exponential part. Both
+            // are moved into the valid region (σ ≥ SIGMA_FLOOR, η ≤ ETA_MAX, valid curve).
+            let (lsq, mut its, _, _) = lsq_fit(model, &d);
             let mut starts: Vec<Vec<f64>> = Vec::new();
             let mut mg = [0.0; 4];
             let resid = |a: &[f64], mg: &mut [f64; 4]| -> Vec<f64> {
                 (0..n).map(|i| d.c[i] - model_eval(model, a, d.x[i], d.lnx[i], mg)).collect()
             };
+            let hetero = d.hetero();
+            let floor = if hetero { SIGMA_FLOOR_HETERO } else { SIGMA_FLOOR };
+            let (ls_lo, le_hi) = (floor.ln(), ETA_MAX.ln());
             if let Some(lb) = lb_fit(model, &d) {
                 let r = resid(&lb, &mut mg);
                 let mean = (r.iter().sum::<f64>() / nf).max(1e-3);
                 let mut s = lb.clone();
-                s.push((0.1 * mean).ln());
-                s.push((1.0 / mean).ln());
+                s.push((0.1 * mean).ln().max(ls_lo));
+                s.push((1.0 / mean).ln().min(le_hi));
                 starts.push(s);
             }
             {
@@ -744,19 +1162,33 @@ pub fn fit_damping(points: &[(f64, f64)], model: ModelKind, method: Method) -> R
                     ModelKind::Power => s[0] *= (1.0 - tau / (d.c.iter().sum::<f64>() / nf)).max(0.1),
                     _ => s[0] -= tau,
                 }
-                s.push(sig.ln());
-                s.push((1.0 / tau.max(1e-6)).ln());
+                if !make_feasible(model, &d, &mut s[..k]) {
+                    s[..k].copy_from_slice(&lsq);
+                }
+                s.push(sig.ln().max(ls_lo));
+                s.push((1.0 / tau.max(1e-6)).ln().min(le_hi));
                 starts.push(s);
             }
-            let mut best: Option<crate::optim::OptResult> = None;
+            let noise_bounds = |c: &mut Constraints, np: usize| {
+                c.bound(np, np - 2, ls_lo, false, format!("sigma >= floor ({floor} x median c)"));
+                c.bound(np, np - 1, le_hi, true, format!("eta <= {ETA_MAX} / median c"));
+            };
+            let mut best: Option<(OptResult, Vec<String>)> = None;
             for s in &starts {
-                let r = newton(|p, g, h| emg_nll_hess(model, &d, p, g, h), s, 100, 1e-10);
+                // The LB start usually lands on the optimum; the second start is for when it
+                // did not converge or stopped on a bound.
+                if best.as_ref().is_some_and(|b| b.0.converged && b.1.is_empty()) {
+                    break;
+                }
+                let (r, names) = solve_constrained(model, &d, s, &noise_bounds, (100, 1e-10, 2.0), &mut |p, g, h| {
+                    emg_nll_hess(model, &d, p, g, h)
+                });
                 its += r.iterations;
-                if r.f.is_finite() && best.as_ref().is_none_or(|b| r.f < b.f) {
-                    best = Some(r);
+                if r.f.is_finite() && best.as_ref().is_none_or(|b| r.f < b.0.f) {
+                    best = Some((r, names));
                 }
             }
-            let best = best.ok_or_else(|| no_conv("likelihood not finite at any start"))?;
+            let (best, active) = best.ok_or_else(|| no_conv("likelihood not finite at any start"))?;
             let x = &best.x;
             let np = k + 2;
             let mut h = vec![0.0; np * np];
@@ -778,7 +1210,7 @@ pub fn fit_damping(points: &[(f64, f64)], model: ModelKind, method: Method) -> R
             // Density in SI: p(c) = p(c̃)/c_s.
             let ll = -best.f * nf - nf * cs.ln();
             let kk = np as f64;
-            Ok(FitResult {
+            FitResult {
                 model,
                 method,
                 params: si[..k].to_vec(),
@@ -792,10 +1224,25 @@ pub fn fit_damping(points: &[(f64, f64)], model: ModelKind, method: Method) -> R
                 bic: Some(kk * nf.ln() - 2.0 * ll),
                 iterations: its,
                 converged: best.converged,
+                // With per-point uncertainties σ at its floor only says the points scatter no
+                // more than they were measured to: nothing to warn about.
+                warnings: fit_warnings(
+                    model,
+                    method,
+                    best.converged,
+                    best.iterations,
+                    &active.iter().filter(|a| !(hetero && a.starts_with("sigma"))).cloned().collect::<Vec<_>>(),
+                ),
+                active_bounds: active,
                 n_points: n,
-            })
+            }
         }
+    };
+    // The constraints make this hold; a failure here is a bug, not a property of the data.
+    if let Err(e) = check_physical(model, &result.params) {
+        return Err(no_conv(&format!("the fitted law is not physically valid ({e})")));
     }
+    Ok(result)
 }
 
 #[cfg(test)]
@@ -809,7 +1256,7 @@ mod tests {
                 (l, 2.0 + 1e-7 * l + 0.3 * ((i * 7919 % 13) as f64 / 13.0))
             })
             .collect();
-        normalise(&pts, ModelKind::Hybrid).unwrap()
+        normalise(&pts, None, ModelKind::Hybrid).unwrap()
     }
 
     #[test]

@@ -39,7 +39,7 @@ use serde::{Deserialize, Serialize};
 
 pub use error::EstimateError;
 pub use features::{ExtractOptions, Feature, ImpactFit};
-pub use fit::{fit_damping, FitResult, Method, ModelKind};
+pub use fit::{fit_damping, fit_damping_weighted, FitResult, Method, ModelKind};
 pub use object::ObjectMatch;
 pub use segment::SegmentOptions;
 pub use wav::Recording;
@@ -133,6 +133,12 @@ impl FeaturesReport {
     /// All features as (λ, c) points (rad²/s², s⁻¹).
     pub fn points(&self) -> Vec<(f64, f64)> {
         self.impacts.iter().flat_map(|i| i.features.iter().map(|f| (f.lambda(), f.c()))).collect()
+    }
+
+    /// Each point's standard uncertainty of c (s⁻¹): 2 × the feature's `sigma_decay_per_s`
+    /// (c = 2d), in the order of [`Self::points`].
+    pub fn point_sigmas(&self) -> Vec<f64> {
+        self.impacts.iter().flat_map(|i| i.features.iter().map(|f| 2.0 * f.sigma_decay_per_s)).collect()
     }
 }
 
@@ -230,7 +236,7 @@ pub fn extract_features(
             if cancel.load(Ordering::Relaxed) {
                 return Err(EstimateError::Cancelled);
             }
-            let fit = features::extract_impact(&rec.samples[s.start..s.end], fs, seg.noise_var, &opts.extract, cancel)?;
+            let fit = features::extract_impact(&rec.samples[s.start..s.end], fs, s.noise_var, &opts.extract, cancel)?;
             if fit.features.is_empty() {
                 report.skipped.push(SkippedImpact {
                     file: name.clone(),
@@ -251,6 +257,16 @@ pub fn extract_features(
                 });
             }
             progress((fi as f32 + (ii + 1) as f32 / nimp as f32) / nfiles as f32);
+        }
+        if !seg.noise_steps.is_empty() {
+            let times: Vec<String> =
+                seg.noise_steps.iter().take(5).map(|&i| format!("{:.2} s", i as f64 / fs)).collect();
+            report.warnings.push(format!(
+                "{name}: the background noise starts or changes {} time(s) (at {}{}); not taken as taps",
+                seg.noise_steps.len(),
+                times.join(", "),
+                if seg.noise_steps.len() > 5 { ", …" } else { "" }
+            ));
         }
         if seg.impacts.is_empty() {
             report.warnings.push(format!("{name}: no impacts found; taps must rise well above the background noise"));
@@ -287,27 +303,74 @@ pub fn estimate(
 ) -> Result<EstimateReport, EstimateError> {
     let feats = extract_features(files, opts, &|p| progress(0.9 * p), cancel)?;
     let points = feats.points();
+    // Every fit weighs each point by its own uncertainty (issue 10 part 3).
+    let sigmas = feats.point_sigmas();
+    let fit_damping =
+        |p: &[(f64, f64)], model: ModelKind, method: Method| fit::fit_damping_weighted(p, Some(&sigmas), model, method);
     let mut warnings = feats.warnings.clone();
-    let mut fits = Vec::new();
-    let mut chosen = None;
-    for (i, m) in [Method::Emg, Method::Lsq, Method::Lb].into_iter().enumerate() {
-        if cancel.load(Ordering::Relaxed) {
-            return Err(EstimateError::Cancelled);
-        }
-        match fit_damping(&points, opts.model, m) {
-            Ok(f) => {
-                if m == opts.method {
-                    chosen = Some(f.clone());
+    // Every method's fit of the requested model; if the chosen method cannot fit it, fall
+    // back (same method with the Rayleigh law, then the Rayleigh lower bound) and say why:
+    // an analysis is never thrown away for want of a fit.
+    let fit_all =
+        |model: ModelKind, warnings: &mut Vec<String>| -> Result<(Vec<FitResult>, Option<FitResult>), EstimateError> {
+            let mut fits = Vec::new();
+            let mut chosen = Err(EstimateError::Cancelled);
+            for m in [Method::Emg, Method::Lsq, Method::Lb] {
+                if cancel.load(Ordering::Relaxed) {
+                    return Err(EstimateError::Cancelled);
                 }
-                fits.push(f);
+                match fit_damping(&points, model, m) {
+                    Ok(f) => {
+                        if m == opts.method {
+                            chosen = Ok(f.clone());
+                        }
+                        fits.push(f);
+                    }
+                    Err(e) if m == opts.method => chosen = Err(e),
+                    Err(e) => warnings.push(format!("{} {} fit failed: {e}", m.name(), model.name())),
+                }
             }
-            Err(e) if m == opts.method => return Err(e),
-            Err(e) => warnings.push(format!("{} fit failed: {e}", m.name())),
-        }
-        progress(0.9 + 0.03 * (i + 1) as f32);
+            match chosen {
+                Ok(c) => Ok((fits, Some(c))),
+                Err(e) => {
+                    warnings.push(format!(
+                        "the {} {} fit failed ({e}); the material uses a fallback fit",
+                        opts.method.name(),
+                        model.name()
+                    ));
+                    Ok((fits, None))
+                }
+            }
+        };
+    let (mut fits, mut chosen) = fit_all(opts.model, &mut warnings)?;
+    progress(0.93);
+    if chosen.is_none() && opts.model != ModelKind::Rayleigh {
+        (fits, chosen) = fit_all(ModelKind::Rayleigh, &mut warnings)?;
     }
-    // PANIC: the chosen method either succeeded (Some) or returned above.
-    let chosen = chosen.expect("chosen fit present");
+    if chosen.is_none() && opts.method != Method::Lb {
+        chosen = fits.iter().find(|f| f.method == Method::Lb).cloned();
+    }
+    progress(0.96);
+    let chosen = match chosen {
+        Some(c) => c,
+        // Nothing at all could be fitted: too few or degenerate points, or bad input; the
+        // Rayleigh EMG error says which.
+        None => {
+            return Err(fit_damping(&points, ModelKind::Rayleigh, opts.method)
+                .err()
+                .unwrap_or(EstimateError::TooFewFeatures { found: points.len(), needed: 4 }))
+        }
+    };
+    if chosen.model != opts.model || chosen.method != opts.method {
+        warnings.push(format!(
+            "using the {} {} fit instead of {} {}",
+            chosen.method.name(),
+            chosen.model.name(),
+            opts.method.name(),
+            opts.model.name()
+        ));
+    }
+    warnings.extend(chosen.warnings.iter().cloned());
     let comparison = match fit_damping(&points, ModelKind::Rayleigh, Method::Emg) {
         Ok(ray) => {
             let hyb = fit_damping(&points, ModelKind::Hybrid, Method::Emg).ok();
@@ -324,6 +387,14 @@ pub fn estimate(
         warnings.push(
             "the object's modes did not match any recorded feature; check that the right object was chosen".into(),
         );
+    }
+    if let Some(o) = object.as_ref().filter(|o| o.matched > 0) {
+        if o.unmatched_modes_below > 0 || o.unmatched_strong_modes > 0 {
+            warnings.push(format!(
+                "the object matches the recording only in part: at the fitted pitch (lowest mode {:.1} Hz, lowest recorded partial {:.1} Hz) {} of its modes below the recording's lowest partial and {} strong ones inside its range have no recorded partial; check that the right object was chosen",
+                o.object_lowest_hz, o.lowest_partial_hz, o.unmatched_modes_below, o.unmatched_strong_modes
+            ));
+        }
     }
     progress(1.0);
     Ok(EstimateReport {

@@ -7,6 +7,14 @@
 //! weighted by feature amplitude, searched over every (feature, bank mode) alignment as Ren's
 //! starting points; the best r is then refined by a weighted mean of the log mismatches of
 //! the matched pairs.
+//!
+//! A few recorded partials can also be "explained" by an object scaled far down, its dense
+//! upper modes absorbing them (issue 10: a glockenspiel matched with the lowest mode at
+//! 13.7 Hz). So a scale is penalised for every audible mode of the object that it puts below
+//! the recording's lowest strong partial without a recorded feature there (a struck object's
+//! low modes ring unless the strike sits on their node), and for strong object modes inside
+//! the recorded range that nothing matches; the candidates include aligning the lowest strong
+//! partial with each of the object's lowest modes.
 
 use serde::{Deserialize, Serialize};
 
@@ -25,18 +33,43 @@ pub struct ObjectMatch {
     pub features: usize,
     /// Amplitude-weighted RMS log-frequency mismatch of matched pairs, cents.
     pub rms_cents: f64,
+    /// The recording's lowest strong partial (within 20 dB of the strongest), Hz.
+    #[serde(default)]
+    pub lowest_partial_hz: f64,
+    /// The object's lowest audible mode at the fitted scale, Hz.
+    #[serde(default)]
+    pub object_lowest_hz: f64,
+    /// Audible object modes below the lowest strong partial that no recorded feature
+    /// matches (0 when the object's lowest mode is the recording's lowest partial).
+    #[serde(default)]
+    pub unmatched_modes_below: usize,
+    /// Strong object modes (gain within 20 dB of the strongest) inside the recorded range
+    /// that no recorded feature matches.
+    #[serde(default)]
+    pub unmatched_strong_modes: usize,
 }
 
 /// Relative frequency tolerance of a match.
 const TOL: f64 = 0.01;
+/// Score lost per audible object mode left unmatched below the lowest strong partial (the
+/// score is the amplitude-weighted matched fraction, at most 1).
+const PENALTY_BELOW: f64 = 0.15;
+/// Score lost per strong object mode left unmatched inside the recorded range.
+const PENALTY_STRONG: f64 = 0.03;
+/// A feature within this many dB of the strongest is a strong partial.
+const STRONG_DB: f64 = 20.0;
 
 /// Matches `features` to bank eigenvalues `lambdas0` (rad²/s²); `gains0` are optional
-/// per-mode gains for the amplitude scale. Returns `None` when either list is empty.
+/// per-mode gains (e.g. the largest |gain| over the strike points) for the amplitude scale
+/// and to tell audible modes (gain within 40 dB of the largest) from silent ones. Returns
+/// `None` when either list is empty.
 pub fn match_object(features: &[Feature], lambdas0: &[f64], gains0: Option<&[f64]>) -> Option<ObjectMatch> {
+    let gmax = gains0.map_or(1.0, |g| g.iter().fold(0.0f64, |m, v| m.max(v.abs())));
+    let gain = |i: usize| gains0.and_then(|g| g.get(i)).map_or(1.0, |v| v.abs() / gmax.max(1e-300));
     let mut bank: Vec<(f64, usize)> = lambdas0
         .iter()
         .enumerate()
-        .filter(|(_, &l)| l > 0.0 && l.is_finite())
+        .filter(|&(i, &l)| l > 0.0 && l.is_finite() && gain(i) >= 0.01)
         .map(|(i, &l)| (0.5 * l.ln(), i))
         .collect();
     if bank.is_empty() || features.is_empty() {
@@ -61,23 +94,52 @@ pub fn match_object(features: &[Feature], lambdas0: &[f64], gains0: Option<&[f64
         }
         best
     };
+    // Strong partials and the recorded range (ln ω).
+    let amax = feats.iter().fold(0.0f64, |m, f| m.max(f.1));
+    let strong_min = amax * 10f64.powf(-STRONG_DB / 20.0);
+    let low = feats.iter().filter(|f| f.1 >= strong_min).fold(f64::INFINITY, |m, f| m.min(f.0));
+    let high = feats.iter().filter(|f| f.1 >= strong_min).fold(f64::NEG_INFINITY, |m, f| m.max(f.0));
+    let mut feat_sorted: Vec<f64> = feats.iter().map(|f| f.0).collect();
+    feat_sorted.sort_by(f64::total_cmp);
+    let has_feature = |v: f64| {
+        let i = feat_sorted.partition_point(|&x| x < v - tol);
+        feat_sorted.get(i).is_some_and(|&x| x <= v + tol)
+    };
+    // Object modes the scale `h` leaves unmatched: audible ones below the lowest strong
+    // partial, strong ones inside the recorded range.
+    let unmatched = |h: f64| -> (usize, usize) {
+        let (mut below, mut strong) = (0, 0);
+        for &(lb, i) in &bank {
+            let v = lb + h;
+            if v < low - tol && !has_feature(v) {
+                below += 1;
+            } else if v >= low - tol && v <= high + tol && gain(i) >= 0.1 && !has_feature(v) {
+                strong += 1;
+            }
+        }
+        (below, strong)
+    };
     let score = |half_ln_r: f64| -> f64 {
-        feats
+        let matched = feats
             .iter()
             .map(|&(lw, a)| {
                 let (dd, _) = nearest(lw - half_ln_r);
                 a * (-(dd / tol).powi(2) * 0.5).exp()
             })
             .sum::<f64>()
-            / wsum
+            / wsum;
+        let (below, strong) = unmatched(half_ln_r);
+        matched - PENALTY_BELOW * below as f64 - PENALTY_STRONG * strong as f64
     };
-    // Candidates: align each of the strongest features with each of the lowest bank modes.
+    // Candidates: align each of the strongest features with each of the lowest bank modes,
+    // and the lowest strong partial with each of them.
     let mut order: Vec<usize> = (0..feats.len()).collect();
     order.sort_by(|&a, &b| feats[b].1.total_cmp(&feats[a].1));
     let mut best = (f64::NEG_INFINITY, 0.0);
-    for &fi in order.iter().take(12) {
+    let lows = order.iter().take(12).map(|&fi| feats[fi].0).chain([low]);
+    for lw in lows {
         for b in bank.iter().take(64) {
-            let h = feats[fi].0 - b.0;
+            let h = lw - b.0;
             let s = score(h);
             if s > best.0 {
                 best = (s, h);
@@ -115,12 +177,17 @@ pub fn match_object(features: &[Feature], lambdas0: &[f64], gains0: Option<&[f64
             gg += g * g;
         }
     }
+    let (below, strong) = unmatched(h);
     Some(ObjectMatch {
         gamma_ratio: (2.0 * h).exp(),
         amplitude_scale: if gg > 0.0 { ag / gg } else { 0.0 },
         matched,
         features: feats.len(),
         rms_cents: if wm > 0.0 { (ss / wm).sqrt() * 1200.0 / std::f64::consts::LN_2 } else { 0.0 },
+        lowest_partial_hz: low.exp() / std::f64::consts::TAU,
+        object_lowest_hz: (bank[0].0 + h).exp() / std::f64::consts::TAU,
+        unmatched_modes_below: below,
+        unmatched_strong_modes: strong,
     })
 }
 
@@ -142,11 +209,41 @@ mod tests {
                 freq_hz: (r * l).sqrt() / std::f64::consts::TAU * 1.001,
                 decay_per_s: 3.0,
                 amplitude: 0.1,
+                ..Default::default()
             })
-            .chain([Feature { freq_hz: 777.0, decay_per_s: 50.0, amplitude: 0.05 }])
+            .chain([Feature { freq_hz: 777.0, decay_per_s: 50.0, amplitude: 0.05, ..Default::default() }])
             .collect();
         let m = match_object(&feats, &l0, None).unwrap();
         assert!((m.gamma_ratio / r - 1.0).abs() < 0.005, "{m:?}");
         assert_eq!(m.matched, 5);
+        assert_eq!(m.unmatched_modes_below, 0);
+    }
+
+    /// Issue 10: three partials of a free bar (1 : 2.756 : 5.404, Euler–Bernoulli) matched
+    /// against a plate-like object with dense modes (Kirchhoff circular plate, free edge:
+    /// 1 : 1.73 : 2.33 : 3.91 : 4.11 : 6.30 : 6.71 : 7.05 …, then a dense tail). Without the
+    /// constraint the dense tail absorbs the partials with the plate scaled far down; the fit
+    /// must put the object's lowest mode within a semitone of the lowest partial.
+    #[test]
+    fn few_partials_do_not_pull_the_object_far_down() {
+        let mut ratios = vec![1.0, 1.73, 2.33, 3.91, 4.11, 6.30, 6.71, 7.05];
+        // Dense upper modes, spaced ~0.6 % apart from 8 to 120.
+        let mut v = 8.0;
+        while v < 120.0 {
+            ratios.push(v);
+            v *= 1.006;
+        }
+        let base = std::f64::consts::TAU * 100.0;
+        let l0: Vec<f64> = ratios.iter().map(|k| (k * base).powi(2)).collect();
+        let f1 = 523.0;
+        let feats: Vec<Feature> = [(1.0, 0.5), (2.756, 0.3), (5.404, 0.2)]
+            .iter()
+            .map(|&(k, a)| Feature { freq_hz: f1 * k, decay_per_s: 2.0, amplitude: a, ..Default::default() })
+            .collect();
+        let m = match_object(&feats, &l0, None).unwrap();
+        let semitones = 12.0 * (m.object_lowest_hz / f1).log2();
+        assert!(semitones.abs() <= 1.0, "object's lowest mode {semitones:.1} semitones from the lowest partial: {m:?}");
+        assert!((m.lowest_partial_hz / f1 - 1.0).abs() < 1e-6, "{m:?}");
+        assert_eq!(m.unmatched_modes_below, 0, "{m:?}");
     }
 }

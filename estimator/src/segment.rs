@@ -1,7 +1,30 @@
-//! Impact segmentation: onsets from a short-frame energy envelope against a noise-floor
-//! estimate; each impact runs from its onset until it decays into the noise floor, the next
-//! onset, or `max_impact_s`.
+//! Impact segmentation: onsets from short frames (5 ms, hop 2.5 ms) of the signal, each
+//! impact running from its onset until it decays into the local noise floor, the next onset,
+//! or `max_impact_s`.
+//!
+//! Each frame has its energy and its power spectrum (Hann window, one-sided, scaled so that
+//! white noise of variance σ² gives σ² in every bin). From the spectrum comes a *flat-noise
+//! level* ν = median over bins / ln 2: the variance of the white noise that would explain
+//! the frame's typical bin (the median of an exponential variable is ln 2 × its mean), so
+//! narrow modal peaks do not raise it. Rules:
+//! - Noise floor: the lower of the 10th percentile of frame energy and the 10th percentile
+//!   of ν, so a file that rings from its first to its last sample (a trimmed sample-library
+//!   file) still has the floor of its noise, not of its ringing.
+//! - Onset candidate: energy over the floor by `onset_db`, and either the frame's energy
+//!   rises by `rise_db` over the previous 20 ms, or (a tap while the object still rings) the
+//!   energy that is new in this frame, bin by bin (Σ max(0, P − rise × P_prev)), is at least
+//!   half the previous frames' energy. The first frame of the file counts as a rise: a file
+//!   that starts with the ringing has its onset at sample 0.
+//! - While an impact still rings, a new onset must also be broadband (its new bins span at
+//!   least `MIN_NEW_SPAN_HZ`): a fresh strike excites many modes or a click, whereas beating
+//!   of close modes or a slowly building partial of the same hit raises only one peak.
+//! - A candidate is a strike only if what follows is tonal (a quarter of the energy of the
+//!   next 10 ms lies in spectral peaks ≥ 12 dB over their neighbourhood's median) or
+//!   transient (the energy 75–100 ms later is `onset_db` below the onset's). A step of the
+//!   noise floor (digital silence → room noise) is neither, and is reported, not analysed.
 
+use realfft::num_complex::Complex64 as C64;
+use realfft::RealFftPlanner;
 use serde::{Deserialize, Serialize};
 
 /// Thresholds of the segmentation. `Default` gives the values used in the tests.
@@ -14,7 +37,8 @@ pub struct SegmentOptions {
     pub rise_db: f64,
     /// Impacts whose peak is less than this above the noise floor are skipped, dB.
     pub min_snr_db: f64,
-    /// Impacts shorter than this are skipped, s.
+    /// Impacts are analysed over at least this long (unless the next onset or the end of
+    /// the file comes first; then shorter ones are skipped), s.
     pub min_impact_s: f64,
     /// Impacts are cut at this length, s.
     pub max_impact_s: f64,
@@ -37,6 +61,8 @@ pub struct Segment {
     pub end: usize,
     /// Peak frame power over the noise floor, dB.
     pub snr_db: f64,
+    /// Noise power per sample around this impact (the local floor; ≥ the file's floor).
+    pub noise_var: f64,
 }
 
 /// Result of [`segment`].
@@ -46,8 +72,112 @@ pub struct Segmentation {
     pub impacts: Vec<Segment>,
     /// Impacts skipped, with the reason.
     pub skipped: Vec<(Segment, String)>,
-    /// Noise power per sample (10th percentile of frame power).
+    /// Noise power per sample (the file's floor, see the module docs).
     pub noise_var: f64,
+    /// Sample positions where the level rose like an onset but what followed was steady,
+    /// untonal noise (a noise floor that starts or changes): not impacts.
+    pub noise_steps: Vec<usize>,
+}
+
+/// New bins of an onset during a ring must span at least this, Hz.
+const MIN_NEW_SPAN_HZ: f64 = 1500.0;
+/// Share of the following 10 ms's energy in spectral peaks that makes a candidate tonal.
+const TONAL_SHARE: f64 = 0.25;
+/// A bin is a peak if it exceeds its neighbourhood's median (±8 bins) by this factor (12 dB).
+const PEAK_OVER_MEDIAN: f64 = 16.0;
+
+/// Power spectra of the frames of a signal.
+struct FrameSpectra<'a> {
+    x: &'a [f32],
+    hop: usize,
+    window: Vec<f64>,
+    /// Σ window², for the white-noise scaling.
+    sw2: f64,
+    fft: std::sync::Arc<dyn realfft::RealToComplex<f64>>,
+    buf: Vec<f64>,
+    out: Vec<C64>,
+}
+
+impl<'a> FrameSpectra<'a> {
+    fn new(x: &'a [f32], hop: usize, frame: usize) -> Self {
+        let m = frame.next_power_of_two();
+        let window: Vec<f64> =
+            (0..frame).map(|i| 0.5 - 0.5 * (std::f64::consts::TAU * i as f64 / frame as f64).cos()).collect();
+        let sw2 = window.iter().map(|w| w * w).sum();
+        let fft = RealFftPlanner::<f64>::new().plan_fft_forward(m);
+        Self { x, hop, window, sw2, buf: vec![0.0; m], out: vec![C64::new(0.0, 0.0); m / 2 + 1], fft }
+    }
+
+    fn bins(&self) -> usize {
+        self.out.len()
+    }
+
+    /// Power per bin of frame j, white noise σ² → σ² per bin.
+    fn power(&mut self, j: usize, p: &mut [f64]) {
+        let a = j * self.hop;
+        let n = self.window.len();
+        // Without the frame's mean: the constant left in digital silence by the loader's DC
+        // removal is not signal.
+        let mean = self.x[a..a + n].iter().map(|&v| f64::from(v)).sum::<f64>() / n as f64;
+        self.buf.iter_mut().for_each(|v| *v = 0.0);
+        for (i, (b, w)) in self.buf.iter_mut().zip(&self.window).enumerate() {
+            *b = (f64::from(self.x[a + i]) - mean) * w;
+        }
+        // PANIC: buffer lengths match the plan by construction.
+        self.fft.process(&mut self.buf, &mut self.out).expect("fft sizes");
+        for (pk, o) in p.iter_mut().zip(&self.out) {
+            *pk = o.norm_sqr() / self.sw2;
+        }
+    }
+}
+
+/// Flat-noise level of a power spectrum: median / ln 2 (module docs).
+fn flat_level(p: &[f64], scratch: &mut Vec<f64>) -> f64 {
+    scratch.clear();
+    scratch.extend_from_slice(p);
+    let mid = scratch.len() / 2;
+    let (_, m, _) = scratch.select_nth_unstable_by(mid, f64::total_cmp);
+    *m / std::f64::consts::LN_2
+}
+
+/// Share of the energy of `p` in bins that exceed their neighbourhood's median (±8 bins) by
+/// [`PEAK_OVER_MEDIAN`].
+fn tonal_share(p: &[f64]) -> f64 {
+    let total: f64 = p.iter().sum();
+    if total <= 0.0 {
+        return 0.0;
+    }
+    let mut nb = Vec::with_capacity(17);
+    let mut peaks = 0.0;
+    for k in 0..p.len() {
+        nb.clear();
+        nb.extend_from_slice(&p[k.saturating_sub(8)..(k + 9).min(p.len())]);
+        let mid = nb.len() / 2;
+        let (_, med, _) = nb.select_nth_unstable_by(mid, f64::total_cmp);
+        peaks += (p[k] - PEAK_OVER_MEDIAN * *med).max(0.0);
+    }
+    peaks / total
+}
+
+/// [`tonal_share`] of the `len` samples from `a` (fewer at the end of the file; mean removed,
+/// Hann window).
+fn long_tonal_share(x: &[f32], a: usize, len: usize, fft: &mut std::sync::Arc<dyn realfft::RealToComplex<f64>>) -> f64 {
+    let n = len.min(x.len() - a);
+    if n < 16 {
+        return 0.0;
+    }
+    let seg = &x[a..a + n];
+    let mean = seg.iter().map(|&v| f64::from(v)).sum::<f64>() / n as f64;
+    let mut buf = vec![0.0; len];
+    for (i, (b, &v)) in buf.iter_mut().zip(seg).enumerate() {
+        let w = 0.5 - 0.5 * (std::f64::consts::TAU * i as f64 / n as f64).cos();
+        *b = (f64::from(v) - mean) * w;
+    }
+    let mut out = vec![C64::new(0.0, 0.0); len / 2 + 1];
+    // PANIC: buffer lengths match the plan by construction.
+    fft.process(&mut buf, &mut out).expect("fft sizes");
+    let p: Vec<f64> = out.iter().map(|c| c.norm_sqr()).collect();
+    tonal_share(&p)
 }
 
 /// Finds the impacts in a mono signal `x` sampled at `fs` Hz.
@@ -58,48 +188,151 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
     if nfr == 0 {
         return Segmentation::default();
     }
+    // Frame energy about the frame's mean (see `FrameSpectra::power`).
     let e: Vec<f64> = (0..nfr)
-        .map(|j| x[j * hop..j * hop + frame].iter().map(|&v| f64::from(v) * f64::from(v)).sum::<f64>() / frame as f64)
+        .map(|j| {
+            let w = &x[j * hop..j * hop + frame];
+            let m = w.iter().map(|&v| f64::from(v)).sum::<f64>() / frame as f64;
+            w.iter().map(|&v| (f64::from(v) - m).powi(2)).sum::<f64>() / frame as f64
+        })
         .collect();
+    let mut spec = FrameSpectra::new(x, hop, frame);
+    let nb = spec.bins();
+    let mut p = vec![0.0; nb];
+    let mut scratch = Vec::with_capacity(nb);
     let mut sorted = e.clone();
     sorted.sort_by(f64::total_cmp);
     let peak_e = sorted[sorted.len() - 1];
-    // Noise floor: 10th percentile; floored 120 dB under the loudest frame (synthetic silence).
-    let noise = sorted[sorted.len() / 10].max(peak_e * 1e-12).max(1e-30);
+    // Flat-noise levels of up to 2,000 frames spread over the file, for the floor.
+    let stride = nfr.div_ceil(2000).max(1);
+    let mut nus: Vec<f64> = (0..nfr)
+        .step_by(stride)
+        .map(|j| {
+            spec.power(j, &mut p);
+            flat_level(&p, &mut scratch)
+        })
+        .collect();
+    nus.sort_by(f64::total_cmp);
+    // Floored 120 dB under the loudest frame (synthetic or digital silence).
+    let noise = sorted[sorted.len() / 10].min(nus[nus.len() / 10]).max(peak_e * 1e-12).max(1e-30);
     let onset_thr = noise * 10f64.powf(opts.onset_db / 10.0);
     let rise = 10f64.powf(opts.rise_db / 10.0);
     let back = ((0.02 * fs) as usize / hop).max(1);
     let gap = ((opts.min_gap_s * fs) as usize / hop).max(1);
-    let mut onsets: Vec<usize> = Vec::new();
-    let mut j = 0;
-    while j < nfr {
-        let prev = if j == 0 {
-            0.0
-        } else {
-            let a = j.saturating_sub(back);
-            e[a..j].iter().sum::<f64>() / (j - a) as f64
-        };
-        if e[j] > onset_thr && e[j] > rise * prev.max(noise) {
-            // Sample-accurate start: first sample reaching 30 % of the local peak.
-            let a = j.saturating_sub(1) * hop;
-            let b = ((j + 3) * hop + frame).min(x.len());
-            let pk = x[a..b].iter().fold(0.0f32, |m, v| m.max(v.abs()));
-            let s = a + x[a..b].iter().position(|v| v.abs() >= 0.3 * pk).unwrap_or(0);
-            if onsets.last().is_none_or(|&o| s > o) {
-                onsets.push(s);
-            }
-            j += gap;
-            continue;
+    let bin_hz = fs / (2 * (nb - 1)) as f64;
+    let min_span = (MIN_NEW_SPAN_HZ / bin_hz).ceil() as usize;
+    // Tonality on ~40 ms from the onset (23 Hz bins at 44.1 kHz: modes resolved).
+    let tonal_len = ((0.04 * fs) as usize).next_power_of_two();
+    let mut long_fft = RealFftPlanner::<f64>::new().plan_fft_forward(tonal_len);
+    let (late_a, late_b) = ((0.075 * fs) as usize / hop, (0.1 * fs) as usize / hop);
+
+    // Scan: spectra of the previous `back` frames in a ring, flat level of every frame.
+    let mut ring: Vec<Vec<f64>> = vec![vec![0.0; nb]; back];
+    let mut prev_sum = vec![0.0; nb];
+    let mut nu = vec![0.0; nfr];
+    let mut onsets: Vec<(usize, usize)> = Vec::new(); // (sample, frame)
+    let mut noise_steps = Vec::new();
+    let mut next_allowed = 0;
+    let mut ringing = false;
+    let mut quiet = 0;
+    let mut end_thr = 2.0 * noise;
+    for j in 0..nfr {
+        spec.power(j, &mut p);
+        nu[j] = flat_level(&p, &mut scratch);
+        let nprev = j.min(back);
+        let prev_e = if nprev == 0 { 0.0 } else { e[j - nprev..j].iter().sum::<f64>() / nprev as f64 };
+        if ringing {
+            // Decayed into the local floor: four frames under twice the floor before the onset.
+            quiet = if e[j] < end_thr { quiet + 1 } else { 0 };
+            ringing = quiet < 4;
         }
-        j += 1;
+        if j >= next_allowed && e[j] > onset_thr {
+            let total_rise = e[j] > rise * prev_e.max(noise);
+            let (mut new_e, mut lo, mut hi) = (0.0, usize::MAX, 0);
+            let prev_tot: f64 = if nprev == 0 { 0.0 } else { prev_sum.iter().sum::<f64>() / nprev as f64 };
+            for k in 0..nb {
+                let pp = if nprev == 0 { 0.0 } else { prev_sum[k] / nprev as f64 };
+                let extra = p[k] - rise * pp;
+                if extra > 0.0 {
+                    new_e += extra;
+                    if p[k] > onset_thr {
+                        lo = lo.min(k);
+                        hi = hi.max(k);
+                    }
+                }
+            }
+            let bin_rise = new_e >= 0.5 * prev_tot;
+            let broadband = hi >= lo && hi - lo >= min_span;
+            if (total_rise || bin_rise) && (!ringing || broadband) {
+                // Tonal or transient, else a noise floor step.
+                let share = long_tonal_share(x, j * hop, tonal_len, &mut long_fft);
+                let tonal = share >= TONAL_SHARE;
+                let e_on = e[j..(j + 4).min(nfr)].iter().fold(0.0f64, |m, &v| m.max(v));
+                let transient = if j + late_b <= nfr {
+                    let late = e[j + late_a..j + late_b].iter().sum::<f64>() / (late_b - late_a).max(1) as f64;
+                    late * 10f64.powf(opts.onset_db / 10.0) < e_on
+                } else {
+                    true
+                };
+                if tonal || transient {
+                    // Sample-accurate start: first sample reaching 30 % of the local peak.
+                    let a = j.saturating_sub(1) * hop;
+                    let b = ((j + 3) * hop + frame).min(x.len());
+                    // Sample-accurate start: the first sample that exceeds the level before
+                    // (the ring of an earlier tap, or the noise) by 30 % of the rise to the
+                    // local peak.
+                    let pk = x[a..b].iter().fold(0.0f32, |m, v| m.max(v.abs()));
+                    let before = x[a.saturating_sub(frame)..a].iter().fold(0.0f32, |m, v| m.max(v.abs()));
+                    let thr = before.min(pk) + 0.3 * (pk - before.min(pk));
+                    let s = a + x[a..b].iter().position(|v| v.abs() >= thr).unwrap_or(0);
+                    if onsets.last().is_none_or(|&(o, _)| s > o) {
+                        onsets.push((s, j));
+                        // The floor this impact decays into: the one just before it.
+                        let pre = if nprev == 0 {
+                            noise
+                        } else {
+                            let mut v: Vec<f64> = nu[j - nprev..j].to_vec();
+                            v.sort_by(f64::total_cmp);
+                            v[v.len() / 2]
+                        };
+                        end_thr = 2.0 * noise.max(pre.min(prev_e));
+                        ringing = true;
+                        quiet = 0;
+                    }
+                    next_allowed = j + gap;
+                } else {
+                    noise_steps.push(j * hop);
+                    next_allowed = j + back;
+                }
+            }
+        }
+        // Ring of previous spectra.
+        let slot = j % back;
+        for k in 0..nb {
+            prev_sum[k] += p[k] - if j >= back { ring[slot][k] } else { 0.0 };
+        }
+        ring[slot].copy_from_slice(&p);
     }
-    let mut out = Segmentation { noise_var: noise, ..Default::default() };
-    let end_thr = noise * 2.0;
+
+    let mut out = Segmentation { noise_var: noise, noise_steps, ..Default::default() };
     let max_len = (opts.max_impact_s * fs) as usize;
-    for (i, &s) in onsets.iter().enumerate() {
-        let next = onsets.get(i + 1).copied().unwrap_or(x.len());
+    let min_len = (opts.min_impact_s * fs) as usize;
+    for (i, &(s, j0)) in onsets.iter().enumerate() {
+        // Up to 5 ms before the next onset: the onset sample is where the next tap has
+        // risen 30 % of the way, so its first samples come a little earlier.
+        let next = onsets.get(i + 1).map(|o| o.0.saturating_sub(frame).max(s + 1)).unwrap_or(x.len());
         let mut end = next.min(s + max_len).min(x.len());
-        // Decayed into the noise: four consecutive frames under 2 × noise.
+        // Local floor: the noise just before the onset, else the file's floor.
+        let pre_a = j0.saturating_sub(back);
+        let pre = if j0 > pre_a {
+            let mut v: Vec<f64> = nu[pre_a..j0].iter().zip(&e[pre_a..j0]).map(|(a, b)| a.min(*b)).collect();
+            v.sort_by(f64::total_cmp);
+            v[v.len() / 2]
+        } else {
+            noise
+        };
+        let end_thr = 2.0 * noise.max(pre);
+        // Decayed into the noise: four consecutive frames under 2 × the local floor.
         let mut quiet = 0;
         let mut snr: f64 = 0.0;
         let mut jf = s / hop + 1;
@@ -116,9 +349,21 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
             }
             jf += 1;
         }
+        // Short decays (d up to ~1000 s⁻¹ fall into the floor within ~20 ms) are analysed
+        // over at least `min_impact_s`, up to the next onset.
+        end = end.max((s + min_len).min(next).min(x.len()));
         snr = snr.max(e[(s / hop).min(nfr - 1)]);
-        let seg = Segment { start: s, end, snr_db: 10.0 * (snr / noise).log10() };
-        if ((end - s) as f64) < opts.min_impact_s * fs {
+        // The impact's own floor: the quieter of its frames' energy and flat level (10th
+        // percentiles), not under the file's.
+        let fa = (s / hop).min(nfr - 1);
+        let fb = (end / hop).max(fa + 1).min(nfr);
+        let mut ev: Vec<f64> = e[fa..fb].to_vec();
+        let mut nv: Vec<f64> = nu[fa..fb].to_vec();
+        ev.sort_by(f64::total_cmp);
+        nv.sort_by(f64::total_cmp);
+        let local = ev[ev.len() / 10].min(nv[nv.len() / 10]).max(noise);
+        let seg = Segment { start: s, end, snr_db: 10.0 * (snr / local).log10(), noise_var: local };
+        if end - s < min_len {
             out.skipped.push((
                 seg,
                 format!("too short ({:.0} ms); leave more time between taps", 1e3 * (end - s) as f64 / fs),

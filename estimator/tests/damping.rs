@@ -65,11 +65,17 @@ fn lsq_and_lb_on_exact_data() {
         .collect();
     for m in [Method::Lsq, Method::Lb, Method::Emg] {
         let f = fit_damping(&pts, ModelKind::Rayleigh, m).unwrap();
+        // EMG's σ cannot go below fit::SIGMA_FLOOR × median c nor its mean support damping
+        // 1/η below median c / fit::ETA_MAX, so on exact points its curve sits a little under.
+        let tol = if m == Method::Emg { 0.01 } else { 1e-3 };
         assert!(
-            (f.params[0] / 3.0 - 1.0).abs() < 1e-3 && (f.params[1] / 1e-7 - 1.0).abs() < 1e-3,
+            (f.params[0] / 3.0 - 1.0).abs() < tol && (f.params[1] / 1e-7 - 1.0).abs() < 1e-3,
             "{m:?}: {:?}",
             f.params
         );
+        if m == Method::Emg {
+            assert!(f.converged && f.active_bounds.iter().any(|b| b.starts_with("sigma")), "{f:?}");
+        }
     }
     // LB lies under every point.
     let pts = emg_points(5, 500, truth, 0.0, 4.0);

@@ -1,5 +1,7 @@
 //! Feature-extraction accuracy (Ren et al. 2013 §4 test, and multi-mode mixtures).
 
+use std::sync::atomic::AtomicBool;
+
 use estimator::synth::{mixture_stats, ren_test};
 
 /// Ren §4: 100 single damped sinusoids, f log-uniform in [20, 20000] Hz, d log-uniform in
@@ -24,4 +26,48 @@ fn mixtures_40db_and_20db() {
         eprintln!("mixture {snr} dB: {s:?}");
         assert!(s.precision >= min_p && s.recall >= min_r && s.decay_err_median <= max_med, "{snr} dB: {s:?}");
     }
+}
+
+/// Issue 10 part 3: each feature's `sigma_decay_per_s` / `sigma_freq_hz` (the Cramér–Rao
+/// bound at the noise the fit leaves around it) must match the scatter of the estimates over
+/// repeated noisy measurements of the same mode, and the closed form 2d/√SNR of the
+/// infinite-record bound (SNR = a²fs/(4dσ²), the mode's energy over the noise), which the
+/// code computes through finite-record integrals instead.
+#[test]
+fn feature_uncertainty_matches_the_scatter_of_repeated_measurements() {
+    use estimator::features::extract_impact;
+    use estimator::synth::{render, Rng};
+    use estimator::ExtractOptions;
+    let (fs, f, d, a) = (48_000.0, 1234.5, 15.0, 0.5);
+    let n = 24_000; // 0.5 s: d·T = 7.5, the record is effectively infinite
+    let snr = 10f64.powf(40.0 / 10.0);
+    let noise_sd = (a * a * fs / (4.0 * d * snr)).sqrt();
+    let closed_form = 2.0 * d / snr.sqrt();
+    let clean = render(&[(f, d, a)], fs, n);
+    let mut rng = Rng::new(77);
+    let (mut ds, mut fsd, mut reported, mut reported_f) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for _ in 0..40 {
+        let x: Vec<f32> = clean.iter().map(|v| (v + noise_sd * rng.normal()) as f32).collect();
+        // Noise unknown (0): the uncertainty comes from the residual the fit leaves.
+        let fit = extract_impact(&x, fs, 0.0, &ExtractOptions::default(), &AtomicBool::new(false)).unwrap();
+        let m = fit.features.iter().find(|m| (m.freq_hz / f - 1.0).abs() < 0.01).expect("the mode is found");
+        ds.push(m.decay_per_s);
+        fsd.push(m.freq_hz);
+        reported.push(m.sigma_decay_per_s);
+        reported_f.push(m.sigma_freq_hz);
+    }
+    let sd = |v: &[f64]| {
+        let mean = v.iter().sum::<f64>() / v.len() as f64;
+        (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (v.len() - 1) as f64).sqrt()
+    };
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let (emp_d, emp_f) = (sd(&ds), sd(&fsd));
+    let (rep_d, rep_f) = (mean(&reported), mean(&reported_f));
+    eprintln!(
+        "decay: scatter {emp_d:.4} 1/s, reported {rep_d:.4}, closed form {closed_form:.4}; freq: scatter {emp_f:.5} Hz, reported {rep_f:.5}"
+    );
+    assert!((rep_d / closed_form - 1.0).abs() < 0.15, "reported {rep_d} vs closed form {closed_form}");
+    // 40 draws estimate a standard deviation within about ±25 % (2σ).
+    assert!((emp_d / rep_d - 1.0).abs() < 0.3, "scatter {emp_d} vs reported {rep_d}");
+    assert!((emp_f / rep_f - 1.0).abs() < 0.3, "scatter {emp_f} vs reported {rep_f}");
 }

@@ -117,6 +117,7 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
         method,
         channel: args.channel,
         object_lambdas: bank.map(|b| b.lambdas.clone()),
+        object_gains: bank.map(presets::Bank::max_gains),
         ..estimator::Options::default()
     };
     let cancel = AtomicBool::new(false);

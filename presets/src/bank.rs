@@ -79,6 +79,18 @@ impl Bank {
         self.lambdas.len()
     }
 
+    /// Each mode's largest |gain| over the strike points: how strongly it can be excited
+    /// anywhere (0 for modes no strike point reaches).
+    pub fn max_gains(&self) -> Vec<f64> {
+        let mut g = vec![0.0f64; self.lambdas.len()];
+        for row in &self.gains {
+            for (m, &v) in g.iter_mut().zip(row) {
+                *m = m.max(f64::from(v.abs()));
+            }
+        }
+        g
+    }
+
     /// Number of strike points.
     pub fn num_points(&self) -> usize {
         self.points.len()

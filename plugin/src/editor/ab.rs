@@ -301,7 +301,7 @@ mod tests {
     #[test]
     fn modes_clip_rings_at_the_feature_and_decays_by_the_law() {
         let rate = 48_000.0f32;
-        let f = Feature { freq_hz: 440.0, decay_per_s: 3.0, amplitude: 0.5 };
+        let f = Feature { freq_hz: 440.0, decay_per_s: 3.0, amplitude: 0.5, ..Default::default() };
         // A law giving c = 2·7 at this λ: Rayleigh with α₁ only.
         let damping = Damping::Rayleigh { alpha1: 14.0, alpha2: 0.0 };
         let x = modes_clip(&[f], Some(&damping), rate, 1.0);
@@ -327,8 +327,8 @@ mod tests {
             &[vec![1.0, 0.5]],
         );
         let feats = [
-            Feature { freq_hz: 523.0, decay_per_s: 2.0, amplitude: 0.3 },
-            Feature { freq_hz: 1500.0, decay_per_s: 4.0, amplitude: 0.1 },
+            Feature { freq_hz: 523.0, decay_per_s: 2.0, amplitude: 0.3, ..Default::default() },
+            Feature { freq_hz: 1500.0, decay_per_s: 4.0, amplitude: 0.1, ..Default::default() },
         ];
         let k = tuning_factor(&modes, 1.0, &feats);
         let p = SoundParams { damping: Damping::Rayleigh { alpha1: 1.0, alpha2: 0.0 }, ..SoundParams::default() };

@@ -176,6 +176,7 @@ impl CaptureUi {
     /// made of, if known.
     fn start(&mut self, object: Option<&presets::Bank>) {
         let object_lambdas = object.map(|b| b.lambdas.clone());
+        let object_gains = object.map(presets::Bank::max_gains);
         let captured =
             object.map(|b| CapturedObject { id: b.id.clone(), specific_modulus: b.reference.specific_modulus });
         if self.job.is_some() || self.files.is_empty() {
@@ -189,6 +190,7 @@ impl CaptureUi {
             model: self.model,
             method: self.method,
             object_lambdas,
+            object_gains,
             ..estimator::Options::default()
         };
         let (p, c, r, f) = (progress.clone(), cancel.clone(), result.clone(), files.clone());

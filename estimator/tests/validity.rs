@@ -1,0 +1,208 @@
+//! Fits are always physically valid and say when they did not converge (issue 10, parts 2
+//! and 5). The point sets are made here by a simple generator, independent of the
+//! estimator's own synthesis code.
+
+use estimator::{fit_damping, Method, ModelKind};
+
+/// SplitMix64 → uniform [0, 1): a generator separate from `estimator::synth::Rng`.
+struct Gen(u64);
+impl Gen {
+    fn u(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn normal(&mut self) -> f64 {
+        (-2.0 * self.u().max(1e-300).ln()).sqrt() * (std::f64::consts::TAU * self.u()).cos()
+    }
+}
+
+/// (λ, c) points of a glass-plate-like session: Rayleigh material (α₁, α₂), 24 modes from
+/// 400 Hz to 17 kHz, 20 impacts each exciting a mode with probability 0.7, exponential
+/// support damping (mean `extra` s⁻¹), 2 % Gaussian jitter, and the fast high modes
+/// (above 15 kHz) extracted 5–40 % too low, as measured on such sets (issue 10).
+fn glass_points(seed: u64, alpha: (f64, f64), extra: f64) -> (Vec<(f64, f64)>, Vec<f64>) {
+    let mut g = Gen(seed);
+    let mut freqs: Vec<f64> = (0..21).map(|_| 400.0 * (17_000.0f64 / 400.0).powf(g.u())).collect();
+    freqs.extend([15_600.0, 16_300.0, 16_900.0]);
+    let lambdas: Vec<f64> = freqs.iter().map(|f| (std::f64::consts::TAU * f).powi(2)).collect();
+    let mut pts = Vec::new();
+    for _ in 0..20 {
+        for (&f, &l) in freqs.iter().zip(&lambdas) {
+            if g.u() < 0.7 {
+                let ct = alpha.0 + alpha.1 * l;
+                let mut c = ct + -extra * (1.0 - g.u()).ln() + 0.02 * ct * g.normal();
+                if f > 15_000.0 {
+                    c *= 0.6 + 0.35 * g.u();
+                }
+                pts.push((l, c.max(0.05)));
+            }
+        }
+    }
+    (pts, lambdas)
+}
+
+fn validate(model: ModelKind, params: &[f64]) -> Result<(), presets::PresetError> {
+    let d = estimator::fit::to_damping(model, params);
+    let m = presets::Material {
+        schema_version: presets::SCHEMA_VERSION,
+        id: "captured".into(),
+        name: "Captured".into(),
+        provenance: "test".into(),
+        specific_modulus: None,
+        damping: presets::DampingSpec::from_damping(&d),
+        notes: String::new(),
+    };
+    m.validate()
+}
+
+const MODELS: [ModelKind; 4] = [ModelKind::Rayleigh, ModelKind::Caughey, ModelKind::Power, ModelKind::Hybrid];
+const METHODS: [Method; 3] = [Method::Emg, Method::Lsq, Method::Lb];
+
+/// Glass plate, Rayleigh material with fast high modes extracted too low: the case that gave
+/// α₁ = −32 and "alpha1 of the rayleigh model must be >= 0". Every model × method now fits,
+/// and the presets crate's material validation accepts every result.
+#[test]
+fn every_fit_passes_material_validation_on_glass_sets() {
+    let mut failures = Vec::new();
+    for seed in 0..12u64 {
+        // α₁ small against the high modes' c (≈ 800 s⁻¹ at 16.9 kHz), so a curve pulled down
+        // by the low high modes crosses zero at low λ without the constraints.
+        let a1 = [0.5, 2.0, 8.0][seed as usize % 3];
+        let (pts, _) = glass_points(100 + seed, (a1, 7e-8), 3.0);
+        for model in MODELS {
+            for method in METHODS {
+                match fit_damping(&pts, model, method) {
+                    Ok(f) => {
+                        if let Err(e) = validate(model, &f.params) {
+                            failures.push(format!("seed {seed} {model:?} {method:?} {:?}: {e}", f.params));
+                        }
+                        assert!(estimator::fit::check_physical(model, &f.params).is_ok());
+                        // A fit on a bound says so.
+                        assert_eq!(f.active_bounds.is_empty(), f.warnings.iter().all(|w| !w.contains("is active")));
+                    }
+                    Err(e) => failures.push(format!("seed {seed} {model:?} {method:?}: fit failed: {e}")),
+                }
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
+/// Points that pull an unconstrained fit below zero (a falling cloud: c decreasing with λ,
+/// as very low extracted high modes make it): the constrained fits end on the bound
+/// α₂ = 0 exactly, converged, valid, and report the active bound as a warning.
+#[test]
+fn falling_points_end_on_the_bound_and_say_so() {
+    let mut g = Gen(7);
+    let pts: Vec<(f64, f64)> = (0..200)
+        .map(|_| {
+            let f = 200.0 * (100.0f64).powf(g.u());
+            let l = (std::f64::consts::TAU * f).powi(2);
+            (l, (40.0 - 1.5e-8 * l).max(1.0) + 2.0 * g.u())
+        })
+        .collect();
+    // The unconstrained least-squares line has a negative slope.
+    let n = pts.len() as f64;
+    let (mx, my) = (pts.iter().map(|p| p.0).sum::<f64>() / n, pts.iter().map(|p| p.1).sum::<f64>() / n);
+    let slope =
+        pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>() / pts.iter().map(|p| (p.0 - mx).powi(2)).sum::<f64>();
+    assert!(slope < 0.0);
+    for method in METHODS {
+        let f = fit_damping(&pts, ModelKind::Rayleigh, method).unwrap();
+        assert_eq!(f.params[1], 0.0, "{method:?}: {:?}", f.params);
+        assert!(f.params[0] > 0.0);
+        // Never silently unconverged: EMG on this cloud (uniform, unskewed scatter) heads for
+        // the Gaussian limit η → ∞, where it may stop at its cap, and then it says so.
+        assert!(
+            f.converged || (method == Method::Emg && f.warnings.iter().any(|w| w.contains("without converging"))),
+            "{method:?} {f:#?}"
+        );
+        assert!(f.active_bounds.iter().any(|b| b == "alpha2 >= 0"), "{method:?}: {:?}", f.active_bounds);
+        assert!(f.warnings.iter().any(|w| w.contains("alpha2 >= 0")), "{method:?}: {:?}", f.warnings);
+        validate(ModelKind::Rayleigh, &f.params).unwrap();
+    }
+    // Caughey: c(λ) ≥ 0 over 20 Hz–24 kHz although the points fall steeply.
+    for method in METHODS {
+        let f = fit_damping(&pts, ModelKind::Caughey, method).unwrap();
+        validate(ModelKind::Caughey, &f.params).unwrap();
+        let d = f.damping();
+        let lmax = (std::f64::consts::TAU * 24_000.0f64).powi(2);
+        assert!(d.c(lmax) >= -1e-9 * (f.params[2] * lmax * lmax).abs(), "{method:?}: {:?}", f.params);
+    }
+}
+
+/// One clip's five partials (the real-clip case of issue 10): the EMG likelihood is largest
+/// as σ → 0, which used to run the optimiser into its iteration cap (2 × 100) and return the
+/// lower-bound curve as if converged. Now σ stops at its floor: the fit converges in few
+/// iterations and warns that it follows the least-damped points.
+#[test]
+fn emg_on_a_few_partials_converges_and_warns() {
+    // Glockenspiel-like: partials at 1, 2.76, 5.4, 8.9, 13.3 × 880 Hz, T60 from 1.4 s down.
+    let pts: Vec<(f64, f64)> = [(880.0, 4.9), (2430.0, 9.0), (4750.0, 21.0), (7830.0, 30.0), (11700.0, 52.0)]
+        .iter()
+        .map(|&(f, c)| ((std::f64::consts::TAU * f).powi(2), c))
+        .collect();
+    let f = fit_damping(&pts, ModelKind::Rayleigh, Method::Emg).unwrap();
+    eprintln!("{f:#?}");
+    assert!(f.converged, "{f:?}");
+    assert!(f.iterations < 60, "iterations {}", f.iterations);
+    assert!(f.active_bounds.iter().any(|b| b.starts_with("sigma")), "{:?}", f.active_bounds);
+    assert!(f.warnings.iter().any(|w| w.contains("least-damped")), "{:?}", f.warnings);
+    // The curve lies under (or on) every point, as a lower-bound fit does.
+    assert!(pts.iter().all(|&(l, c)| f.c(l) <= c * 1.01));
+}
+
+/// A well-posed EMG set (2,000 points, Rayleigh + exponential + Gaussian) converges to an
+/// interior optimum in few Newton iterations, with no bound active and no warning.
+#[test]
+fn emg_on_a_rich_set_converges_inside() {
+    let mut g = Gen(42);
+    let pts: Vec<(f64, f64)> = (0..2000)
+        .map(|_| {
+            let l = (std::f64::consts::TAU * 100.0 * 100.0f64.powf(g.u())).powi(2);
+            (l, 6.0 + 4e-8 * l + 0.5 * g.normal() - 3.0 * (1.0 - g.u()).ln())
+        })
+        .collect();
+    for model in MODELS {
+        let f = fit_damping(&pts, model, Method::Emg).unwrap();
+        eprintln!("{model:?}: its {} active {:?} params {:?}", f.iterations, f.active_bounds, f.params);
+        assert!(f.converged, "{model:?}");
+        assert!(f.iterations <= 80, "{model:?}: {} iterations", f.iterations);
+        assert!(!f.active_bounds.iter().any(|b| b.starts_with("sigma") || b.starts_with("eta")), "{model:?}");
+        if model != ModelKind::Power {
+            // The law is in the model's family (the power law cannot follow c = α₁ + α₂λ).
+            let err = (f.c(1e8) / (6.0 + 4e-8 * 1e8) - 1.0).abs();
+            assert!(err < 0.05, "{model:?}: {err}");
+        }
+    }
+}
+
+/// The same glass sets, Rayleigh: damping-curve error at the object's modes (mean of
+/// |c_fit/c_true − 1|). The fast high modes extracted too low are what the outlier component
+/// and the constraints are for. EMG is below LSQ on every set and within 10 % on average
+/// (measured 6.4 %; LSQ 155 %, LB 28 %). The sets with α₁ = 0.5 s⁻¹, where the support
+/// damping (mean 3 s⁻¹) is several times the material's c at the low modes, are the hardest
+/// (EMG up to 30 %): per-point uncertainties (issue 10 part 3) are the next step there.
+#[test]
+fn emg_ahead_of_lsq_on_glass_sets() {
+    let mut rows = Vec::new();
+    for seed in 0..12u64 {
+        let a1 = [0.5, 2.0, 8.0][seed as usize % 3];
+        let truth = |l: f64| a1 + 7e-8 * l;
+        let (pts, lambdas) = glass_points(100 + seed, (a1, 7e-8), 3.0);
+        let err = |m: Method| {
+            let f = fit_damping(&pts, ModelKind::Rayleigh, m).unwrap();
+            lambdas.iter().map(|&l| (f.c(l) / truth(l) - 1.0).abs()).sum::<f64>() / lambdas.len() as f64
+        };
+        rows.push((seed, err(Method::Emg), err(Method::Lsq), err(Method::Lb)));
+    }
+    let mean = |i: usize| rows.iter().map(|r| [r.1, r.2, r.3][i]).sum::<f64>() / rows.len() as f64;
+    eprintln!("glass sets curve error: EMG {:.3} LSQ {:.3} LB {:.3}; per set {rows:.3?}", mean(0), mean(1), mean(2));
+    assert!(mean(0) <= 0.10, "EMG mean curve error {}", mean(0));
+    for &(seed, emg, lsq, _) in &rows {
+        assert!(emg < 0.5 * lsq, "seed {seed}: EMG {emg} vs LSQ {lsq}");
+    }
+}
