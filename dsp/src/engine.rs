@@ -113,6 +113,10 @@ pub struct SoundParams {
     pub pressure_damping: f64,
     /// Modes whose excitation is more than this many dB below the strongest are not rendered.
     pub quality_db: f32,
+    /// Support damping: the mean extra c (s⁻¹) that the way the object is held adds to its
+    /// modes (thesis §4.2.8's exponential excess; 0 = the free material). Each mode gets
+    /// this times its own fixed draw of a unit exponential ([`support_quantile`]).
+    pub support_c: f64,
 }
 
 impl Default for SoundParams {
@@ -128,6 +132,7 @@ impl Default for SoundParams {
             release_damping: 0.0,
             pressure_damping: 40.0,
             quality_db: 60.0,
+            support_c: 0.0,
         }
     }
 }
@@ -262,12 +267,25 @@ impl Voice {
     }
 }
 
-/// Frequency data of one mode for a voice.
+/// Mode `m`'s fixed draw of a unit-mean exponential, for the support damping: the same for
+/// a mode index on every note, object and run (a hash of the index, not a random state),
+/// so an object sounds held the same way every time. −ln(1 − u), u uniform from SplitMix64.
 #[inline]
-fn mode_pole(lambda: f64, damping: &Damping, extra_d: f64, sample_rate: f64) -> Option<(f64, f64)> {
+pub fn support_quantile(m: usize) -> f64 {
+    let mut z = (m as u64).wrapping_add(1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    let u = ((z ^ (z >> 31)) >> 11) as f64 * (1.0 / (1u64 << 53) as f64);
+    -(1.0 - u).ln()
+}
+
+/// Frequency data of one mode for a voice; `support_c` is the mode's own support damping
+/// (extra c, s⁻¹).
+#[inline]
+fn mode_pole(lambda: f64, damping: &Damping, support_c: f64, extra_d: f64, sample_rate: f64) -> Option<(f64, f64)> {
     // SCIENCE.md §1: d = c/2, ω_d = sqrt(λ − d²); drop over-damped modes and modes at or
     // above Nyquist.
-    let d = 0.5 * damping.c(lambda) + extra_d;
+    let d = 0.5 * (damping.c(lambda) + support_c) + extra_d;
     if !(d.is_finite() && lambda.is_finite()) || d < 0.0 || d * d >= lambda {
         return None;
     }
@@ -375,8 +393,10 @@ impl Engine {
         p.release_damping = p.release_damping.clamp(0.0, 1e5);
         p.pressure_damping = p.pressure_damping.clamp(0.0, 1e5);
         p.quality_db = p.quality_db.clamp(6.0, 200.0);
+        p.support_c = if p.support_c.is_finite() { p.support_c.clamp(0.0, 1e5) } else { 0.0 };
         if p != self.target {
             if p.damping != self.target.damping
+                || p.support_c != self.target.support_c
                 || p.release_damping != self.target.release_damping
                 || p.pressure_damping != self.target.pressure_damping
             {
@@ -410,6 +430,11 @@ impl Engine {
 
     fn effective_damping(&self) -> Damping {
         self.params.damping.scaled(self.glide.decay_scale)
+    }
+
+    /// Mean support damping in use (scaled with the decay like the law).
+    fn effective_support(&self) -> f64 {
+        self.params.support_c * self.glide.decay_scale
     }
 
     /// Starts (or re-strikes) a note. The strike itself happens at the start of the next
@@ -525,6 +550,7 @@ impl Engine {
     fn strike(&mut self, v: usize, velocity: f32) {
         let p = self.params;
         let damping = self.effective_damping();
+        let support = self.effective_support();
         let fs = self.sample_rate;
         let scale = self.lambda_scale(self.voices[v].lambda_factor);
         let voice = &mut self.voices[v];
@@ -537,7 +563,7 @@ impl Engine {
         let mut peak = 0.0f32;
         for m in 0..n {
             let lambda = obj.lambdas[m] * scale;
-            self.amps[m] = match mode_pole(lambda, &damping, extra, fs) {
+            self.amps[m] = match mode_pole(lambda, &damping, support * support_quantile(m), extra, fs) {
                 Some((_, omega)) => {
                     (f64::from(self.gains[m]) * exciter::pulse_spectrum(omega / (2.0 * PI), contact)) as f32
                 }
@@ -562,7 +588,11 @@ impl Engine {
             }
             let mut slot = voice.slot_of_mode[m];
             if slot == NO_SLOT {
-                let Some((d, omega)) = mode_pole(obj.lambdas[m] * scale, &damping, extra, fs) else { continue };
+                let Some((d, omega)) =
+                    mode_pole(obj.lambdas[m] * scale, &damping, support * support_quantile(m), extra, fs)
+                else {
+                    continue;
+                };
                 match voice.bank.push(ModeCoeffs::new(d, omega, fs)) {
                     Some(k) => {
                         slot = k as u16;
@@ -588,6 +618,7 @@ impl Engine {
     fn rebuild(&mut self, v: usize) {
         let p = self.params;
         let damping = self.effective_damping();
+        let support = self.effective_support();
         let fs = self.sample_rate;
         let scale = self.lambda_scale(self.voices[v].lambda_factor);
         let voice = &mut self.voices[v];
@@ -595,7 +626,7 @@ impl Engine {
         let obj = &self.objects[voice.object];
         for k in 0..voice.bank.len() {
             let m = usize::from(voice.mode_of_slot[k]);
-            let c = match mode_pole(obj.lambdas[m] * scale, &damping, extra, fs) {
+            let c = match mode_pole(obj.lambdas[m] * scale, &damping, support * support_quantile(m), extra, fs) {
                 Some((d, omega)) => ModeCoeffs::new(d, omega, fs),
                 // The mode no longer rings (over-damped or past Nyquist): silence it.
                 None => ModeCoeffs::default(),
@@ -634,14 +665,15 @@ impl Engine {
                     step(self.glide.decay_scale, t.decay_scale)
                 },
             };
-            global = g != self.glide || self.params.damping != t.damping;
+            global = g != self.glide || self.params.damping != t.damping || self.params.support_c != t.support_c;
             self.glide = g;
             self.params = t;
         } else {
             // Non-glided controls take effect at once.
-            let damping = self.params.damping;
+            let (damping, support) = (self.params.damping, self.params.support_c);
             self.params = self.target;
             self.params.damping = damping;
+            self.params.support_c = support;
         }
         for v in 0..self.voices.len() {
             if !self.voices[v].active {
@@ -716,6 +748,7 @@ impl Engine {
     pub fn predict_modes(&self, object: usize, strike: Strike) -> Vec<(f64, f64, f32)> {
         let p = self.target;
         let damping = p.damping.scaled(p.decay_scale);
+        let support = p.support_c * p.decay_scale;
         let obj = &self.objects[object.min(self.objects.len() - 1)];
         let scale = p.modulus_ratio * strike.lambda_factor / (p.size * p.size);
         let mut gains = vec![0.0; obj.num_modes()];
@@ -726,8 +759,9 @@ impl Engine {
             .lambdas
             .iter()
             .zip(&gains)
-            .filter_map(|(&l, &g)| {
-                let (d, omega) = mode_pole(l * scale, &damping, 0.0, self.sample_rate)?;
+            .enumerate()
+            .filter_map(|(m, (&l, &g))| {
+                let (d, omega) = mode_pole(l * scale, &damping, support * support_quantile(m), 0.0, self.sample_rate)?;
                 let a = (f64::from(g) * exciter::pulse_spectrum(omega / (2.0 * PI), contact)) as f32;
                 Some((omega / (2.0 * PI), d, a))
             })
@@ -747,6 +781,73 @@ mod tests {
         let a: Vec<f32> = (0..20).map(|k| if k % 2 == 0 { 1.0 } else { -1.0 }).collect();
         let b: Vec<f32> = (0..20).map(|_| 1.0).collect();
         ObjectModes::new(lambdas, &[a, b])
+    }
+
+    /// Support damping (issue 10 part 6): each mode's extra c is its own fixed draw of an
+    /// exponential with the set mean. Over 4,000 modes the extra c has the exponential's
+    /// mean (within 5 %, the sample mean's spread is 1.6 %) and median (mean × ln 2), and
+    /// with the support off the modes are the free material's exactly.
+    #[test]
+    fn support_damping_draws_an_exponential_per_mode() {
+        let n = 4000;
+        let lambdas: Vec<f64> = (0..n).map(|k| (2.0 * PI * (100.0 + 3.0 * k as f64)).powi(2)).collect();
+        let obj = ObjectModes::new(lambdas, &[vec![1.0; n]]);
+        let mut e = Engine::new(vec![obj], 1, 96_000.0);
+        let free = SoundParams {
+            damping: Damping::Rayleigh { alpha1: 2.0, alpha2: 1e-9 },
+            quality_db: 200.0,
+            ..SoundParams::default()
+        };
+        let strike = Strike { velocity: 1.0, position: 0.0, lambda_factor: 1.0 };
+        e.set_params(free);
+        let d0 = e.predict_modes(0, strike);
+        e.set_params(SoundParams { support_c: 0.0, ..free });
+        assert_eq!(e.predict_modes(0, strike), d0, "support 0 is the free material");
+        let mean = 30.0;
+        e.set_params(SoundParams { support_c: mean, ..free });
+        let d1 = e.predict_modes(0, strike);
+        assert_eq!(d1.len(), d0.len());
+        // d = c/2: the extra c of each mode is 2 Δd.
+        let mut extra: Vec<f64> = d1.iter().zip(&d0).map(|(a, b)| 2.0 * (a.1 - b.1)).collect();
+        assert!(extra.iter().all(|&x| x >= 0.0));
+        let m = extra.iter().sum::<f64>() / extra.len() as f64;
+        extra.sort_by(f64::total_cmp);
+        let median = extra[extra.len() / 2];
+        assert!((m / mean - 1.0).abs() < 0.05, "mean extra c {m} vs {mean}");
+        assert!((median / (mean * std::f64::consts::LN_2) - 1.0).abs() < 0.05, "median {median}");
+        // The draw belongs to the mode: the same on every call.
+        assert_eq!(e.predict_modes(0, strike), d1);
+    }
+
+    /// The rendered decay of a mode includes its support damping: the envelope of a single
+    /// mode, measured from the output over 0.1–0.6 s, decays at d = (c + S·q)/2 with q the
+    /// mode's draw (`support_quantile(0)`).
+    #[test]
+    fn rendered_decay_includes_the_support_damping() {
+        let obj = ObjectModes::new(vec![(2.0 * PI * 440.0f64).powi(2)], &[vec![1.0]]);
+        let mut e = Engine::new(vec![obj], 1, 48_000.0);
+        let (c, s) = (4.0, 12.0);
+        e.set_params(SoundParams {
+            damping: Damping::Rayleigh { alpha1: c, alpha2: 0.0 },
+            support_c: s,
+            ..SoundParams::default()
+        });
+        e.reset();
+        e.note_on(
+            NoteId { voice_id: None, channel: 0, key: 60 },
+            Strike { velocity: 1.0, position: 0.0, lambda_factor: 1.0 },
+        );
+        let mut out = vec![0.0f32; 48_000];
+        e.render(&mut out);
+        // Peak amplitude over one period at two times → decay rate.
+        let peak = |t: f64| {
+            let a = (t * 48_000.0) as usize;
+            out[a..a + 110].iter().fold(0.0f32, |m, v| m.max(v.abs())) as f64
+        };
+        let measured = (peak(0.1) / peak(0.6)).ln() / 0.5;
+        let expected = 0.5 * (c + s * support_quantile(0));
+        assert!((measured / expected - 1.0).abs() < 0.01, "decay {measured} vs {expected}");
+        assert!(support_quantile(0) > 0.0);
     }
 
     #[test]

@@ -52,8 +52,8 @@ use serde::{Deserialize, Serialize};
 use crate::EstimateError;
 
 /// One damped sinusoid. Serialises as `{"freq_hz", "decay_per_s", "amplitude",
-/// "sigma_freq_hz", "sigma_decay_per_s"}`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+/// "sigma_freq_hz", "sigma_decay_per_s", "single_exponential", "early_decay_per_s"}`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Feature {
     /// Damped frequency f, Hz.
     pub freq_hz: f64,
@@ -68,6 +68,36 @@ pub struct Feature {
     /// Standard uncertainty of `decay_per_s`, s⁻¹ (same bound). 0 = unknown.
     #[serde(default)]
     pub sigma_decay_per_s: f64,
+    /// How well one exponential explains this partial: its share of the energy of the
+    /// partial, i.e. of itself and the faster components the fit found at the same
+    /// frequency ([`ImpactFit::components`]: the strike's onset, a beating twin). 1 = a single
+    /// exponential; 0.5 = half the partial's energy decays otherwise.
+    #[serde(default = "one")]
+    pub single_exponential: f64,
+    /// The partial's initial envelope slope with its components, s⁻¹ (amplitude-weighted
+    /// mean decay at t = 0): the first stage of a two-stage decay. `decay_per_s` is the
+    /// late slope (the one the damping fits use). Equal to `decay_per_s` for a single
+    /// exponential; 0 = not computed.
+    #[serde(default)]
+    pub early_decay_per_s: f64,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+impl Default for Feature {
+    fn default() -> Self {
+        Self {
+            freq_hz: 0.0,
+            decay_per_s: 0.0,
+            amplitude: 0.0,
+            sigma_freq_hz: 0.0,
+            sigma_decay_per_s: 0.0,
+            single_exponential: 1.0,
+            early_decay_per_s: 0.0,
+        }
+    }
 }
 
 impl Feature {
@@ -129,8 +159,11 @@ impl Default for ExtractOptions {
 /// Features of one impact plus how well they explain it.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ImpactFit {
-    /// Accepted features, strongest first.
+    /// Accepted features (one per partial), strongest first.
     pub features: Vec<Feature>,
+    /// Faster components of those partials ([`group_partials`]), strongest first: kept for
+    /// resynthesis and the report, not used by the damping fits.
+    pub components: Vec<Feature>,
     /// Fraction of the impact's power explained by all fitted modes, 0..1.
     pub explained_power: f64,
     /// Residual power over noise-floor power per sample (1 ≈ only noise left).
@@ -823,6 +856,8 @@ pub fn extract_impact(
                 amplitude,
                 sigma_freq_hz: sd / std::f64::consts::TAU,
                 sigma_decay_per_s: sd,
+                single_exponential: 1.0,
+                early_decay_per_s: m.d,
             }
         })
         .filter(|f| {
@@ -838,14 +873,66 @@ pub fn extract_impact(
     let amax = features.iter().fold(0.0f64, |m, f| m.max(f.amplitude));
     let amin = amax * 10f64.powf(opts.min_rel_amplitude_db / 20.0);
     features.retain(|f| f.amplitude >= amin);
+    let (mut features, mut components) = group_partials(features, duration);
     features.sort_by(|a, b| b.amplitude.total_cmp(&a.amplitude));
+    components.sort_by(|a, b| b.amplitude.total_cmp(&a.amplitude));
     Ok(ImpactFit {
         features,
+        components,
         explained_power: (1.0 - residual / total).clamp(0.0, 1.0),
         residual_to_noise: residual / n as f64 / noise_var.max(1e-300),
         fitted_modes: fitted,
         rejected_peaks: rejected,
     })
+}
+
+/// Groups features into partials (issue 10 part 4). A real partial is often not one
+/// exponential: the strike's onset leaves a broad, fast component on it (a triangle's
+/// 8553 Hz partial decays at 4 s⁻¹ under an onset component at d = 196 s⁻¹ that is stronger
+/// at t = 0), and a beating twin leaves a second, faster one. Taken as modes of their own,
+/// those components sit far above the damping law and a comparison by frequency picks the
+/// wrong decay. So, in order of energy a²/(4d), a feature that decays faster than a more
+/// energetic one and lies within its partial — 0.5 % in frequency, or within its own
+/// half-power bandwidth d/2π — becomes a component of it, and so does any weaker feature
+/// closer to it than the record can resolve (1/T Hz for a record of T seconds: a fit's
+/// split of one partial). The partial keeps its late
+/// (energy-dominant) decay, and says how well one exponential explains it
+/// (`single_exponential`, its energy share) and its initial slope (`early_decay_per_s`).
+pub fn group_partials(features: Vec<Feature>, duration_s: f64) -> (Vec<Feature>, Vec<Feature>) {
+    let resolution = 1.0 / duration_s.max(1e-3);
+    let energy = |f: &Feature| f.amplitude * f.amplitude / (4.0 * f.decay_per_s.max(1e-9));
+    let mut order = features;
+    order.sort_by(|a, b| energy(b).total_cmp(&energy(a)));
+    // Leaders with their group's energy and Σ a, Σ a·d.
+    let mut leaders: Vec<(Feature, f64, f64, f64)> = Vec::new();
+    let mut components = Vec::new();
+    for f in order {
+        let e = energy(&f);
+        let joined = leaders.iter_mut().find(|(l, ..)| {
+            let df = (f.freq_hz - l.freq_hz).abs();
+            df < resolution
+                || (f.decay_per_s > l.decay_per_s
+                    && df <= (0.005 * l.freq_hz).max(f.decay_per_s / std::f64::consts::TAU))
+        });
+        match joined {
+            Some((_, ge, sa, sad)) => {
+                *ge += e;
+                *sa += f.amplitude;
+                *sad += f.amplitude * f.decay_per_s;
+                components.push(f);
+            }
+            None => leaders.push((f, e, f.amplitude, f.amplitude * f.decay_per_s)),
+        }
+    }
+    let partials = leaders
+        .into_iter()
+        .map(|(mut l, ge, sa, sad)| {
+            l.single_exponential = energy(&l) / ge.max(1e-300);
+            l.early_decay_per_s = sad / sa.max(1e-300);
+            l
+        })
+        .collect();
+    (partials, components)
 }
 
 /// Power spectrum of an impact's residual (what the fitted modes leave), to tell the noise

@@ -72,8 +72,12 @@ pub struct ImpactFeatures {
     pub file: String,
     /// Onset time in the file, s.
     pub onset_s: f64,
-    /// Modal features, strongest first.
+    /// Modal features (one per partial), strongest first.
     pub features: Vec<Feature>,
+    /// Faster components of those partials (onset, beating twins), strongest first: in the
+    /// report and for resynthesis, not in the damping fits ([`features::group_partials`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub components: Vec<Feature>,
     /// Length of the analysed segment, s.
     pub duration_s: f64,
     /// Peak frame power over the noise floor, dB.
@@ -189,6 +193,10 @@ impl EstimateReport {
     pub fn damping(&self) -> dsp::Damping {
         self.chosen.damping()
     }
+    /// The chosen fit's support damping ([`FitResult::support_c`]).
+    pub fn support_c(&self) -> Option<f64> {
+        self.chosen.support_c()
+    }
 }
 
 /// Reads a WAV file to mono. See [`wav::load_wav`].
@@ -249,6 +257,7 @@ pub fn extract_features(
                     file: name.clone(),
                     onset_s: s.start as f64 / fs,
                     features: fit.features,
+                    components: fit.components,
                     duration_s: (s.end - s.start) as f64 / fs,
                     snr_db: s.snr_db,
                     explained_power: fit.explained_power,

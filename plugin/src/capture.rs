@@ -155,6 +155,8 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
         specific_modulus,
         damping: DampingSpec::from_damping(&damping),
         notes: report.warnings.join("; "),
+        // The plugin plays it held as recorded by default (Support: As recorded).
+        support: report.support_c().map(|mean_c_per_s| presets::SupportDamping { mean_c_per_s }),
     };
     material.validate().map_err(|e| format!("the fitted material is not valid ({e}); nothing was written"))?;
     // Both files are complete on disk before either replaces anything.

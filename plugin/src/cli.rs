@@ -188,6 +188,8 @@ pub fn configured_host(opts: &SoundOptions, max_block: usize) -> Result<OfflineH
         MaterialChoice::File(m) => {
             let d = m.damping.to_damping().map_err(|e| e.to_string())?;
             set_custom_damping(&mut host, &d)?;
+            // Its recorded support damping (played when Support is As recorded, the default).
+            host.set_param("csupport", m.support_c().min(2000.0) as f32).map_err(|e| e.to_string())?;
         }
     }
     if let Some(s) = opts.size {

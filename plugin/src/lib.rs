@@ -17,7 +17,7 @@ use dsp::ftz::DenormalGuard;
 use library::Library;
 use nice_plug::midi::{Channel, Key, VoiceID};
 use nice_plug::prelude::*;
-use params::{KeyMode, StruckParams, POSITION_POLY_MOD_ID};
+use params::{KeyMode, StruckParams, SupportMode, POSITION_POLY_MOD_ID};
 use std::sync::Arc;
 
 /// Voices in the pool (the CLAP voice capacity).
@@ -98,6 +98,15 @@ impl Struck {
         if p.material_pitch.value() {
             modulus *= self.library.material_modulus_ratio(material, self.object_index());
         }
+        let support_c = match p.support_mode.value() {
+            SupportMode::Off => 0.0,
+            SupportMode::AsRecorded => self
+                .library
+                .materials
+                .get(material)
+                .map_or_else(|| f64::from(p.custom_support_per_s.value()), presets::Material::support_c),
+            SupportMode::Amount => f64::from(p.support_amount_per_s.value()),
+        };
         SoundParams {
             damping,
             decay_scale: f64::from(p.decay_scale.value()),
@@ -109,6 +118,7 @@ impl Struck {
             release_damping: f64::from(p.release_damping_per_s.value()),
             pressure_damping: f64::from(p.pressure_damping_per_s.value()),
             quality_db: p.quality_db.value(),
+            support_c,
         }
     }
 

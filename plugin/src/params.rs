@@ -42,6 +42,23 @@ pub enum DampingModelParam {
     Hybrid,
 }
 
+/// Support damping (thesis §4.2.8; issue 10 part 6): the extra, per-mode damping that the
+/// way an object is held adds to the material's law.
+#[derive(Enum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SupportMode {
+    /// The free material: no support damping.
+    #[id = "off"]
+    Off,
+    /// The support damping recorded with the material (captured materials carry it; factory
+    /// materials have none unless their source states a mounting).
+    #[id = "recorded"]
+    #[name = "As recorded"]
+    AsRecorded,
+    /// The amount set by *Support amount*.
+    #[id = "amount"]
+    Amount,
+}
+
 /// All parameters.
 #[derive(Params)]
 pub struct StruckParams {
@@ -66,6 +83,16 @@ pub struct StruckParams {
     /// Custom material: Caughey's quadratic term expressed as its c at 10 kHz (s⁻¹).
     #[id = "c10k"]
     pub caughey_10k_per_s: FloatParam,
+    /// Custom material: its recorded support damping, the mean extra c (s⁻¹) over modes
+    /// (a captured material's fitted 1/η; set with the other Custom knobs).
+    #[id = "csupport"]
+    pub custom_support_per_s: FloatParam,
+    /// Support damping: off, as recorded with the material, or the chosen amount.
+    #[id = "support"]
+    pub support_mode: EnumParam<SupportMode>,
+    /// Support damping when *Support* is *Amount*: mean extra c (s⁻¹) over modes.
+    #[id = "supportamt"]
+    pub support_amount_per_s: FloatParam,
     /// Multiplies every damping coefficient (all materials): below 1 rings longer.
     #[id = "dscale"]
     pub decay_scale: FloatParam,
@@ -295,6 +322,23 @@ impl StruckParams {
                 "Caughey c at 10 kHz",
                 0.0,
                 FloatRange::Skewed { min: 0.0, max: 1e5, factor: FloatRange::skew_factor(-2.5) },
+            )
+            .with_unit(" 1/s")
+            .with_value_to_string(v2s_significant(4))
+            .with_string_to_value(s2v_number()),
+            custom_support_per_s: FloatParam::new(
+                "Custom support",
+                0.0,
+                FloatRange::Skewed { min: 0.0, max: 2000.0, factor: FloatRange::skew_factor(-2.0) },
+            )
+            .with_unit(" 1/s")
+            .with_value_to_string(v2s_significant(4))
+            .with_string_to_value(s2v_number()),
+            support_mode: EnumParam::new("Support", SupportMode::AsRecorded),
+            support_amount_per_s: FloatParam::new(
+                "Support amount",
+                10.0,
+                FloatRange::Skewed { min: 0.0, max: 2000.0, factor: FloatRange::skew_factor(-2.0) },
             )
             .with_unit(" 1/s")
             .with_value_to_string(v2s_significant(4))

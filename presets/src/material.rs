@@ -33,6 +33,19 @@ pub struct Material {
     /// Free text: caveats, unit reasoning, decay times.
     #[serde(default)]
     pub notes: String,
+    /// Support damping recorded with the material (thesis §4.2.8): the extra, per-mode
+    /// damping the way the recorded object was held added to the law. `None` for the free
+    /// material (factory materials, unless their source states a mounting).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub support: Option<SupportDamping>,
+}
+
+/// Support damping as recorded: per-mode extra c drawn from an exponential distribution
+/// (the EMG fit's exponential part, thesis eq. 4.10).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SupportDamping {
+    /// Mean extra c over modes, s⁻¹ (1/η of the EMG fit).
+    pub mean_c_per_s: f64,
 }
 
 impl Material {
@@ -98,7 +111,23 @@ impl Material {
             }
         }
         self.damping.to_damping()?;
+        if let Some(sd) = self.support {
+            if !(sd.mean_c_per_s.is_finite() && (0.0..=1e5).contains(&sd.mean_c_per_s)) {
+                return Err(PresetError::invalid(
+                    "support.mean_c_per_s",
+                    format!(
+                        "must be finite and in 0..=100000 (1/s, mean extra damping c over modes); found {}",
+                        sd.mean_c_per_s
+                    ),
+                ));
+            }
+        }
         Ok(())
+    }
+
+    /// Mean support damping recorded with the material, s⁻¹ (0 for the free material).
+    pub fn support_c(&self) -> f64 {
+        self.support.map_or(0.0, |s| s.mean_c_per_s)
     }
 
     /// The engine damping law.

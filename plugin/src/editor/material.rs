@@ -42,7 +42,8 @@ pub(super) fn scan_user_materials(dir: &std::path::Path) -> Vec<UserMaterial> {
     out
 }
 
-/// Sets the *Custom* material to reproduce `d`: one gesture per parameter.
+/// Sets the *Custom* material to reproduce `d` and its recorded support damping `support_c`
+/// (s⁻¹): one gesture per parameter.
 ///
 /// # Errors
 /// As [`StruckParams::custom_knobs_for`] (nothing is changed).
@@ -51,8 +52,10 @@ pub(super) fn apply_damping(
     custom_index: usize,
     setter: &ParamSetter,
     d: &dsp::Damping,
+    support_c: f64,
 ) -> Result<(), String> {
     let k = params.custom_knobs_for(d)?;
+    set_param(setter, &params.custom_support_per_s, support_c.clamp(0.0, 2000.0) as f32);
     set_param(setter, &params.material, custom_index as i32);
     set_param(setter, &params.damping_model, k.model);
     set_param(setter, &params.alpha1_per_s, k.alpha1_per_s);
@@ -77,7 +80,7 @@ impl EditorUi {
             (None, Some(u)) => format!("Custom: {u}"),
             (None, None) => "Custom (knobs)".into(),
         };
-        let mut chosen_user: Option<(String, dsp::Damping)> = None;
+        let mut chosen_user: Option<(String, dsp::Damping, f64)> = None;
         ui.horizontal(|ui| {
             egui::ComboBox::from_label("Material").selected_text(shown).width(220.0).show_ui(ui, |ui| {
                 ui.label(egui::RichText::new("Factory").weak());
@@ -105,7 +108,7 @@ impl EditorUi {
                                 .clicked()
                             {
                                 match m.to_damping() {
-                                    Ok(d) => chosen_user = Some((m.name.clone(), d)),
+                                    Ok(d) => chosen_user = Some((m.name.clone(), d, m.support_c())),
                                     Err(e) => self.material.message = Some(e.to_string()),
                                 }
                             }
@@ -121,8 +124,8 @@ impl EditorUi {
                 self.material.user = None;
             }
         });
-        if let Some((name, d)) = chosen_user {
-            match apply_damping(&p, custom, setter, &d) {
+        if let Some((name, d, support)) = chosen_user {
+            match apply_damping(&p, custom, setter, &d, support) {
                 Ok(()) => self.material.loaded_user = Some(name),
                 Err(e) => self.material.message = Some(e),
             }
@@ -141,10 +144,13 @@ impl EditorUi {
                 param_row(ui, setter, &p.damping_1k_per_s);
                 param_row(ui, setter, &p.exponent);
                 param_row(ui, setter, &p.caughey_10k_per_s);
+                param_row(ui, setter, &p.custom_support_per_s);
             });
         });
         egui::Grid::new("sound-knobs").num_columns(2).show(ui, |ui| {
             param_row(ui, setter, &p.decay_scale);
+            param_row(ui, setter, &p.support_mode);
+            param_row(ui, setter, &p.support_amount_per_s);
             param_row(ui, setter, &p.modulus_ratio);
             param_row(ui, setter, &p.material_pitch);
             param_row(ui, setter, &p.size);
