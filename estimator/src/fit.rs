@@ -145,12 +145,10 @@ impl FitResult {
     pub fn c(&self, lambda: f64) -> f64 {
         self.damping().c(lambda)
     }
-    /// The support damping the EMG fit separated from the law (thesis §4.2.8): the mean
-    /// extra c over modes, 1/η, s⁻¹ (capped at 10⁵). `None` for LSQ and LB, whose curves
-    /// already run through or under the recorded decays.
-    pub fn support_c(&self) -> Option<f64> {
-        let eta = self.eta.filter(|e| e.is_finite() && *e > 0.0)?;
-        (self.method == Method::Emg).then(|| (1.0 / eta).min(1e5))
+    /// Whether the curve is a lower bound of the points (EMG, LB), so that what the points
+    /// show above it is support damping; LSQ runs through them.
+    pub fn is_lower_law(&self) -> bool {
+        self.method != Method::Lsq
     }
 }
 

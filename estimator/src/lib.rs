@@ -193,9 +193,40 @@ impl EstimateReport {
     pub fn damping(&self) -> dsp::Damping {
         self.chosen.damping()
     }
-    /// The chosen fit's support damping ([`FitResult::support_c`]).
+    /// The chosen fit's support damping ([`Self::support_for`]).
     pub fn support_c(&self) -> Option<f64> {
-        self.chosen.support_c()
+        self.support_for(&self.chosen)
+    }
+
+    /// Support damping as recorded (thesis §4.2.8), for playing the material held the way
+    /// the object was: the mean of the exponential excess of c over `fit`'s law (s⁻¹),
+    /// estimated from the impacts' strong partials — within 20 dB of the strongest 10 ms
+    /// after the strike, the ones that are heard ringing — as median / ln 2 (the median of
+    /// an exponential is its mean × ln 2; robust to the few partials a beat or the strike
+    /// leaves far above the law). Not the EMG's 1/η: that is over every feature, and the
+    /// many weak, fast ones (onset residue, noise fits) would make the held object sound
+    /// far more damped than its recorded partials (issue 10 part 6). `None` for LSQ fits
+    /// (their curve runs through the points) and without partials.
+    pub fn support_for(&self, fit: &FitResult) -> Option<f64> {
+        if !fit.is_lower_law() {
+            return None;
+        }
+        let law = fit.damping();
+        let mut excess = Vec::new();
+        for imp in &self.impacts {
+            let heard = |f: &Feature| f.amplitude * (-0.01 * f.decay_per_s).exp();
+            let amax = imp.features.iter().map(heard).fold(0.0f64, f64::max);
+            for f in imp.features.iter().filter(|f| heard(f) >= 0.1 * amax) {
+                excess.push((f.c() - law.c(f.lambda())).max(0.0));
+            }
+        }
+        if excess.is_empty() {
+            return None;
+        }
+        excess.sort_by(f64::total_cmp);
+        let n = excess.len();
+        let median = if n % 2 == 1 { excess[n / 2] } else { 0.5 * (excess[n / 2 - 1] + excess[n / 2]) };
+        Some((median / std::f64::consts::LN_2).min(1e5))
     }
 }
 

@@ -269,7 +269,7 @@ pub(super) fn captured_material(name: &str, rec: &CaptureRecord, fit: &estimator
         specific_modulus: rec.specific_modulus(),
         damping: DampingSpec::from_damping(&fit.damping()),
         notes: rec.report.warnings.join("; "),
-        support: fit.support_c().map(|mean_c_per_s| presets::SupportDamping { mean_c_per_s }),
+        support: rec.report.support_for(fit).map(|mean_c_per_s| presets::SupportDamping { mean_c_per_s }),
     }
 }
 
@@ -576,7 +576,8 @@ impl EditorUi {
                 .clicked()
             {
                 let custom = self.library.custom_material_index();
-                match apply_damping(&params, custom, setter, &fit.damping(), fit.support_c().unwrap_or(0.0)) {
+                let support = rec.report.support_for(&fit).unwrap_or(0.0);
+                match apply_damping(&params, custom, setter, &fit.damping(), support) {
                     Ok(()) => {
                         self.capture.message =
                             Some(format!("applied the {} fit to the Custom material", fit.method.name()))
