@@ -12,7 +12,8 @@
 //! upper modes absorbing them (issue 10: a glockenspiel matched with the lowest mode at
 //! 13.7 Hz). So a scale is penalised for every audible mode of the object that it puts below
 //! the recording's lowest strong partial without a recorded feature there (a struck object's
-//! low modes ring unless the strike sits on their node), and for strong object modes inside
+//! low modes ring unless the strike sits on their node), for every strong partial it puts
+//! below the object's lowest mode (nothing rings there), and for strong object modes inside
 //! the recorded range that nothing matches; the candidates include aligning the lowest strong
 //! partial with each of the object's lowest modes.
 
@@ -58,6 +59,8 @@ const PENALTY_BELOW: f64 = 0.15;
 const PENALTY_STRONG: f64 = 0.03;
 /// A feature within this many dB of the strongest is a strong partial.
 const STRONG_DB: f64 = 20.0;
+/// A feature within this many dB of the strongest accounts for an object mode.
+const HEARD_DB: f64 = 30.0;
 
 /// Matches `features` to bank eigenvalues `lambdas0` (rad²/s²); `gains0` are optional
 /// per-mode gains (e.g. the largest |gain| over the strike points) for the amplitude scale
@@ -99,7 +102,11 @@ pub fn match_object(features: &[Feature], lambdas0: &[f64], gains0: Option<&[f64
     let strong_min = amax * 10f64.powf(-STRONG_DB / 20.0);
     let low = feats.iter().filter(|f| f.1 >= strong_min).fold(f64::INFINITY, |m, f| m.min(f.0));
     let high = feats.iter().filter(|f| f.1 >= strong_min).fold(f64::NEG_INFINITY, |m, f| m.max(f.0));
-    let mut feat_sorted: Vec<f64> = feats.iter().map(|f| f.0).collect();
+    let strong_feats: Vec<f64> = feats.iter().filter(|f| f.1 >= strong_min).map(|f| f.0).collect();
+    // A mode "has a feature" when a partial within 30 dB of the strongest is there (weak
+    // features — onset residue, noise fits — are everywhere in a dense range).
+    let heard_min = amax * 10f64.powf(-HEARD_DB / 20.0);
+    let mut feat_sorted: Vec<f64> = feats.iter().filter(|f| f.1 >= heard_min).map(|f| f.0).collect();
     feat_sorted.sort_by(f64::total_cmp);
     let has_feature = |v: f64| {
         let i = feat_sorted.partition_point(|&x| x < v - tol);
@@ -129,7 +136,9 @@ pub fn match_object(features: &[Feature], lambdas0: &[f64], gains0: Option<&[f64
             .sum::<f64>()
             / wsum;
         let (below, strong) = unmatched(half_ln_r);
-        matched - PENALTY_BELOW * below as f64 - PENALTY_STRONG * strong as f64
+        // Strong partials below the object's lowest audible mode: nothing can ring there.
+        let under = strong_feats.iter().filter(|&&lw| lw < bank[0].0 + half_ln_r - tol).count();
+        matched - PENALTY_BELOW * (below + under) as f64 - PENALTY_STRONG * strong as f64
     };
     // Candidates: align each of the strongest features with each of the lowest bank modes,
     // and the lowest strong partial with each of them.
