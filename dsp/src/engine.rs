@@ -267,12 +267,15 @@ impl Voice {
     }
 }
 
-/// Mode `m`'s fixed draw of a unit-mean exponential, for the support damping: the same for
-/// a mode index on every note, object and run (a hash of the index, not a random state),
-/// so an object sounds held the same way every time. −ln(1 − u), u uniform from SplitMix64.
+/// Mode `m`'s fixed draw of a unit-mean exponential, for the support damping: a hash of the
+/// mode's index and its reference eigenvalue `lambda_ref` (the bank's, as f32 bits), not a
+/// random state, so an object sounds held the same way on every note and run, and two
+/// objects are held differently (an index alone would give every object's lowest mode the
+/// same draw). −ln(1 − u), u uniform from SplitMix64.
 #[inline]
-pub fn support_quantile(m: usize) -> f64 {
-    let mut z = (m as u64).wrapping_add(1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+pub fn support_quantile(m: usize, lambda_ref: f64) -> f64 {
+    let key = ((m as u64) << 32) ^ u64::from((lambda_ref as f32).to_bits());
+    let mut z = key.wrapping_add(1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
     let u = ((z ^ (z >> 31)) >> 11) as f64 * (1.0 / (1u64 << 53) as f64);
@@ -563,7 +566,7 @@ impl Engine {
         let mut peak = 0.0f32;
         for m in 0..n {
             let lambda = obj.lambdas[m] * scale;
-            self.amps[m] = match mode_pole(lambda, &damping, support * support_quantile(m), extra, fs) {
+            self.amps[m] = match mode_pole(lambda, &damping, support * support_quantile(m, obj.lambdas[m]), extra, fs) {
                 Some((_, omega)) => {
                     (f64::from(self.gains[m]) * exciter::pulse_spectrum(omega / (2.0 * PI), contact)) as f32
                 }
@@ -588,9 +591,13 @@ impl Engine {
             }
             let mut slot = voice.slot_of_mode[m];
             if slot == NO_SLOT {
-                let Some((d, omega)) =
-                    mode_pole(obj.lambdas[m] * scale, &damping, support * support_quantile(m), extra, fs)
-                else {
+                let Some((d, omega)) = mode_pole(
+                    obj.lambdas[m] * scale,
+                    &damping,
+                    support * support_quantile(m, obj.lambdas[m]),
+                    extra,
+                    fs,
+                ) else {
                     continue;
                 };
                 match voice.bank.push(ModeCoeffs::new(d, omega, fs)) {
@@ -626,7 +633,13 @@ impl Engine {
         let obj = &self.objects[voice.object];
         for k in 0..voice.bank.len() {
             let m = usize::from(voice.mode_of_slot[k]);
-            let c = match mode_pole(obj.lambdas[m] * scale, &damping, support * support_quantile(m), extra, fs) {
+            let c = match mode_pole(
+                obj.lambdas[m] * scale,
+                &damping,
+                support * support_quantile(m, obj.lambdas[m]),
+                extra,
+                fs,
+            ) {
                 Some((d, omega)) => ModeCoeffs::new(d, omega, fs),
                 // The mode no longer rings (over-damped or past Nyquist): silence it.
                 None => ModeCoeffs::default(),
@@ -761,7 +774,8 @@ impl Engine {
             .zip(&gains)
             .enumerate()
             .filter_map(|(m, (&l, &g))| {
-                let (d, omega) = mode_pole(l * scale, &damping, support * support_quantile(m), 0.0, self.sample_rate)?;
+                let (d, omega) =
+                    mode_pole(l * scale, &damping, support * support_quantile(m, l), 0.0, self.sample_rate)?;
                 let a = (f64::from(g) * exciter::pulse_spectrum(omega / (2.0 * PI), contact)) as f32;
                 Some((omega / (2.0 * PI), d, a))
             })
@@ -801,8 +815,11 @@ mod tests {
         let strike = Strike { velocity: 1.0, position: 0.0, lambda_factor: 1.0 };
         e.set_params(free);
         let d0 = e.predict_modes(0, strike);
-        e.set_params(SoundParams { support_c: 0.0, ..free });
-        assert_eq!(e.predict_modes(0, strike), d0, "support 0 is the free material");
+        // Support 0 is the free material: d = c(λ)/2 = (α₁ + α₂λ)/2 with λ = ω² + d².
+        for &(f, d, _) in &d0 {
+            let l = (2.0 * PI * f).powi(2) + d * d;
+            assert!((d - 0.5 * (2.0 + 1e-9 * l)).abs() < 1e-9 * d, "{f} Hz: d {d}");
+        }
         let mean = 30.0;
         e.set_params(SoundParams { support_c: mean, ..free });
         let d1 = e.predict_modes(0, strike);
@@ -821,7 +838,7 @@ mod tests {
 
     /// The rendered decay of a mode includes its support damping: the envelope of a single
     /// mode, measured from the output over 0.1–0.6 s, decays at d = (c + S·q)/2 with q the
-    /// mode's draw (`support_quantile(0)`).
+    /// mode's draw (`support_quantile`).
     #[test]
     fn rendered_decay_includes_the_support_damping() {
         let obj = ObjectModes::new(vec![(2.0 * PI * 440.0f64).powi(2)], &[vec![1.0]]);
@@ -845,9 +862,10 @@ mod tests {
             out[a..a + 110].iter().fold(0.0f32, |m, v| m.max(v.abs())) as f64
         };
         let measured = (peak(0.1) / peak(0.6)).ln() / 0.5;
-        let expected = 0.5 * (c + s * support_quantile(0));
+        let q = support_quantile(0, (2.0 * PI * 440.0f64).powi(2));
+        let expected = 0.5 * (c + s * q);
         assert!((measured / expected - 1.0).abs() < 0.01, "decay {measured} vs {expected}");
-        assert!(support_quantile(0) > 0.0);
+        assert!(q > 0.0);
     }
 
     #[test]

@@ -30,6 +30,13 @@ fn fits(c: &mut Criterion) {
                 b.iter(|| fit_damping(black_box(&p), model, Method::Emg).unwrap())
             });
         }
+        // As `estimate` fits: each point with its own uncertainty (here 3 % of c).
+        let sig: Vec<f64> = p.iter().map(|q| 0.03 * q.1).collect();
+        g.bench_function(format!("EMG rayleigh weighted, {n} points"), |b| {
+            b.iter(|| {
+                estimator::fit_damping_weighted(black_box(&p), Some(&sig), ModelKind::Rayleigh, Method::Emg).unwrap()
+            })
+        });
         g.bench_function(format!("LSQ rayleigh, {n} points"), |b| {
             b.iter(|| fit_damping(black_box(&p), ModelKind::Rayleigh, Method::Lsq).unwrap())
         });

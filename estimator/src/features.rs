@@ -163,6 +163,7 @@ pub struct ImpactFit {
     pub features: Vec<Feature>,
     /// Faster components of those partials ([`group_partials`]), strongest first: kept for
     /// resynthesis and the report, not used by the damping fits.
+    #[serde(default)]
     pub components: Vec<Feature>,
     /// Fraction of the impact's power explained by all fitted modes, 0..1.
     pub explained_power: f64,

@@ -364,6 +364,7 @@ fn model_eval(kind: ModelKind, a: &[f64], x: f64, lnx: f64, grad: &mut [f64]) ->
 }
 
 /// Normalised data.
+#[derive(Clone)]
 struct Data {
     x: Vec<f64>,
     lnx: Vec<f64>,
@@ -1099,11 +1100,20 @@ pub fn fit_damping_weighted(
             if a.iter().any(|v| !v.is_finite()) {
                 return Err(no_conv("non-finite parameters"));
             }
-            let s2 = rms(&a).powi(2);
+            // Weighted residual variance at unit weight (the weights have mean 1; all 1
+            // without per-point uncertainties): point i has variance s2 / wᵢ.
+            let s2 = {
+                let mut mg = [0.0; 4];
+                (0..n)
+                    .map(|i| d.w[i] * (model_eval(model, &a, d.x[i], d.lnx[i], &mut mg) - d.c[i]).powi(2))
+                    .sum::<f64>()
+                    / nf
+            };
             let mut h = vec![0.0; k * k];
             let mut gtmp = vec![0.0; k];
             sse_hess(model, &d, &a, &mut gtmp, &mut h);
-            // Mean ½SSE Hessian ≈ JᵀJ/n, so cov = σ²(JᵀJ)⁻¹ = σ² H⁻¹ / n with σ² = SSE/(n−k).
+            // Mean ½ weighted SSE Hessian ≈ JᵀWJ/n, so cov = σ²(JᵀWJ)⁻¹ = σ² H⁻¹ / n with
+            // σ² = weighted SSE/(n−k).
             let s2u = s2 * nf / (nf - k as f64).max(1.0);
             let std = invert(&h, k)
                 .map(|inv| {
@@ -1112,7 +1122,9 @@ pub fn fit_damping_weighted(
                 })
                 .unwrap_or(vec![None; k]);
             let sigma = s2.sqrt() * cs;
-            let ll = -0.5 * nf * ((std::f64::consts::TAU * sigma * sigma).ln() + 1.0);
+            // Gaussian log-likelihood with variance σ²/wᵢ per point.
+            let ll = -0.5 * nf * ((std::f64::consts::TAU * sigma * sigma).ln() + 1.0)
+                + 0.5 * d.w.iter().map(|w| w.ln()).sum::<f64>();
             let kk = (k + 1) as f64;
             FitResult {
                 model,
@@ -1264,31 +1276,50 @@ mod tests {
         normalise(&pts, None, ModelKind::Hybrid).unwrap()
     }
 
+    /// The same points with per-point uncertainties (heteroscedastic: Sᵢ = √(σ² + mᵢ²)),
+    /// spread over two decades.
+    fn data_hetero() -> Data {
+        let pts: Vec<(f64, f64)> = (0..50)
+            .map(|i| {
+                let l = 1e6 * (1.0 + i as f64);
+                (l, 2.0 + 1e-7 * l + 0.3 * ((i * 7919 % 13) as f64 / 13.0))
+            })
+            .collect();
+        let sig: Vec<f64> = (0..50).map(|i| 0.01 * 10f64.powf((i % 7) as f64 / 3.0)).collect();
+        let d = normalise(&pts, Some(&sig), ModelKind::Hybrid).unwrap();
+        assert!(d.hetero());
+        d
+    }
+
     #[test]
     fn emg_gradient_matches_finite_differences() {
-        let d = data();
-        for (kind, p) in [
-            (ModelKind::Rayleigh, vec![0.8, 0.3, (-1.5f64), 0.7]),
-            (ModelKind::Caughey, vec![0.8, 0.3, 0.1, -1.0, 0.2]),
-            (ModelKind::Power, vec![1.1, 0.4, -1.2, 0.9]),
-            (ModelKind::Hybrid, vec![0.5, 0.6, 0.8, -2.0, 1.5]),
-            // Far in the tail (large s) where erfcx matters.
-            (ModelKind::Rayleigh, vec![3.0, 0.3, (-4.0f64), 3.0]),
-        ] {
+        for (d, kind, p) in [data(), data_hetero()].into_iter().flat_map(|d| {
+            [
+                (ModelKind::Rayleigh, vec![0.8, 0.3, (-1.5f64), 0.7]),
+                (ModelKind::Caughey, vec![0.8, 0.3, 0.1, -1.0, 0.2]),
+                (ModelKind::Power, vec![1.1, 0.4, -1.2, 0.9]),
+                (ModelKind::Hybrid, vec![0.5, 0.6, 0.8, -2.0, 1.5]),
+                // Far in the tail (large s) where erfcx matters.
+                (ModelKind::Rayleigh, vec![3.0, 0.3, (-4.0f64), 3.0]),
+            ]
+            .map(|(k, p)| (d.clone(), k, p))
+        }) {
+            let d = &d;
             let mut g = vec![0.0; p.len()];
-            emg_nll(kind, &d, &p, &mut g);
+            emg_nll(kind, d, &p, &mut g);
             let mut tmp = vec![0.0; p.len()];
             for j in 0..p.len() {
                 let e = 1e-6;
                 let mut pp = p.clone();
                 pp[j] += e;
-                let fp = emg_nll(kind, &d, &pp, &mut tmp);
+                let fp = emg_nll(kind, d, &pp, &mut tmp);
                 pp[j] -= 2.0 * e;
-                let fm = emg_nll(kind, &d, &pp, &mut tmp);
+                let fm = emg_nll(kind, d, &pp, &mut tmp);
                 let fd = (fp - fm) / (2.0 * e);
                 assert!(
                     (fd - g[j]).abs() <= 1e-6 * (1.0 + fd.abs()),
-                    "{kind:?} param {j}: analytic {} fd {}",
+                    "{kind:?} param {j} (hetero {}): analytic {} fd {}",
+                    d.hetero(),
                     g[j],
                     fd
                 );
@@ -1298,14 +1329,17 @@ mod tests {
 
     #[test]
     fn emg_hessian_matches_finite_differences() {
-        let d = data();
-        for (kind, p) in [
-            (ModelKind::Rayleigh, vec![0.8, 0.3, (-1.5f64), 0.7]),
-            (ModelKind::Caughey, vec![0.8, 0.3, 0.1, -1.0, 0.2]),
-            (ModelKind::Power, vec![1.1, 0.4, -1.2, 0.9]),
-            (ModelKind::Hybrid, vec![0.5, 0.6, 0.8, -2.0, 1.5]),
-            (ModelKind::Rayleigh, vec![3.0, 0.3, (-4.0f64), 3.0]),
-        ] {
+        for (d, kind, p) in [data(), data_hetero()].into_iter().flat_map(|d| {
+            [
+                (ModelKind::Rayleigh, vec![0.8, 0.3, (-1.5f64), 0.7]),
+                (ModelKind::Caughey, vec![0.8, 0.3, 0.1, -1.0, 0.2]),
+                (ModelKind::Power, vec![1.1, 0.4, -1.2, 0.9]),
+                (ModelKind::Hybrid, vec![0.5, 0.6, 0.8, -2.0, 1.5]),
+                (ModelKind::Rayleigh, vec![3.0, 0.3, (-4.0f64), 3.0]),
+            ]
+            .map(|(k, p)| (d.clone(), k, p))
+        }) {
+            let d = &d;
             let np = p.len();
             let mut g = vec![0.0; np];
             let mut h = vec![0.0; np * np];

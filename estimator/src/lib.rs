@@ -188,12 +188,15 @@ pub struct EstimateReport {
     pub warnings: Vec<String>,
 }
 
+/// Largest support damping a capture stores (mean extra c, s⁻¹; the plugin's range).
+pub const MAX_SUPPORT_C: f64 = 2000.0;
+
 impl EstimateReport {
     /// The chosen damping law.
     pub fn damping(&self) -> dsp::Damping {
         self.chosen.damping()
     }
-    /// The chosen fit's support damping ([`Self::support_for`]).
+    /// The chosen fit's support damping ([`Self::support_for`]), at most [`MAX_SUPPORT_C`].
     pub fn support_c(&self) -> Option<f64> {
         self.support_for(&self.chosen)
     }
@@ -226,7 +229,7 @@ impl EstimateReport {
         excess.sort_by(f64::total_cmp);
         let n = excess.len();
         let median = if n % 2 == 1 { excess[n / 2] } else { 0.5 * (excess[n / 2 - 1] + excess[n / 2]) };
-        Some((median / std::f64::consts::LN_2).min(1e5))
+        Some((median / std::f64::consts::LN_2).min(MAX_SUPPORT_C))
     }
 }
 
@@ -385,7 +388,10 @@ pub fn estimate(
     let (mut fits, mut chosen) = fit_all(opts.model, &mut warnings)?;
     progress(0.93);
     if chosen.is_none() && opts.model != ModelKind::Rayleigh {
-        (fits, chosen) = fit_all(ModelKind::Rayleigh, &mut warnings)?;
+        // The requested model's other fits stay in the report beside the fallback's.
+        let (more, c) = fit_all(ModelKind::Rayleigh, &mut warnings)?;
+        fits.extend(more);
+        chosen = c;
     }
     if chosen.is_none() && opts.method != Method::Lb {
         chosen = fits.iter().find(|f| f.method == Method::Lb).cloned();

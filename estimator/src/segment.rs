@@ -392,7 +392,9 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
         let mut nv: Vec<f64> = nu[fa..fb].to_vec();
         ev.sort_by(f64::total_cmp);
         nv.sort_by(f64::total_cmp);
-        let local = ev[ev.len() / 10].min(nv[nv.len() / 10]).max(noise);
+        // ... and never above the floor just before the onset: a segment that rings to its
+        // end (a trimmed file, one cut at the next tap) would otherwise measure its ring.
+        let local = ev[ev.len() / 10].min(nv[nv.len() / 10]).min(pre.max(noise)).max(noise);
         let seg = Segment { start: s, end, snr_db: 10.0 * (snr / local).log10(), noise_var: local };
         if end - s < min_len {
             out.skipped.push((

@@ -150,6 +150,25 @@ fn end_to_end_session() {
     );
     assert!(curve < 0.15, "EMG curve error {curve}");
     assert!(curve < lsq_curve);
+    // Support damping as recorded: the session adds per-mode exponential extra c with a
+    // mean μ drawn uniformly in [1, 6] s⁻¹ per tap. The estimate is median excess / ln 2;
+    // for that mixture the median m solves mean over μ of (1 − e^(−m/μ)) = ½ (closed form
+    // per μ, bisection here): m/ln 2 = 3.08 s⁻¹ (the plain mean is 3.5).
+    let cdf =
+        |m: f64| (0..1000).map(|i| 1.0 - (-m / (1.0 + 5.0 * (i as f64 + 0.5) / 1000.0)).exp()).sum::<f64>() / 1000.0;
+    let (mut lo, mut hi) = (0.0, 20.0);
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if cdf(mid) < 0.5 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let truth = lo / std::f64::consts::LN_2;
+    let support = rep.support_c().expect("an EMG fit has a support damping");
+    eprintln!("support damping as recorded: {support:.2} 1/s (mixture median / ln 2: {truth:.2})");
+    assert!((support / truth - 1.0).abs() < 0.35, "support {support} vs {truth}");
     assert_eq!(rep.model, "rayleigh");
     assert_eq!(rep.fits.len(), 3);
     let obj = rep.object.as_ref().unwrap();

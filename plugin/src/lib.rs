@@ -17,7 +17,7 @@ use dsp::ftz::DenormalGuard;
 use library::Library;
 use nice_plug::midi::{Channel, Key, VoiceID};
 use nice_plug::prelude::*;
-use params::{KeyMode, StruckParams, SupportMode, POSITION_POLY_MOD_ID};
+use params::{KeyMode, StruckParams, SupportMode, MAX_SUPPORT_PER_S, POSITION_POLY_MOD_ID};
 use std::sync::Arc;
 
 /// Voices in the pool (the CLAP voice capacity).
@@ -106,7 +106,8 @@ impl Struck {
                 .get(material)
                 .map_or_else(|| f64::from(p.custom_support_per_s.value()), presets::Material::support_c),
             SupportMode::Amount => f64::from(p.support_amount_per_s.value()),
-        };
+        }
+        .clamp(0.0, MAX_SUPPORT_PER_S);
         SoundParams {
             damping,
             decay_scale: f64::from(p.decay_scale.value()),

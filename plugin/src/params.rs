@@ -59,6 +59,10 @@ pub enum SupportMode {
     Amount,
 }
 
+/// Largest support damping the plugin plays (mean extra c, s⁻¹): the range of *Custom
+/// support* and *Support amount*; a library material's recorded value is clamped to it.
+pub const MAX_SUPPORT_PER_S: f64 = 2000.0;
+
 /// All parameters.
 #[derive(Params)]
 pub struct StruckParams {
@@ -84,7 +88,8 @@ pub struct StruckParams {
     #[id = "c10k"]
     pub caughey_10k_per_s: FloatParam,
     /// Custom material: its recorded support damping, the mean extra c (s⁻¹) over modes
-    /// (a captured material's fitted 1/η; set with the other Custom knobs).
+    /// (a captured material's `support.mean_c_per_s`; set with the other Custom knobs when a
+    /// material is applied or loaded, and kept when the knobs are then turned by hand).
     #[id = "csupport"]
     pub custom_support_per_s: FloatParam,
     /// Support damping: off, as recorded with the material, or the chosen amount.

@@ -305,7 +305,6 @@ fn save_material_writes_a_loadable_user_preset() {
     let _ = std::fs::remove_file(&wav);
 }
 
-/// Frequency (Hz) of the largest DFT magnitude of `x` in `lo..hi`, scanned in 0.02 % steps.
 /// Frequency of the strongest DTFT peak between `lo` and `hi` (0.35-cent steps), Hann
 /// windowed: a weak partial next to strong ones (the plate's lowest mode at a strike point
 /// near its node is 36 dB under the strongest) is otherwise pulled by their sidelobes.

@@ -41,10 +41,12 @@ pub struct Material {
 }
 
 /// Support damping as recorded: per-mode extra c drawn from an exponential distribution
-/// (the EMG fit's exponential part, thesis eq. 4.10).
+/// (the exponential part of the thesis's EMG model, eq. 4.10).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SupportDamping {
-    /// Mean extra c over modes, s⁻¹ (1/η of the EMG fit).
+    /// Mean extra c over modes, s⁻¹: for a captured material, the median excess of the
+    /// recorded strong partials' c over the fitted law / ln 2
+    /// (`estimator::EstimateReport::support_for`).
     pub mean_c_per_s: f64,
 }
 

@@ -154,6 +154,13 @@ fn invalid_materials_name_the_field() {
         "damping.params[2]",
     );
     check(&|m| m.damping = DampingSpec { model: DampingModel::Caughey, params: vec![-5.0, 1e-7] }, "damping.params");
+    check(&|m| m.support = Some(presets::SupportDamping { mean_c_per_s: -1.0 }), "support.mean_c_per_s");
+    check(&|m| m.support = Some(presets::SupportDamping { mean_c_per_s: 2e5 }), "support.mean_c_per_s");
+    // A valid support round-trips through JSON; a material without one writes no field.
+    let mut m = good.clone();
+    assert!(!m.to_json().contains("support"));
+    m.support = Some(presets::SupportDamping { mean_c_per_s: 12.5 });
+    assert_eq!(Material::from_json(&m.to_json()).unwrap().support_c(), 12.5);
 }
 
 #[test]

@@ -26,6 +26,7 @@ import argparse
 import json
 import math
 import os
+import struct
 import subprocess
 import sys
 import tempfile
@@ -56,10 +57,12 @@ def c_of_lambda(damping, lam):
 MASK = (1 << 64) - 1
 
 
-def support_quantile(m):
+def support_quantile(m, lam):
     """Mode m's fixed unit-exponential draw, as dsp::engine::support_quantile computes it
-    (SplitMix64 of the mode index), so the law path predicts what the plugin plays."""
-    z = ((m + 1) * 0x9E3779B97F4A7C15) & MASK
+    (SplitMix64 of the mode index and the bank eigenvalue's f32 bits), so the law path
+    predicts what the plugin plays on the render check's bank."""
+    key = ((m << 32) ^ struct.unpack("<I", struct.pack("<f", lam))[0]) & MASK
+    z = ((key + 1) * 0x9E3779B97F4A7C15) & MASK
     z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & MASK
     z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & MASK
     u = ((z ^ (z >> 31)) >> 11) / float(1 << 53)
@@ -174,7 +177,9 @@ def main():
                 for i, q in enumerate(ref["partials"]):
                     lam = (2 * math.pi * q["freq_hz"]) ** 2 + q["decay_per_s"] ** 2
                     c_free = c_of_lambda(damping, lam)
-                    for out, cc in ((free_ratios, c_free), (ratios, c_free + support * support_quantile(k_of[i]))):
+                    lam_bank = (2 * math.pi * q["freq_hz"]) ** 2
+                    draw = support_quantile(k_of[i], lam_bank)
+                    for out, cc in ((free_ratios, c_free), (ratios, c_free + support * draw)):
                         # T60(material) / T60(recording) = d_recording / d_material.
                         out.append(float("inf") if cc <= 0 else q["decay_per_s"] / (cc / 2))
             all_ratios += ratios
