@@ -499,7 +499,7 @@ fn emg_nll(kind: ModelKind, d: &Data, p: &[f64], g: &mut [f64]) -> f64 {
     let ln1e = (1.0 - OUTLIER_WEIGHT).ln();
     for i in 0..d.x.len() {
         // The point's spread Sᵢ = √(σ² + mᵢ²) and dSᵢ/d ln σ = σ²/Sᵢ.
-        let sigma = sigma0.hypot(d.m[i]);
+        let sigma = (sigma0 * sigma0 + d.m[i] * d.m[i]).sqrt();
         let ds = sigma0 * sigma0 / sigma;
         let sq2s = std::f64::consts::SQRT_2 * sigma;
         let base = eta.ln() - std::f64::consts::LN_2 + 0.5 * eta * eta * sigma * sigma;
@@ -588,7 +588,7 @@ fn emg_nll_hess(kind: ModelKind, d: &Data, p: &[f64], g: &mut [f64], h: &mut [f6
     for i in 0..d.x.len() {
         // Heteroscedastic: the point's spread is Sᵢ = √(σ² + mᵢ²) (mᵢ its own uncertainty),
         // with S' = dSᵢ/d ln σ = σ²/Sᵢ and S'' = 2σ²/Sᵢ − σ⁴/Sᵢ³ (both σ when mᵢ = 0).
-        let sigma = sigma0.hypot(d.m[i]);
+        let sigma = (sigma0 * sigma0 + d.m[i] * d.m[i]).sqrt();
         let s1 = sigma0 * sigma0 / sigma;
         let s2 = 2.0 * s1 - s1 * s1 / sigma;
         let sq2s = sq2 * sigma;
@@ -1158,11 +1158,21 @@ pub fn fit_damping_weighted(
             let hetero = d.hetero();
             let floor = if hetero { SIGMA_FLOOR_HETERO } else { SIGMA_FLOOR };
             let (ls_lo, le_hi) = (floor.ln(), ETA_MAX.ln());
+            // With per-point uncertainties the extra spread σ usually ends far under them
+            // (the likelihood is flat in ln σ there): start it at a tenth of the median
+            // uncertainty rather than walking down from the residuals' scale.
+            let m_med = if hetero {
+                let mut m = d.m.clone();
+                m.sort_by(f64::total_cmp);
+                m[m.len() / 2]
+            } else {
+                f64::INFINITY
+            };
             if let Some(lb) = lb_fit(model, &d) {
                 let r = resid(&lb, &mut mg);
                 let mean = (r.iter().sum::<f64>() / nf).max(1e-3);
                 let mut s = lb.clone();
-                s.push((0.1 * mean).ln().max(ls_lo));
+                s.push((0.1 * mean).min(0.1 * m_med).ln().max(ls_lo));
                 s.push((1.0 / mean).ln().min(le_hi));
                 starts.push(s);
             }
@@ -1182,7 +1192,7 @@ pub fn fit_damping_weighted(
                 if !make_feasible(model, &d, &mut s[..k]) {
                     s[..k].copy_from_slice(&lsq);
                 }
-                s.push(sig.ln().max(ls_lo));
+                s.push(sig.min(0.1 * m_med).ln().max(ls_lo));
                 s.push((1.0 / tau.max(1e-6)).ln().min(le_hi));
                 starts.push(s);
             }
@@ -1343,17 +1353,17 @@ mod tests {
             let np = p.len();
             let mut g = vec![0.0; np];
             let mut h = vec![0.0; np * np];
-            let f = emg_nll_hess(kind, &d, &p, &mut g, &mut h);
+            let f = emg_nll_hess(kind, d, &p, &mut g, &mut h);
             let mut g2 = vec![0.0; np];
-            assert!((emg_nll(kind, &d, &p, &mut g2) - f).abs() < 1e-12);
+            assert!((emg_nll(kind, d, &p, &mut g2) - f).abs() < 1e-12);
             assert!(g.iter().zip(&g2).all(|(a, b)| (a - b).abs() < 1e-12));
             let (mut gp, mut gm, mut tmp) = (vec![0.0; np], vec![0.0; np], vec![0.0; np * np]);
             for j in 0..np {
                 let mut pp = p.clone();
                 pp[j] += 1e-6;
-                emg_nll_hess(kind, &d, &pp, &mut gp, &mut tmp);
+                emg_nll_hess(kind, d, &pp, &mut gp, &mut tmp);
                 pp[j] -= 2e-6;
-                emg_nll_hess(kind, &d, &pp, &mut gm, &mut tmp);
+                emg_nll_hess(kind, d, &pp, &mut gm, &mut tmp);
                 for i in 0..np {
                     let fd = (gp[i] - gm[i]) / 2e-6;
                     assert!(
