@@ -29,7 +29,9 @@
 //! - Within `SAME_STRIKE_S` of an onset, while that impact rings, a new onset must also come
 //!   within `onset_db` of the impact's peak: the beating and cavity swells of one strike
 //!   (woodblocks, music boxes, temple blocks) rise by 6 dB at −30 dB, a second strike that
-//!   soon after is as loud as the first.
+//!   soon after is as loud as the first. Later in the ring it must come within
+//!   `RINGING_RESTRIKE_DB` (20 dB) of that peak: a tap 20 dB softer than the one still
+//!   ringing is taken as part of it.
 
 use realfft::num_complex::Complex64 as C64;
 use realfft::RealFftPlanner;
@@ -90,6 +92,10 @@ pub struct Segmentation {
 /// Within this time of an onset, a new onset during the ring must be within `onset_db` of
 /// the impact's peak (module docs), s.
 const SAME_STRIKE_S: f64 = 0.25;
+/// Later in the ring, a new onset must still come within this many dB of the impact's peak:
+/// the late swells of a long ring (a timpani's beating, a bell's warble) stay far under it,
+/// a new tap while the object rings does not.
+const RINGING_RESTRIKE_DB: f64 = 20.0;
 /// New bins of an onset during a ring must span at least this, Hz.
 const MIN_NEW_SPAN_HZ: f64 = 1500.0;
 /// Share of the following 10 ms's energy in spectral peaks that makes a candidate tonal.
@@ -262,9 +268,9 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
             ringing = quiet < 4;
         }
         // The same strike's swell or beat, not a new one (module docs).
-        let same = ringing
-            && onsets.last().is_some_and(|&(_, j0)| j < j0 + same_strike)
-            && e[j] * 10f64.powf(opts.onset_db / 10.0) < impact_peak;
+        let soon = onsets.last().is_some_and(|&(_, j0)| j < j0 + same_strike);
+        let margin_db = if soon { opts.onset_db } else { RINGING_RESTRIKE_DB };
+        let same = ringing && e[j] * 10f64.powf(margin_db / 10.0) < impact_peak;
         if ringing {
             impact_peak = impact_peak.max(e[j]);
         }

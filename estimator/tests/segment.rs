@@ -246,3 +246,40 @@ fn single_strikes_of_many_shapes_are_one_impact_each() {
         assert!(onsets[0] < 0.01, "{name}: onset {}", onsets[0]);
     }
 }
+
+/// Late in a long ring, a faint broadband event 26 dB under the strike's peak (a rattle of
+/// the stand, a swell) is part of the ringing impact; a second tap 6 dB under the first,
+/// while the first still rings, is a new impact.
+#[test]
+fn a_faint_rattle_late_in_the_ring_is_not_a_strike_but_a_tap_is() {
+    let fs = 44_100.0;
+    let mut g = Gen(33);
+    let mut x = vec![0.0; (3.0 * fs) as usize];
+    let click = |x: &mut [f64], t0: f64, a: f64, g: &mut Gen| {
+        let i0 = (t0 * fs) as usize;
+        for i in 0..(0.002 * fs) as usize {
+            x[i0 + i] += a * (-(i as f64) / (0.0004 * fs)).exp() * g.normal();
+        }
+    };
+    // The strike: a click and a ringing bell (d 3–5 s⁻¹: about −30 dB by 1.2 s).
+    click(&mut x, 0.1, 0.4, &mut g);
+    for (f, d, a) in [(523.0, 3.0, 0.3), (1370.0, 4.0, 0.2), (2590.0, 5.0, 0.1)] {
+        add_mode(&mut x, fs, 0.1, f, d, a);
+    }
+    // A rattle at 1.2 s, 26 dB under the strike's click but louder than the ring there.
+    click(&mut x, 1.2, 0.4 * 10f64.powf(-26.0 / 20.0), &mut g);
+    // A second, softer tap at 2.0 s (6 dB under the first), while the first still rings.
+    click(&mut x, 2.0, 0.2, &mut g);
+    for (f, d, a) in [(523.0, 3.0, 0.15), (1370.0, 4.0, 0.1), (2590.0, 5.0, 0.05)] {
+        add_mode(&mut x, fs, 2.0, f, d, a);
+    }
+    for v in x.iter_mut() {
+        *v += 1e-5 * g.normal();
+    }
+    let p = write("rattle-and-tap", &x, fs as u32);
+    let r = features(&p).unwrap();
+    let onsets: Vec<f64> = r.impacts.iter().map(|i| i.onset_s).collect();
+    eprintln!("rattle and tap: onsets {onsets:?}, skipped {:?}", r.skipped);
+    assert_eq!(onsets.len(), 2, "{onsets:?}");
+    assert!((onsets[0] - 0.1).abs() < 0.002 && (onsets[1] - 2.0).abs() < 0.002, "{onsets:?}");
+}
