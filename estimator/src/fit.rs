@@ -1301,19 +1301,27 @@ mod tests {
         d
     }
 
+    /// Parameter points (curve, ln σ, ln η) of every model on both data sets, one far in
+    /// the tail (large s) where erfcx matters.
+    fn emg_cases() -> Vec<(Data, ModelKind, Vec<f64>)> {
+        [data(), data_hetero()]
+            .into_iter()
+            .flat_map(|d| {
+                [
+                    (ModelKind::Rayleigh, vec![0.8, 0.3, (-1.5f64), 0.7]),
+                    (ModelKind::Caughey, vec![0.8, 0.3, 0.1, -1.0, 0.2]),
+                    (ModelKind::Power, vec![1.1, 0.4, -1.2, 0.9]),
+                    (ModelKind::Hybrid, vec![0.5, 0.6, 0.8, -2.0, 1.5]),
+                    (ModelKind::Rayleigh, vec![3.0, 0.3, (-4.0f64), 3.0]),
+                ]
+                .map(|(k, p)| (d.clone(), k, p))
+            })
+            .collect()
+    }
+
     #[test]
     fn emg_gradient_matches_finite_differences() {
-        for (d, kind, p) in [data(), data_hetero()].into_iter().flat_map(|d| {
-            [
-                (ModelKind::Rayleigh, vec![0.8, 0.3, (-1.5f64), 0.7]),
-                (ModelKind::Caughey, vec![0.8, 0.3, 0.1, -1.0, 0.2]),
-                (ModelKind::Power, vec![1.1, 0.4, -1.2, 0.9]),
-                (ModelKind::Hybrid, vec![0.5, 0.6, 0.8, -2.0, 1.5]),
-                // Far in the tail (large s) where erfcx matters.
-                (ModelKind::Rayleigh, vec![3.0, 0.3, (-4.0f64), 3.0]),
-            ]
-            .map(|(k, p)| (d.clone(), k, p))
-        }) {
+        for (d, kind, p) in emg_cases() {
             let d = &d;
             let mut g = vec![0.0; p.len()];
             emg_nll(kind, d, &p, &mut g);
@@ -1339,16 +1347,7 @@ mod tests {
 
     #[test]
     fn emg_hessian_matches_finite_differences() {
-        for (d, kind, p) in [data(), data_hetero()].into_iter().flat_map(|d| {
-            [
-                (ModelKind::Rayleigh, vec![0.8, 0.3, (-1.5f64), 0.7]),
-                (ModelKind::Caughey, vec![0.8, 0.3, 0.1, -1.0, 0.2]),
-                (ModelKind::Power, vec![1.1, 0.4, -1.2, 0.9]),
-                (ModelKind::Hybrid, vec![0.5, 0.6, 0.8, -2.0, 1.5]),
-                (ModelKind::Rayleigh, vec![3.0, 0.3, (-4.0f64), 3.0]),
-            ]
-            .map(|(k, p)| (d.clone(), k, p))
-        }) {
+        for (d, kind, p) in emg_cases() {
             let d = &d;
             let np = p.len();
             let mut g = vec![0.0; np];
