@@ -175,7 +175,8 @@ impl<P: Plugin> Backend<P> for CpalMidir {
                                 error_cb,
                                 None,
                             ),)*
-                            format => todo!("Unsupported sample format {format}"),
+                            // Struck patch: never reached, `new()` only picks the formats above.
+                            format => Err(cpal::Error::with_message(cpal::ErrorKind::UnsupportedConfig, format!("unsupported sample format {format}"))),
                         }
                     }
                 }
@@ -360,7 +361,8 @@ impl<P: Plugin> Backend<P> for CpalMidir {
                             error_cb,
                             None,
                         ),)*
-                        format => todo!("Unsupported sample format {format}"),
+                        // Struck patch: never reached, `new()` only picks the formats above.
+                        format => Err(cpal::Error::with_message(cpal::ErrorKind::UnsupportedConfig, format!("unsupported sample format {format}"))),
                     }
                 }
             }
@@ -524,6 +526,8 @@ impl CpalMidir {
                 let input_configs: Vec<_> = device
                     .supported_input_configs()
                     .context("Could not get supported audio input configurations")?
+                    // Struck patch: only the sample formats the stream builders handle.
+                    .filter(|c| is_supported_format(c.sample_format()))
                     .filter(|c| match c.buffer_size() {
                         cpal::SupportedBufferSize::Range { min, max } => {
                             c.channels() as usize == num_input_channels
@@ -572,6 +576,8 @@ impl CpalMidir {
             let output_configs: Vec<_> = output_device
                 .supported_output_configs()
                 .context("Could not get supported audio output configurations")?
+                // Struck patch: only the sample formats the stream builders handle.
+                .filter(|c| is_supported_format(c.sample_format()))
                 .filter(|c| match c.buffer_size() {
                     cpal::SupportedBufferSize::Range { min, max } => {
                         (c.min_sample_rate()..=c.max_sample_rate()).contains(&requested_sample_rate)
@@ -1066,4 +1072,23 @@ impl CpalMidir {
             }
         }
     }
+}
+
+/// Struck patch: the sample formats `run()`'s stream builders handle (upstream hit `todo!()`
+/// on any other format a device offered; such configurations are now not chosen).
+fn is_supported_format(format: SampleFormat) -> bool {
+    matches!(
+        format,
+        SampleFormat::I8
+            | SampleFormat::I16
+            | SampleFormat::I24
+            | SampleFormat::I32
+            | SampleFormat::I64
+            | SampleFormat::U8
+            | SampleFormat::U16
+            | SampleFormat::U32
+            | SampleFormat::U64
+            | SampleFormat::F32
+            | SampleFormat::F64
+    )
 }
