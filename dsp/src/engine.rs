@@ -33,6 +33,9 @@ pub struct ObjectModes {
     num_points: usize,
     /// Output normalisation so objects with many modes are not louder.
     norm: f32,
+    /// Each mode's fixed support-damping draw ([`support_quantile`]), computed once here,
+    /// not at every strike and rebuild.
+    support_q: Vec<f64>,
 }
 
 impl ObjectModes {
@@ -57,7 +60,8 @@ impl ObjectModes {
             gains.iter().map(|row| row.iter().map(|g| f64::from(*g).powi(2)).sum::<f64>().sqrt()).sum::<f64>()
                 / gains.len() as f64;
         let norm = if mean_rms > 0.0 { (0.7 / mean_rms) as f32 } else { 1.0 };
-        ObjectModes { lambdas, gains: flat, num_points: gains.len(), norm }
+        let support_q = lambdas.iter().enumerate().map(|(i, &l)| support_quantile(i, l)).collect();
+        ObjectModes { lambdas, gains: flat, num_points: gains.len(), norm, support_q }
     }
 
     /// Number of modes.
@@ -566,7 +570,7 @@ impl Engine {
         let mut peak = 0.0f32;
         for m in 0..n {
             let lambda = obj.lambdas[m] * scale;
-            self.amps[m] = match mode_pole(lambda, &damping, support * support_quantile(m, obj.lambdas[m]), extra, fs) {
+            self.amps[m] = match mode_pole(lambda, &damping, support * obj.support_q[m], extra, fs) {
                 Some((_, omega)) => {
                     (f64::from(self.gains[m]) * exciter::pulse_spectrum(omega / (2.0 * PI), contact)) as f32
                 }
@@ -591,13 +595,9 @@ impl Engine {
             }
             let mut slot = voice.slot_of_mode[m];
             if slot == NO_SLOT {
-                let Some((d, omega)) = mode_pole(
-                    obj.lambdas[m] * scale,
-                    &damping,
-                    support * support_quantile(m, obj.lambdas[m]),
-                    extra,
-                    fs,
-                ) else {
+                let Some((d, omega)) =
+                    mode_pole(obj.lambdas[m] * scale, &damping, support * obj.support_q[m], extra, fs)
+                else {
                     continue;
                 };
                 match voice.bank.push(ModeCoeffs::new(d, omega, fs)) {
@@ -633,13 +633,7 @@ impl Engine {
         let obj = &self.objects[voice.object];
         for k in 0..voice.bank.len() {
             let m = usize::from(voice.mode_of_slot[k]);
-            let c = match mode_pole(
-                obj.lambdas[m] * scale,
-                &damping,
-                support * support_quantile(m, obj.lambdas[m]),
-                extra,
-                fs,
-            ) {
+            let c = match mode_pole(obj.lambdas[m] * scale, &damping, support * obj.support_q[m], extra, fs) {
                 Some((d, omega)) => ModeCoeffs::new(d, omega, fs),
                 // The mode no longer rings (over-damped or past Nyquist): silence it.
                 None => ModeCoeffs::default(),
@@ -772,10 +766,9 @@ impl Engine {
             .lambdas
             .iter()
             .zip(&gains)
-            .enumerate()
-            .filter_map(|(m, (&l, &g))| {
-                let (d, omega) =
-                    mode_pole(l * scale, &damping, support * support_quantile(m, l), 0.0, self.sample_rate)?;
+            .zip(&obj.support_q)
+            .filter_map(|((&l, &g), &q)| {
+                let (d, omega) = mode_pole(l * scale, &damping, support * q, 0.0, self.sample_rate)?;
                 let a = (f64::from(g) * exciter::pulse_spectrum(omega / (2.0 * PI), contact)) as f32;
                 Some((omega / (2.0 * PI), d, a))
             })

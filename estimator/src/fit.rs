@@ -1276,27 +1276,24 @@ pub fn fit_damping_weighted(
 mod tests {
     use super::*;
 
-    fn data() -> Data {
-        let pts: Vec<(f64, f64)> = (0..50)
+    fn points() -> Vec<(f64, f64)> {
+        (0..50)
             .map(|i| {
                 let l = 1e6 * (1.0 + i as f64);
                 (l, 2.0 + 1e-7 * l + 0.3 * ((i * 7919 % 13) as f64 / 13.0))
             })
-            .collect();
-        normalise(&pts, None, ModelKind::Hybrid).unwrap()
+            .collect()
+    }
+
+    fn data() -> Data {
+        normalise(&points(), None, ModelKind::Hybrid).unwrap()
     }
 
     /// The same points with per-point uncertainties (heteroscedastic: Sᵢ = √(σ² + mᵢ²)),
     /// spread over two decades.
     fn data_hetero() -> Data {
-        let pts: Vec<(f64, f64)> = (0..50)
-            .map(|i| {
-                let l = 1e6 * (1.0 + i as f64);
-                (l, 2.0 + 1e-7 * l + 0.3 * ((i * 7919 % 13) as f64 / 13.0))
-            })
-            .collect();
         let sig: Vec<f64> = (0..50).map(|i| 0.01 * 10f64.powf((i % 7) as f64 / 3.0)).collect();
-        let d = normalise(&pts, Some(&sig), ModelKind::Hybrid).unwrap();
+        let d = normalise(&points(), Some(&sig), ModelKind::Hybrid).unwrap();
         assert!(d.hetero());
         d
     }
