@@ -1,32 +1,182 @@
-//! Exciters: the force a mallet puts into the object, and a noise burst for rough strikes.
+//! Exciters: the mallet's contact with the object, and a noise burst for rough strikes.
+//!
+//! A strike is a force pulse in time (issue 11 part 1): a half-sine of duration T, the
+//! contact time, with unit area (unit impulse), so the object's modes are driven by the force
+//! itself and the waveform ramps up over the contact as a real strike does; its spectrum
+//! follows from it. T comes from the contact law of the mallet (Hertz for the hard mallets,
+//! the power law of hammer felt for felt) with the strike speed, see [`Mallet::contact_time_s`].
 
-/// Contact time in seconds of the softest mallet (hardness 0: felt).
-pub const SOFTEST_CONTACT_S: f64 = 8e-3;
-/// Contact time in seconds of the hardest mallet (hardness 1: steel on steel).
-pub const HARDEST_CONTACT_S: f64 = 5e-5;
+/// Strike speed at velocity 0, m/s (a barely touching pp stroke).
+pub const SLOWEST_STRIKE_M_PER_S: f64 = 0.05;
+/// Strike speed at velocity 1, m/s (fff: mallet percussion strokes reach 1–5 m/s).
+pub const FASTEST_STRIKE_M_PER_S: f64 = 5.0;
+/// Decades of contact stiffness the *Mallet hardness* spans around a mallet's own (0.5).
+pub const HARDNESS_DECADES: f64 = 3.0;
+/// Shortest and longest contact time the engine plays, s.
+pub const CONTACT_RANGE_S: (f64, f64) = (1e-5, 0.05);
 
-/// Contact time of a mallet of `hardness` in 0..=1 struck at `velocity` in (0, 1].
-///
-/// Hardness interpolates logarithmically between [`SOFTEST_CONTACT_S`] and
-/// [`HARDEST_CONTACT_S`]. A faster strike shortens the contact as Hertzian contact does
-/// (contact time ∝ v^(−1/5), Johnson, *Contact Mechanics*, §11.4), which brightens loud notes.
-pub fn contact_time_s(hardness: f32, velocity: f32) -> f64 {
-    let h = f64::from(hardness.clamp(0.0, 1.0));
-    let t0 = SOFTEST_CONTACT_S * (HARDEST_CONTACT_S / SOFTEST_CONTACT_S).powf(h);
-    t0 * f64::from(velocity.clamp(0.05, 1.0)).powf(-0.2)
+/// The kinds of mallet, each with its contact law.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MalletKind {
+    /// Wool/felt head: stiffening power law (hammer felt).
+    Felt,
+    /// Hard rubber ball.
+    Rubber,
+    /// Hard-wood (maple) ball.
+    Wood,
+    /// Plastic (ABS / polycarbonate) ball, as on xylophone and glockenspiel mallets.
+    Plastic,
+    /// Brass ball.
+    Brass,
+    /// Steel ball or rod (triangle beater).
+    Steel,
 }
 
-/// Magnitude of the force pulse's spectrum at `freq_hz`, normalised to 1 at DC, for a
-/// contact of `contact_s` seconds.
-///
-/// A half-sine pulse of duration T has |P(f)| = |cos(πfT)| / |1 − (2fT)²|: flat below
-/// 1/(2T) and falling as 1/f² above. Real contacts are not exactly half-sine, so its nulls
-/// are not heard; we use the smooth envelope 1 / (1 + (2fT)²), which has the same corner
-/// and the same asymptote.
+impl MalletKind {
+    /// Every kind, softest first.
+    pub const ALL: [MalletKind; 6] = [
+        MalletKind::Felt,
+        MalletKind::Rubber,
+        MalletKind::Wood,
+        MalletKind::Plastic,
+        MalletKind::Brass,
+        MalletKind::Steel,
+    ];
+
+    /// The contact law and mass of this mallet.
+    ///
+    /// Felt: Chaigne & Askenfelt 1994 (J. Acoust. Soc. Am. 95(2), Table I, hammer C4):
+    /// F = K·uᵖ with K = 4.0 × 10⁸ N/m^p, p = 2.5, m = 10 g (felt stiffens as it is
+    /// compressed, Stulov 1995, so loud strikes are much shorter). The others are Hertz
+    /// contacts of a ball of radius R (Johnson, *Contact Mechanics*, 1985, §4.2 eq. 4.23:
+    /// F = (4/3)·E*·√R·u^(3/2)) with handbook Young's moduli: rubber 20 MPa (hard rubber
+    /// mallet, Shore ~90A), maple 1.0 GPa across the grain, ABS 2.3 GPa, brass 100 GPa,
+    /// steel 200 GPa; Poisson's ratios 0.5, 0.4, 0.35, 0.34, 0.29.
+    pub fn mallet(self) -> Mallet {
+        match self {
+            MalletKind::Felt => Mallet { stiffness: 4.0e8, exponent: 2.5, mass_kg: 0.010, hertz: None },
+            MalletKind::Rubber => Mallet::hertz(20e6, 0.5, 0.015, 0.030),
+            MalletKind::Wood => Mallet::hertz(1.0e9, 0.4, 0.012, 0.020),
+            MalletKind::Plastic => Mallet::hertz(2.3e9, 0.35, 0.012, 0.025),
+            MalletKind::Brass => Mallet::hertz(100e9, 0.34, 0.010, 0.040),
+            MalletKind::Steel => Mallet::hertz(200e9, 0.29, 0.008, 0.030),
+        }
+    }
+
+    /// Display name.
+    pub fn name(self) -> &'static str {
+        match self {
+            MalletKind::Felt => "Felt",
+            MalletKind::Rubber => "Rubber",
+            MalletKind::Wood => "Wood",
+            MalletKind::Plastic => "Plastic",
+            MalletKind::Brass => "Brass",
+            MalletKind::Steel => "Steel",
+        }
+    }
+}
+
+/// A Hertz contact's elastic data, kept so the object's own modulus can be combined in.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HertzBall {
+    /// Young's modulus of the mallet, Pa.
+    pub modulus_pa: f64,
+    /// Poisson's ratio of the mallet.
+    pub poisson: f64,
+    /// Radius of the ball, m.
+    pub radius_m: f64,
+}
+
+/// A mallet: contact force F = K·uᵖ at compression u, and the moving mass.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Mallet {
+    /// K, N/m^p (against a rigid object).
+    pub stiffness: f64,
+    /// p (3/2 for Hertz).
+    pub exponent: f64,
+    /// Moving mass, kg.
+    pub mass_kg: f64,
+    /// The ball's elastic data for Hertz mallets (None: a power law of its own, felt).
+    pub hertz: Option<HertzBall>,
+}
+
+impl Mallet {
+    /// A Hertz ball of modulus `e` (Pa), Poisson's ratio `nu`, radius `r` (m), mass `m` (kg),
+    /// on a rigid object.
+    pub fn hertz(e: f64, nu: f64, r: f64, m: f64) -> Mallet {
+        let stiffness = 4.0 / 3.0 * e / (1.0 - nu * nu) * r.sqrt();
+        Mallet { stiffness, exponent: 1.5, mass_kg: m, hertz: Some(HertzBall { modulus_pa: e, poisson: nu, radius_m: r }) }
+    }
+
+    /// This mallet on an object of Young's modulus `object_pa` (Poisson 0.3): the Hertz
+    /// contact modulus 1/E* = (1 − ν₁²)/E₁ + (1 − ν₂²)/E₂ (Johnson eq. 4.22). Unknown (≤ 0
+    /// or not finite) or felt: unchanged (the object is taken as rigid).
+    pub fn on_object(self, object_pa: f64) -> Mallet {
+        match self.hertz {
+            Some(b) if object_pa.is_finite() && object_pa > 0.0 => {
+                let e_star = 1.0 / ((1.0 - b.poisson * b.poisson) / b.modulus_pa + (1.0 - 0.09) / object_pa);
+                Mallet { stiffness: 4.0 / 3.0 * e_star * b.radius_m.sqrt(), ..self }
+            }
+            _ => self,
+        }
+    }
+
+    /// Contact time T (s) of a strike at `speed` (m/s) with the stiffness scaled by
+    /// `stiffness_scale`.
+    ///
+    /// A mass m meeting a contact F = K·uᵖ at speed v (the object locally rigid and massive,
+    /// no losses) compresses to u_max = ((p+1)·m·v² / (2K))^(1/(p+1)) and leaves after
+    /// T = 2·(u_max/v)·I(p), I(p) = ∫₀¹ dx/√(1 − x^(p+1)) = √π·Γ(1 + 1/(p+1)) / Γ(1/2 + 1/(p+1))
+    /// (energy conservation; for p = 3/2 this is Hertz's 2.94·u_max/v, Johnson §11.4 eq. 11.24).
+    /// So T ∝ v^(−(p−1)/(p+1)): v^(−1/5) for Hertz, v^(−3/7) for felt.
+    pub fn contact_time_s(&self, speed: f64, stiffness_scale: f64) -> f64 {
+        let p = self.exponent;
+        let k = self.stiffness * stiffness_scale;
+        let v = speed.max(1e-4);
+        let u_max = ((p + 1.0) * self.mass_kg * v * v / (2.0 * k)).powf(1.0 / (p + 1.0));
+        let t = 2.0 * u_max / v * contact_integral(p);
+        if t.is_finite() {
+            t.clamp(CONTACT_RANGE_S.0, CONTACT_RANGE_S.1)
+        } else {
+            CONTACT_RANGE_S.1
+        }
+    }
+}
+
+/// I(p) = ∫₀¹ dx/√(1 − x^(p+1)) = √π·Γ(1 + 1/(p+1)) / Γ(1/2 + 1/(p+1)) (substitute
+/// y = x^(p+1): a Beta function).
+pub fn contact_integral(p: f64) -> f64 {
+    let q = 1.0 / (p + 1.0);
+    std::f64::consts::PI.sqrt() * libm::tgamma(1.0 + q) / libm::tgamma(0.5 + q)
+}
+
+/// Strike speed (m/s) of a note of `velocity` in 0..=1: exponential from
+/// [`SLOWEST_STRIKE_M_PER_S`] to [`FASTEST_STRIKE_M_PER_S`], so equal velocity steps are
+/// equal ratios of speed (the 40 dB of impulse a player's pp–fff spans).
+#[inline]
+pub fn strike_speed(velocity: f32) -> f64 {
+    let v = f64::from(velocity.clamp(0.0, 1.0));
+    SLOWEST_STRIKE_M_PER_S * (FASTEST_STRIKE_M_PER_S / SLOWEST_STRIKE_M_PER_S).powf(v)
+}
+
+/// Contact-stiffness factor of *Mallet hardness* `h` in 0..=1: 1 at 0.5 (the mallet as
+/// made), [`HARDNESS_DECADES`] decades from end to end.
+#[inline]
+pub fn hardness_scale(hardness: f32) -> f64 {
+    10f64.powf(HARDNESS_DECADES * (f64::from(hardness.clamp(0.0, 1.0)) - 0.5))
+}
+
+/// Magnitude of the unit-area half-sine force pulse's spectrum at `freq_hz` for a contact of
+/// `contact_s` seconds (1 at DC): |P(f)| = |cos(πfT)| / |1 − (2fT)²| (→ π/4 at 2fT = 1).
+/// This is what each mode receives; the engine's exact discrete drive reproduces it.
 #[inline]
 pub fn pulse_spectrum(freq_hz: f64, contact_s: f64) -> f64 {
     let x = 2.0 * freq_hz * contact_s;
-    1.0 / (1.0 + x * x)
+    let den = 1.0 - x * x;
+    if den.abs() < 1e-6 {
+        return std::f64::consts::FRAC_PI_4;
+    }
+    ((0.5 * std::f64::consts::PI * x).cos() / den).abs()
 }
 
 /// Loudness factor of a strike of `velocity` (0..=1) with `sensitivity` (0..=1): 1 for any
@@ -34,6 +184,25 @@ pub fn pulse_spectrum(freq_hz: f64, contact_s: f64) -> f64 {
 #[inline]
 pub fn velocity_gain(velocity: f32, sensitivity: f32) -> f32 {
     velocity.clamp(0.0, 1.0).powf(2.0 * sensitivity.clamp(0.0, 1.0))
+}
+
+/// A-weighting gain (linear) at `f` Hz, IEC 61672-1:2013 eq. (E.6), 0 dB at 1 kHz.
+#[inline]
+pub fn a_weighting(f: f64) -> f64 {
+    const F1: f64 = 20.598_997;
+    const F2: f64 = 107.652_65;
+    const F3: f64 = 737.862_23;
+    const F4: f64 = 12_194.217;
+    // 10^(2.0/20): the normalisation to 0 dB at 1 kHz.
+    const A1000: f64 = 1.258_925_4;
+    let f2 = f * f;
+    let num = F4 * F4 * f2 * f2;
+    let den = (f2 + F1 * F1) * ((f2 + F2 * F2) * (f2 + F3 * F3)).sqrt() * (f2 + F4 * F4);
+    if den > 0.0 {
+        A1000 * num / den
+    } else {
+        0.0
+    }
 }
 
 /// A small, fast, deterministic white-noise source (xorshift32) in [−1, 1).
@@ -65,21 +234,106 @@ impl Noise {
 mod tests {
     use super::*;
 
+    /// The closed-form contact time against a direct integration of m·ü = −K·uᵖ (RK4 with a
+    /// small step, contact ends when u returns to 0), for every mallet at three speeds.
     #[test]
-    fn harder_and_faster_is_shorter() {
-        assert!(contact_time_s(1.0, 1.0) < contact_time_s(0.5, 1.0));
-        assert!(contact_time_s(0.5, 1.0) < contact_time_s(0.5, 0.2));
-        assert!((contact_time_s(0.0, 1.0) - SOFTEST_CONTACT_S).abs() < 1e-12);
+    fn contact_time_matches_an_integration_of_the_contact_law() {
+        for kind in MalletKind::ALL {
+            let m = kind.mallet();
+            for v in [0.1, 1.0, 4.0] {
+                let t_closed = m.contact_time_s(v, 1.0);
+                let dt = t_closed / 200_000.0;
+                let acc = |u: f64| if u > 0.0 { -m.stiffness * u.powf(m.exponent) / m.mass_kg } else { 0.0 };
+                let (mut u, mut w, mut t) = (0.0f64, v, 0.0f64);
+                loop {
+                    let (k1u, k1w) = (w, acc(u));
+                    let (k2u, k2w) = (w + 0.5 * dt * k1w, acc(u + 0.5 * dt * k1u));
+                    let (k3u, k3w) = (w + 0.5 * dt * k2w, acc(u + 0.5 * dt * k2u));
+                    let (k4u, k4w) = (w + dt * k3w, acc(u + dt * k3u));
+                    let un = u + dt / 6.0 * (k1u + 2.0 * k2u + 2.0 * k3u + k4u);
+                    w += dt / 6.0 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w);
+                    if un <= 0.0 && t > 0.0 {
+                        // Linear interpolation of the crossing.
+                        t += dt * u / (u - un);
+                        break;
+                    }
+                    u = un;
+                    t += dt;
+                }
+                assert!((t / t_closed - 1.0).abs() < 1e-4, "{kind:?} at {v} m/s: {t} vs {t_closed}");
+            }
+        }
+    }
+
+    /// Hertz's constant: I(3/2) · 2 = 2.943 (Johnson eq. 11.24 gives T = 2.94 u_max / v).
+    #[test]
+    fn hertz_constant_is_johnsons() {
+        assert!((2.0 * contact_integral(1.5) - 2.943).abs() < 1e-3);
+        // p = 1 is a linear spring: half a period, T = π√(m/K) → 2·I(1) = π.
+        assert!((2.0 * contact_integral(1.0) - std::f64::consts::PI).abs() < 1e-12);
     }
 
     #[test]
-    fn pulse_spectrum_has_half_sine_corner() {
+    fn mallets_are_ordered_and_plausible() {
+        let times: Vec<f64> = MalletKind::ALL.iter().map(|k| k.mallet().contact_time_s(1.0, 1.0)).collect();
+        // Felt 1–5 ms, steel under 0.1 ms (Chaigne & Doutaut 1997 measured 0.5–1 ms for
+        // xylophone mallets, shorter on metal).
+        assert!(times[0] > 1e-3 && times[0] < 5e-3, "{times:?}");
+        assert!(times[5] < 1e-4, "{times:?}");
+        for w in times.windows(2) {
+            assert!(w[0] > w[1], "softest first: {times:?}");
+        }
+        // A soft object lengthens a hard mallet's contact; felt ignores it.
+        let steel = MalletKind::Steel.mallet();
+        assert!(steel.on_object(3e9).contact_time_s(1.0, 1.0) > 2.0 * steel.contact_time_s(1.0, 1.0));
+        let felt = MalletKind::Felt.mallet();
+        assert_eq!(felt.on_object(3e9), felt);
+    }
+
+    #[test]
+    fn pulse_spectrum_is_the_half_sines() {
         let t = 1e-3;
         assert_eq!(pulse_spectrum(0.0, t), 1.0);
-        assert!((pulse_spectrum(500.0, t) - 0.5).abs() < 1e-12);
-        // 1/f² asymptote, within 1 % a decade above the corner.
-        let f = 5000.0;
-        assert!((pulse_spectrum(f, t) * (2.0 * f * t).powi(2) - 1.0).abs() < 0.01);
+        // Null at 2fT = 3 (f = 1.5 kHz), π/4 at the removable singularity 2fT = 1.
+        assert!(pulse_spectrum(1500.0, t) < 1e-12);
+        assert!((pulse_spectrum(500.0, t) - std::f64::consts::FRAC_PI_4).abs() < 1e-9);
+        assert!((pulse_spectrum(500.0 * (1.0 + 1e-5), t) - std::f64::consts::FRAC_PI_4).abs() < 1e-4);
+        // Direct numerical Fourier transform of the unit-area half-sine at a few frequencies.
+        for f in [100.0, 700.0, 2345.0, 9000.0] {
+            let n = 100_000;
+            let (mut re, mut im) = (0.0, 0.0);
+            for i in 0..n {
+                let tt = (i as f64 + 0.5) * t / n as f64;
+                let x = std::f64::consts::PI / (2.0 * t) * (std::f64::consts::PI * tt / t).sin() * t / n as f64;
+                re += x * (2.0 * std::f64::consts::PI * f * tt).cos();
+                im += x * (2.0 * std::f64::consts::PI * f * tt).sin();
+            }
+            let mag = (re * re + im * im).sqrt();
+            assert!((mag - pulse_spectrum(f, t)).abs() < 1e-6, "{f} Hz: {mag}");
+        }
+    }
+
+    /// IEC 61672-1 Table 3 design goals: −19.1 dB at 100 Hz, 0 at 1 kHz, −2.5 at 10 kHz.
+    #[test]
+    fn a_weighting_matches_the_standard_table() {
+        let db = |f: f64| 20.0 * a_weighting(f).log10();
+        assert!((db(100.0) + 19.1).abs() < 0.05);
+        assert!(db(1000.0).abs() < 0.01);
+        assert!((db(10_000.0) + 2.5).abs() < 0.05);
+        // The table's nominal 31.5 Hz is the exact base-10 frequency 10^1.5.
+        assert!((db(10f64.powf(1.5)) + 39.4).abs() < 0.05);
+    }
+
+    #[test]
+    fn faster_is_shorter_and_felt_stiffens_most() {
+        let felt = MalletKind::Felt.mallet();
+        let wood = MalletKind::Wood.mallet();
+        let ratio = |m: &Mallet| m.contact_time_s(0.2, 1.0) / m.contact_time_s(2.0, 1.0);
+        // T ∝ v^(−(p−1)/(p+1)): 10^(3/7) for felt, 10^(1/5) for Hertz.
+        assert!((ratio(&felt) - 10f64.powf(3.0 / 7.0)).abs() < 1e-9);
+        assert!((ratio(&wood) - 10f64.powf(0.2)).abs() < 1e-9);
+        assert!(strike_speed(1.0) > strike_speed(0.5) && (strike_speed(0.0) - SLOWEST_STRIKE_M_PER_S).abs() < 1e-12);
+        assert!((hardness_scale(0.5) - 1.0).abs() < 1e-12);
     }
 
     #[test]

@@ -13,6 +13,7 @@ pub mod engine;
 pub mod exciter;
 pub mod ftz;
 pub mod resonator;
+pub mod safety;
 
 pub use damping::Damping;
 pub use engine::{Engine, NoteId, ObjectModes, SoundParams, Strike, Terminated};

@@ -47,6 +47,13 @@ pub struct ResonatorBank {
     pr: Vec<f32>,
     pi: Vec<f32>,
     len: usize,
+    /// Forcing coefficients of each mode (see [`process_forced`](Self::process_forced)):
+    /// complex weights of the two pulse signals and the real weight of the noise signal.
+    fpr: Vec<f32>,
+    fpi: Vec<f32>,
+    fqr: Vec<f32>,
+    fqi: Vec<f32>,
+    fb: Vec<f32>,
     /// Lane-wise per-sample accumulators, `MAX_KERNEL_BLOCK × LANES`.
     acc: Vec<f32>,
     /// Use the AVX2/FMA kernel: decided in [`new`](Self::new), so the audio thread never runs
@@ -64,6 +71,11 @@ impl ResonatorBank {
             pr: vec![0.0; padded],
             pi: vec![0.0; padded],
             len: 0,
+            fpr: vec![0.0; padded],
+            fpi: vec![0.0; padded],
+            fqr: vec![0.0; padded],
+            fqi: vec![0.0; padded],
+            fb: vec![0.0; padded],
             acc: vec![0.0; MAX_KERNEL_BLOCK * LANES],
             avx2: avx2_available(),
         }
@@ -101,7 +113,42 @@ impl ResonatorBank {
         self.im.fill(0.0);
         self.pr.fill(0.0);
         self.pi.fill(0.0);
+        self.clear_forcing();
         self.len = 0;
+    }
+
+    /// Zeroes every mode's forcing coefficients. Realtime-safe.
+    pub fn clear_forcing(&mut self) {
+        self.fpr.fill(0.0);
+        self.fpi.fill(0.0);
+        self.fqr.fill(0.0);
+        self.fqi.fill(0.0);
+        self.fb.fill(0.0);
+    }
+
+    /// Sets how slot `k` is driven by [`process_forced`](Self::process_forced): complex
+    /// weights `p` and `q` of the two pulse signals and real weight `b` of the noise signal.
+    #[inline]
+    pub fn set_forcing(&mut self, k: usize, p: (f32, f32), q: (f32, f32), b: f32) {
+        self.fpr[k] = p.0;
+        self.fpi[k] = p.1;
+        self.fqr[k] = q.0;
+        self.fqi[k] = q.1;
+        self.fb[k] = b;
+    }
+
+    /// Adds the complex value `re + i·im` to slot `k`'s state (an exact correction of the
+    /// state at a sample boundary).
+    #[inline]
+    pub fn excite_complex(&mut self, k: usize, re: f32, im: f32) {
+        self.re[k] += re;
+        self.im[k] += im;
+    }
+
+    /// The complex pole of slot `k`.
+    #[inline]
+    pub fn pole(&self, k: usize) -> (f32, f32) {
+        (self.pr[k], self.pi[k])
     }
 
     /// Appends a mode at rest and returns its slot, or `None` when full. Realtime-safe.
@@ -150,6 +197,31 @@ impl ResonatorBank {
     pub fn process_driven(&mut self, x: &[f32], drive: &[f32], out: &mut [f32]) {
         debug_assert!(x.len() >= out.len() && drive.len() >= self.len);
         self.run(Some((x, drive)), out);
+    }
+
+    /// Advances every mode by `out.len()` samples (at most [`MAX_KERNEL_BLOCK`]) driven by
+    /// three signals and adds the summed output into `out`. Per sample, before the advance
+    /// (like [`excite`](Self::excite)): `y += P·u[0][n] + Q·u[1][n] + b·u[2][n]` with each
+    /// mode's complex P, Q and real b from [`set_forcing`](Self::set_forcing). The engine's
+    /// force pulse and noise burst. One portable kernel for every CPU (it runs only while a
+    /// strike's contact or noise lasts), so its output does not depend on the SIMD choice.
+    /// Realtime-safe.
+    pub fn process_forced(&mut self, u: [&[f32]; 3], out: &mut [f32]) {
+        let n = out.len().min(MAX_KERNEL_BLOCK);
+        if self.len == 0 || n == 0 {
+            return;
+        }
+        let padded = self.len.div_ceil(LANES) * LANES;
+        let acc = &mut self.acc[..n * LANES];
+        acc.fill(0.0);
+        portable::run_forced(
+            (&mut self.re[..padded], &mut self.im[..padded]),
+            (&self.pr[..padded], &self.pi[..padded]),
+            [&self.fpr[..padded], &self.fpi[..padded], &self.fqr[..padded], &self.fqi[..padded], &self.fb[..padded]],
+            [&u[0][..n], &u[1][..n], &u[2][..n]],
+            acc,
+        );
+        reduce(acc, &mut out[..n]);
     }
 
     fn run(&mut self, input: Option<(&[f32], &[f32])>, out: &mut [f32]) {
@@ -268,6 +340,51 @@ mod portable {
                     }
                     let nr = cr[l].mul_add(r[l], -(ci[l] * i[l]));
                     let ni = cr[l].mul_add(i[l], ci[l] * r[l]);
+                    r[l] = nr;
+                    i[l] = ni;
+                    a[l] += ni;
+                }
+            }
+            re[g..g + LANES].copy_from_slice(&r);
+            im[g..g + LANES].copy_from_slice(&i);
+        }
+    }
+
+    /// The forced kernel (see `ResonatorBank::process_forced`): `f` holds the forcing
+    /// coefficients P re, P im, Q re, Q im, b; `u` the three signals of `n` samples.
+    #[allow(clippy::needless_range_loop)] // lane loops index several arrays in lockstep
+    pub fn run_forced(
+        (re, im): (&mut [f32], &mut [f32]),
+        (pr, pi): (&[f32], &[f32]),
+        f: [&[f32]; 5],
+        u: [&[f32]; 3],
+        acc: &mut [f32],
+    ) {
+        let n = u[0].len();
+        for g in (0..re.len()).step_by(LANES) {
+            let mut r = [0.0f32; LANES];
+            let mut i = [0.0f32; LANES];
+            let mut cr = [0.0f32; LANES];
+            let mut ci = [0.0f32; LANES];
+            let mut c = [[0.0f32; LANES]; 5];
+            r.copy_from_slice(&re[g..g + LANES]);
+            i.copy_from_slice(&im[g..g + LANES]);
+            cr.copy_from_slice(&pr[g..g + LANES]);
+            ci.copy_from_slice(&pi[g..g + LANES]);
+            for (cj, fj) in c.iter_mut().zip(&f) {
+                cj.copy_from_slice(&fj[g..g + LANES]);
+            }
+            for s in 0..n {
+                let (u0, u1, u2) = (u[0][s], u[1][s], u[2][s]);
+                let a = &mut acc[s * LANES..(s + 1) * LANES];
+                for l in 0..LANES {
+                    // Plain products (no mul_add): without the FMA target feature, mul_add
+                    // is a library call, and this kernel runs on every CPU.
+                    let xr = c[0][l] * u0 + c[2][l] * u1 + c[4][l] * u2;
+                    let xi = c[1][l] * u0 + c[3][l] * u1;
+                    let (yr, yi) = (r[l] + xr, i[l] + xi);
+                    let nr = cr[l] * yr - ci[l] * yi;
+                    let ni = cr[l] * yi + ci[l] * yr;
                     r[l] = nr;
                     i[l] = ni;
                     a[l] += ni;

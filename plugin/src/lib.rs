@@ -17,7 +17,7 @@ use dsp::ftz::DenormalGuard;
 use library::Library;
 use nice_plug::midi::{Channel, Key, VoiceID};
 use nice_plug::prelude::*;
-use params::{KeyMode, StruckParams, SupportMode, MAX_SUPPORT_PER_S, POSITION_POLY_MOD_ID};
+use params::{KeyMode, PitchReference, StruckParams, SupportMode, MAX_SUPPORT_PER_S, POSITION_POLY_MOD_ID};
 use std::sync::Arc;
 
 /// Voices in the pool (the CLAP voice capacity).
@@ -108,7 +108,15 @@ impl Struck {
             SupportMode::Amount => f64::from(p.support_amount_per_s.value()),
         }
         .clamp(0.0, MAX_SUPPORT_PER_S);
+        // The object's Young's modulus as played, E = γ·ρ (the bank's reference density),
+        // for the Hertz contact of a hard mallet on it.
+        let object_modulus = self.library.banks.get(self.object_index()).map_or(0.0, |b| {
+            b.reference.specific_modulus * modulus * b.reference.density
+        });
         SoundParams {
+            mallet: p.mallet.value().kind().mallet().on_object(object_modulus),
+            normalize: p.normalize_level.value(),
+            variation: p.variation.value(),
             damping,
             decay_scale: f64::from(p.decay_scale.value()),
             modulus_ratio: modulus,
@@ -130,28 +138,46 @@ impl Struck {
         let base = p.strike_position.value();
         match p.key_mode.value() {
             // One semitone per key: pitch ∝ sqrt(λ), so λ scales by 2^(1/6) per key.
-            KeyMode::Pitched => {
-                let semis = if p.key_tuning.value() {
-                    // Lowest mode at the key's equal-tempered pitch: λ factor (f_key / f₁)².
-                    let f1 = self
-                        .library
-                        .banks
-                        .get(self.object_index())
-                        .and_then(|b| b.lambdas.first())
-                        .map_or(1.0, |l| l.sqrt() / (2.0 * std::f64::consts::PI));
-                    let f_key = 440.0 * 2f64.powf((f64::from(key) - 69.0) / 12.0);
-                    12.0 * (f_key / f1).log2()
-                } else {
-                    f64::from(i32::from(key) - root)
-                };
-                Strike { velocity, position: base, lambda_factor: 2f64.powf(semis / 6.0) }
-            }
+            KeyMode::Pitched => Strike {
+                velocity,
+                position: base,
+                lambda_factor: params::key_lambda_factor(p, self.library.banks.get(self.object_index()), key),
+            },
             KeyMode::Positions => {
                 let points = self.library.banks.get(self.object_index()).map_or(1, |b| b.points.len()).max(1) as i32;
                 let idx = (i32::from(key) - root).rem_euclid(points);
                 let position = if points > 1 { idx as f32 / (points - 1) as f32 } else { 0.0 };
                 Strike { velocity, position, lambda_factor: 1.0 }
             }
+        }
+    }
+
+    /// With *Pitch reference* = *Strongest mode* (Pitched keys, *Keys tune the object*):
+    /// retunes `strike` so that the mode that rings loudest for it sounds at `key`'s
+    /// equal-tempered pitch. Which mode is loudest depends on the tuning (the mallet's
+    /// spectrum falls with frequency), so the choice is iterated until it holds (at most 4
+    /// rounds). Realtime-safe.
+    fn tune_to_strongest(&mut self, key: u8, strike: &mut Strike) {
+        let p = &self.params;
+        if p.key_mode.value() != KeyMode::Pitched
+            || !p.key_tuning.value()
+            || p.pitch_reference.value() != PitchReference::Strongest
+        {
+            return;
+        }
+        let object = self.object_index();
+        let (Some(bank), Some(engine)) = (self.library.banks.get(object), self.engine.as_mut()) else { return };
+        let omega_key = 2.0 * std::f64::consts::PI * 440.0 * 2f64.powf((f64::from(key) - 69.0) / 12.0);
+        let mut mode = 0;
+        for _ in 0..4 {
+            let Some(m) = engine.strongest_mode(object, *strike) else { return };
+            if let Some(&l) = bank.lambdas.get(m) {
+                strike.lambda_factor = omega_key * omega_key / l;
+            }
+            if m == mode {
+                break;
+            }
+            mode = m;
         }
     }
 
@@ -164,6 +190,7 @@ impl Struck {
                 {
                     strike.position = position;
                 }
+                self.tune_to_strongest(*key, &mut strike);
                 Some(strike)
             }
             _ => None,
@@ -294,6 +321,7 @@ impl Plugin for Struck {
         while let Some(a) = self.editor_shared.audition.pop() {
             let mut strike = self.strike_for(a.key, a.velocity);
             strike.position = a.position;
+            self.tune_to_strongest(a.key, &mut strike);
             if let Some(e) = self.engine.as_mut() {
                 e.note_on(a.note(), strike);
             }
@@ -339,11 +367,13 @@ impl Plugin for Struck {
             }
             // The editor's A/B clip, if one is playing (before the output gain, like the voices).
             self.clip_player.mix(&self.editor_shared, &mut self.mono[..len]);
+            let safety = self.params.output_safety.value();
             for i in 0..len {
                 let g = util::db_to_gain_fast(self.params.gain_db.smoothed.next());
                 let s = self.mono[i] * g;
                 // Never pass NaN or infinities to the host.
                 let s = if s.is_finite() { s } else { 0.0 };
+                let s = if safety { dsp::safety::soft_clip(s) } else { s };
                 for ch in outputs.iter_mut() {
                     ch[start + i] = s;
                 }

@@ -59,6 +59,64 @@ pub enum SupportMode {
     Amount,
 }
 
+/// The mallet: its contact law sets how long it touches the object (issue 11 part 1).
+#[derive(Enum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MalletParam {
+    /// Felt (stiffening hammer felt: loud strikes much brighter).
+    #[id = "felt"]
+    Felt,
+    /// Hard rubber.
+    #[id = "rubber"]
+    Rubber,
+    /// Hard wood.
+    #[id = "wood"]
+    Wood,
+    /// Plastic.
+    #[id = "plastic"]
+    Plastic,
+    /// Brass.
+    #[id = "brass"]
+    Brass,
+    /// Steel.
+    #[id = "steel"]
+    Steel,
+}
+
+impl MalletParam {
+    /// The engine's mallet kind.
+    pub fn kind(self) -> dsp::exciter::MalletKind {
+        use dsp::exciter::MalletKind as K;
+        match self {
+            MalletParam::Felt => K::Felt,
+            MalletParam::Rubber => K::Rubber,
+            MalletParam::Wood => K::Wood,
+            MalletParam::Plastic => K::Plastic,
+            MalletParam::Brass => K::Brass,
+            MalletParam::Steel => K::Steel,
+        }
+    }
+}
+
+/// Which mode the keys tune (issue 11 part 3).
+#[derive(Enum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PitchReference {
+    /// The object's lowest mode.
+    #[id = "lowest"]
+    #[name = "Lowest mode"]
+    Lowest,
+    /// The mode that rings loudest for the note (strike point, mallet and velocity included).
+    #[id = "strongest"]
+    #[name = "Strongest mode"]
+    Strongest,
+    /// The mode numbered by *Pitch mode* (the bank's labels name them, e.g. a bell's nominal).
+    #[id = "chosen"]
+    #[name = "Chosen mode"]
+    Chosen,
+}
+
+/// Most modes *Pitch mode* can choose from.
+pub const MAX_PITCH_MODE: i32 = 256;
+
 /// Largest support damping the plugin plays (mean extra c, s⁻¹): the range of *Custom
 /// support* and *Support amount*; a library material's recorded value is clamped to it.
 pub const MAX_SUPPORT_PER_S: f64 = 2000.0;
@@ -125,9 +183,28 @@ pub struct StruckParams {
     /// Where the object is struck, 0..=1 along the bank's strike points.
     #[id = "pos"]
     pub strike_position: FloatParam,
-    /// Mallet hardness, 0 (felt, long contact) to 1 (steel, short contact).
+    /// The mallet (contact law, mass).
+    #[id = "mallet"]
+    pub mallet: EnumParam<MalletParam>,
+    /// Mallet hardness: its contact stiffness, 50 % as made, ±1.5 decades at 0 and 100 %.
     #[id = "hard"]
     pub hardness: FloatParam,
+    /// Per-strike variation of position, force and contact time (0: exact repeats).
+    #[id = "variation"]
+    pub variation: FloatParam,
+    /// Which mode the keys tune (Pitched mode with *Keys tune the object*).
+    #[id = "pitchref"]
+    pub pitch_reference: EnumParam<PitchReference>,
+    /// The mode tuned when *Pitch reference* is *Chosen mode*, 1 = lowest.
+    #[id = "pitchmode"]
+    pub pitch_mode: IntParam,
+    /// Every strike at the same reference loudness (objects, sizes, keys, materials and the
+    /// mallet change timbre, not level); off: the physical level of a unit impulse.
+    #[id = "levelnorm"]
+    pub normalize_level: BoolParam,
+    /// A soft clipper on the output: transparent below −1 dBFS, never above 0 dBFS.
+    #[id = "safety"]
+    pub output_safety: BoolParam,
     /// Share of the strike delivered as a noise burst (rough strikes).
     #[id = "noise"]
     pub noise: FloatParam,
@@ -378,10 +455,19 @@ impl StruckParams {
                 .with_value_to_string(formatters::v2s_f32_percentage(1))
                 .with_unit("%")
                 .with_string_to_value(formatters::s2v_f32_percentage()),
-            hardness: FloatParam::new("Mallet hardness", 0.6, FloatRange::Linear { min: 0.0, max: 1.0 })
+            mallet: EnumParam::new("Mallet", MalletParam::Wood),
+            hardness: FloatParam::new("Mallet hardness", 0.5, FloatRange::Linear { min: 0.0, max: 1.0 })
                 .with_value_to_string(formatters::v2s_f32_percentage(0))
                 .with_unit("%")
                 .with_string_to_value(formatters::s2v_f32_percentage()),
+            variation: FloatParam::new("Variation", 0.0, FloatRange::Linear { min: 0.0, max: 1.0 })
+                .with_value_to_string(formatters::v2s_f32_percentage(0))
+                .with_unit("%")
+                .with_string_to_value(formatters::s2v_f32_percentage()),
+            pitch_reference: EnumParam::new("Pitch reference", PitchReference::Lowest),
+            pitch_mode: IntParam::new("Pitch mode", 1, IntRange::Linear { min: 1, max: MAX_PITCH_MODE }),
+            normalize_level: BoolParam::new("Normalise level", true),
+            output_safety: BoolParam::new("Output safety", true),
             noise: FloatParam::new("Noise", 0.0, FloatRange::Linear { min: 0.0, max: 1.0 })
                 .with_value_to_string(formatters::v2s_f32_percentage(0))
                 .with_unit("%")
@@ -483,5 +569,32 @@ impl StruckParams {
             DampingModelParam::Power => Damping::Power { alpha1: c1k / LAMBDA_1K.powf(e), alpha2: e },
             DampingModelParam::Hybrid => Damping::Hybrid { alpha1: a1, alpha2: c1k / LAMBDA_1K.powf(e), alpha3: e },
         }
+    }
+}
+
+/// The λ factor a note-on of `key` gets (the one place: the plugin's `strike_for` and the
+/// editor call it): in *Pitched* mode one semitone per key from the root, or with *Keys tune
+/// the object* the reference mode (the lowest, or the chosen one of *Pitch reference*; the
+/// strongest starts from the lowest and is refined with the engine) at the key's
+/// equal-tempered pitch; 1 in *Positions* mode.
+pub fn key_lambda_factor(params: &StruckParams, bank: Option<&presets::Bank>, key: u8) -> f64 {
+    match params.key_mode.value() {
+        KeyMode::Pitched => {
+            let semis = if params.key_tuning.value() {
+                let mode = match params.pitch_reference.value() {
+                    PitchReference::Lowest | PitchReference::Strongest => 0,
+                    PitchReference::Chosen => (params.pitch_mode.value() - 1).max(0) as usize,
+                };
+                let f1 = bank
+                    .and_then(|b| b.lambdas.get(mode.min(b.lambdas.len().saturating_sub(1))))
+                    .map_or(1.0, |l| l.sqrt() / std::f64::consts::TAU);
+                let f_key = 440.0 * 2f64.powf((f64::from(key) - 69.0) / 12.0);
+                12.0 * (f_key / f1).log2()
+            } else {
+                f64::from(i32::from(key) - params.root_note.value())
+            };
+            2f64.powf(semis / 6.0)
+        }
+        KeyMode::Positions => 1.0,
     }
 }

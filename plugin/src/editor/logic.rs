@@ -4,7 +4,7 @@
 //! Units: frequencies in Hz, λ in rad²/s², c and d in s⁻¹ (d = c/2), T60 in s.
 
 use crate::library::Library;
-use crate::params::{KeyMode, StruckParams};
+use crate::params::StruckParams;
 use dsp::Damping;
 use presets::Bank;
 use std::f64::consts::TAU;
@@ -88,24 +88,7 @@ pub fn point_at_position(points: &[[f32; 2]], position: f32) -> Option<[f32; 2]>
     Some([a[0] + (b[0] - a[0]) * frac, a[1] + (b[1] - a[1]) * frac])
 }
 
-/// The λ factor a note-on of `key` gets (mirrors `Struck::strike_for`): in *Pitched* mode one
-/// semitone per key from the root, or with *Keys tune the object* the lowest mode at the key's
-/// equal-tempered pitch; 1 in *Positions* mode.
-pub fn key_lambda_factor(params: &StruckParams, bank: Option<&Bank>, key: u8) -> f64 {
-    match params.key_mode.value() {
-        KeyMode::Pitched => {
-            let semis = if params.key_tuning.value() {
-                let f1 = bank.and_then(|b| b.lambdas.first()).map_or(1.0, |l| l.sqrt() / TAU);
-                let f_key = 440.0 * 2f64.powf((f64::from(key) - 69.0) / 12.0);
-                12.0 * (f_key / f1).log2()
-            } else {
-                f64::from(i32::from(key) - params.root_note.value())
-            };
-            2f64.powf(semis / 6.0)
-        }
-        KeyMode::Positions => 1.0,
-    }
-}
+pub use crate::params::key_lambda_factor;
 
 /// Total λ scale of a note of `key` on the selected object: (γ/γ₀)·(material's γ when
 /// *Material sets pitch*)·key factor / size² (SCIENCE.md §1, Ren 2013 eq. 10).
