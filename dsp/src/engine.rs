@@ -21,20 +21,47 @@ pub const SILENCE_ENERGY: f32 = 1e-12;
 pub const MAX_TERMINATED: usize = 256;
 /// Smoothing time constant of glided parameters (modulus ratio, size, decay scale), seconds.
 pub const GLIDE_S: f64 = 0.03;
-/// Level of a reference strike with *Normalise level* on (issue 11 part 2): the A-weighted
-/// RMS over its first [`LOUDNESS_WINDOW_S`] of a velocity-1 strike, linear (−20 dBFS).
+/// Level of a reference strike with *Normalise level* on (issue 11 part 2): the K-weighted
+/// (ITU-R BS.1770-4) RMS over its first [`LOUDNESS_WINDOW_S`] of a velocity-1 strike,
+/// linear (−20 dBFS).
 pub const REFERENCE_RMS: f64 = 0.1;
 /// Window of the loudness measure, s.
 pub const LOUDNESS_WINDOW_S: f64 = 0.05;
 /// Most unweighted RMS the normalisation may give a strike (−8 dBFS), so an object whose
-/// modes lie where A-weighting is deaf (sub-bass) is not raised without bound.
+/// modes lie where K-weighting is deaf (under 30 Hz) is not raised without bound.
 pub const MAX_UNWEIGHTED_RMS: f64 = 0.4;
+/// Modes closer than this (Hz) interfere within the loudness window: their cross terms are
+/// counted (the degenerate pairs of symmetric objects, struck between their nodes, cancel
+/// or reinforce); farther apart they add as powers.
+pub const COHERENT_HZ: f64 = 4.0 / LOUDNESS_WINDOW_S;
+/// Modes closer than this (Hz) are heard as one partial when choosing the strongest mode.
+pub const PARTIAL_HZ: f64 = 1.0;
+/// Most earlier modes within [`COHERENT_HZ`] whose cross terms are counted.
+const COHERENT_MAX: usize = 16;
+
+/// Mean of cos(Δω·t)·e^(−D·t) over t in [0, τ]: Re[(1 − e^(−(D − iΔω)τ)) / ((D − iΔω)τ)].
+#[inline]
+fn window_mean(decay: f64, delta_omega: f64, tau: f64) -> f64 {
+    let (x, y) = (decay * tau, -delta_omega * tau);
+    if x.abs() + y.abs() < 1e-9 {
+        return 1.0;
+    }
+    // 1 − e^(−(x + iy)) = 1 − e^(−x)(cos y − i sin y).
+    let e = (-x).exp();
+    let (num_r, num_i) = (1.0 - e * y.cos(), e * y.sin());
+    (num_r * x + num_i * y) / (x * x + y * y)
+}
 /// Largest relative jitter of the strike force and contact time at *Variation* 1.
 pub const VARIATION_FORCE: f32 = 0.2;
 /// Largest jitter of the strike position (fraction of the path) at *Variation* 1.
 pub const VARIATION_POSITION: f32 = 0.04;
 
 const NO_SLOT: u16 = u16::MAX;
+/// Kernel steps before the force starts. The kernel's output for a step is the state one
+/// sample after the step's input; a note-on at sample n starts its force at the instant of
+/// sample n, so that sample's output is the object at rest (0) and the pulse's first interval
+/// is the next step's.
+const PULSE_PREROLL: usize = 1;
 /// Seed of the *Variation* generator (restarted by `reset`, so renders repeat exactly).
 const VARIATION_SEED: u32 = 0x5EED_1234;
 
@@ -50,6 +77,8 @@ pub struct ObjectModes {
     /// Each mode's fixed support-damping draw ([`support_quantile`]), computed once here,
     /// not at every strike and rebuild.
     support_q: Vec<f64>,
+    /// Mode indices in ascending λ (so in ascending frequency at any λ scale).
+    by_lambda: Vec<u16>,
 }
 
 impl ObjectModes {
@@ -75,7 +104,9 @@ impl ObjectModes {
                 / gains.len() as f64;
         let norm = if mean_rms > 0.0 { (0.7 / mean_rms) as f32 } else { 1.0 };
         let support_q = lambdas.iter().enumerate().map(|(i, &l)| support_quantile(i, l)).collect();
-        ObjectModes { lambdas, gains: flat, num_points: gains.len(), norm, support_q }
+        let mut by_lambda: Vec<u16> = (0..m as u16).collect();
+        by_lambda.sort_by(|&a, &b| lambdas[usize::from(a)].total_cmp(&lambdas[usize::from(b)]));
+        ObjectModes { lambdas, gains: flat, num_points: gains.len(), norm, support_q, by_lambda }
     }
 
     /// Number of modes.
@@ -233,7 +264,8 @@ struct Voice {
     bank: ResonatorBank,
     slot_of_mode: Vec<u16>,
     mode_of_slot: Vec<u16>,
-    /// Samples of the force pulse, and how many have been rendered.
+    /// Samples of the force pulse (plus the one of the note-on, at whose instant the force
+    /// starts: see [`PULSE_PREROLL`]), and how many have been rendered.
     contact_len: usize,
     contact_pos: usize,
     /// Phase step of the pulse's sine per sample, π·h/T.
@@ -443,8 +475,8 @@ fn render_voice(voice: &mut Voice, buf: &mut [Vec<f32>; 3], out: &mut [f32]) {
         let [u0, u1, u2] = buf;
         for j in 0..m {
             let t = voice.contact_pos + j;
-            (u0[j], u1[j]) = if t < voice.contact_len {
-                let (s, c) = (voice.contact_step * t as f64).sin_cos();
+            (u0[j], u1[j]) = if (PULSE_PREROLL..voice.contact_len).contains(&t) {
+                let (s, c) = (voice.contact_step * (t - PULSE_PREROLL) as f64).sin_cos();
                 (s as f32, c as f32)
             } else {
                 (0.0, 0.0)
@@ -514,10 +546,11 @@ impl ModeSet<'_> {
     /// `None` if no mode rings. Realtime-safe.
     ///
     /// Level (issue 11 part 2): with `normalize`, the strike is scaled so that a velocity-1
-    /// strike of the same mallet would have an A-weighted RMS over its first
-    /// [`LOUDNESS_WINDOW_S`] of [`REFERENCE_RMS`]: Σₘ (A(fₘ)·aₘ)²·w(dₘ)/2 with
-    /// w(d) = (1 − e^(−2dτ))/(2dτ) the mean of the mode's squared envelope over the window
-    /// (and 1/2 that of sin²), capped so the unweighted RMS stays under
+    /// strike of the same mallet would have a K-weighted RMS over its first
+    /// [`LOUDNESS_WINDOW_S`] of [`REFERENCE_RMS`]: the window's mean square of the modes,
+    /// Σₘ ½·(K(fₘ)·aₘ)²·W(2dₘ, 0) + Σ_{close pairs} K·a·K'·a'·W(d + d', Δω) with
+    /// W(D, Δω) the mean of cos(Δω t)·e^(−Dt) over the window (pairs within [`COHERENT_HZ`];
+    /// the sum-frequency terms average out). Capped so the unweighted RMS stays under
     /// [`MAX_UNWEIGHTED_RMS`]. Velocity then changes loudness only by
     /// [`exciter::velocity_gain`] and brightness by the contact time. Without `normalize`,
     /// the object's fixed normalisation of a unit impulse.
@@ -537,7 +570,11 @@ impl ModeSet<'_> {
         let contact_ref = p.mallet.contact_time_s(exciter::strike_speed(1.0), stiffness);
         let tau = LOUDNESS_WINDOW_S;
         let (mut peak, mut weighted, mut flat) = (0.0f32, 0.0f64, 0.0f64);
-        for m in 0..obj.num_modes() {
+        // The last modes (ω, d, K-weighted amplitude, amplitude), a ring, for cross terms.
+        let mut recent = [(0.0f64, 0.0f64, 0.0f64, 0.0f64); COHERENT_MAX];
+        let mut count = 0usize;
+        for &m in &obj.by_lambda {
+            let m = usize::from(m);
             let lambda = obj.lambdas[m] * self.scale;
             let Some((d, omega)) = mode_pole(lambda, self.damping, self.support * obj.support_q[m], self.extra, self.fs)
             else {
@@ -551,13 +588,24 @@ impl ModeSet<'_> {
             peak = peak.max(amps[m].abs());
             if p.normalize {
                 let r = g * exciter::pulse_spectrum(f, contact_ref);
-                let x = 2.0 * d * tau;
-                let w = if x > 1e-9 { -(-x).exp_m1() / x } else { 1.0 };
-                let e = 0.5 * r * r * w;
-                flat += e;
-                weighted += e * exciter::a_weighting(f).powi(2);
+                let rk = r * exciter::k_weighting(f);
+                // Mean square over the window: ½·r²·mean(e^(−2dt)) for the mode itself, and
+                // r·r'·mean(cos(Δω t)·e^(−(d + d')t)) with each close earlier mode.
+                let w = window_mean(2.0 * d, 0.0, tau);
+                weighted += 0.5 * rk * rk * w;
+                flat += 0.5 * r * r * w;
+                for &(o2, d2, rk2, r2) in recent.iter().take(count.min(COHERENT_MAX)) {
+                    if (omega - o2).abs() < 2.0 * PI * COHERENT_HZ {
+                        let c = window_mean(d + d2, omega - o2, tau);
+                        weighted += rk * rk2 * c;
+                        flat += r * r2 * c;
+                    }
+                }
+                recent[count % COHERENT_MAX] = (omega, d, rk, r);
+                count += 1;
             }
         }
+        let (weighted, flat) = (weighted.max(0.0), flat.max(0.0));
         if peak <= 0.0 {
             return None;
         }
@@ -588,6 +636,8 @@ pub struct Engine {
     gains: Vec<f32>,
     amps: Vec<f32>,
     poles: Vec<(f64, f64)>,
+    /// How loud each mode's partial is heard in the last scratch plan (see `heard`).
+    heard: Vec<f64>,
     /// The force pulse's two signals and the noise signal of one chunk.
     drive_buf: [Vec<f32>; 3],
     variation_rng: Noise,
@@ -620,6 +670,7 @@ impl Engine {
             gains: vec![0.0; max_modes],
             amps: vec![0.0; max_modes],
             poles: vec![(0.0, 0.0); max_modes],
+            heard: vec![0.0; max_modes],
             drive_buf: [vec![0.0; MAX_KERNEL_BLOCK], vec![0.0; MAX_KERNEL_BLOCK], vec![0.0; MAX_KERNEL_BLOCK]],
             variation_rng: Noise::new(VARIATION_SEED),
             terminated: [Terminated { note: NoteId { voice_id: None, channel: 0, key: 0 }, offset: 0 }; MAX_TERMINATED],
@@ -894,7 +945,7 @@ impl Engine {
             voice.corr_im[k] = f(corr.1);
             energy += (a * level) * (a * level);
         }
-        voice.contact_len = (contact * fs).ceil().max(1.0) as usize;
+        voice.contact_len = (contact * fs).ceil().max(1.0) as usize + PULSE_PREROLL;
         voice.contact_pos = 0;
         voice.contact_step = PI / (contact * fs);
         if noise > 0.0 {
@@ -1047,10 +1098,9 @@ impl Engine {
             .collect()
     }
 
-    /// Index of the mode that rings loudest (largest amplitude: gain at the strike point
-    /// times the mallet's spectrum) for `strike` on `object` at the current settings; `None`
-    /// if no mode rings. Realtime-safe (uses the engine's scratch buffers).
-    pub fn strongest_mode(&mut self, object: usize, strike: Strike) -> Option<usize> {
+    /// Fills the engine's scratch amplitudes and poles for `strike` on `object` at the
+    /// current settings; false if no mode rings. Realtime-safe.
+    fn scratch_plan(&mut self, object: usize, strike: Strike) -> bool {
         let p = self.target;
         let damping = p.damping.scaled(p.decay_scale);
         let obj = &self.objects[object.min(self.objects.len() - 1)];
@@ -1063,9 +1113,91 @@ impl Engine {
             fs: self.sample_rate,
         };
         obj.gains_at(strike.position, &mut self.gains);
-        modes.plan(&p, strike.velocity, 1.0, &self.gains, &mut self.amps, &mut self.poles)?;
-        let n = obj.num_modes();
-        (0..n).max_by(|&a, &b| self.amps[a].abs().total_cmp(&self.amps[b].abs()))
+        if modes.plan(&p, strike.velocity, 1.0, &self.gains, &mut self.amps, &mut self.poles).is_none() {
+            return false;
+        }
+        // Partials as heard: modes within PARTIAL_HZ of each other (degenerate pairs of
+        // symmetric objects) sound as one, with their signed amplitudes summed; × K-weighting.
+        let order = &obj.by_lambda;
+        let freq = |m: usize| self.poles[m].1 / (2.0 * PI);
+        let mut i = 0;
+        while i < order.len() {
+            let first = usize::from(order[i]);
+            let mut j = i;
+            let mut sum = 0.0f64;
+            while j < order.len() && (freq(usize::from(order[j])) - freq(first)).abs() < PARTIAL_HZ {
+                sum += f64::from(self.amps[usize::from(order[j])]);
+                j += 1;
+            }
+            let h = sum.abs() * exciter::k_weighting(freq(first));
+            for &m in &order[i..j.max(i + 1)] {
+                let m = usize::from(m);
+                self.heard[m] = if self.amps[m] == 0.0 { 0.0 } else { h };
+            }
+            i = j.max(i + 1);
+        }
+        true
+    }
+
+    /// How loud mode `m`'s partial is heard in the last scratch plan.
+    fn heard(&self, m: usize) -> f64 {
+        self.heard[m]
+    }
+
+    /// Index of the mode heard loudest for `strike` on `object` at the current settings: the
+    /// largest amplitude (gain at the strike point times the mallet's spectrum) weighted by
+    /// BS.1770's K-weighting, so modes the ear barely hears (under 30 Hz) do not count; `None`
+    /// if no mode rings. Realtime-safe (uses the engine's scratch buffers).
+    pub fn strongest_mode(&mut self, object: usize, strike: Strike) -> Option<usize> {
+        if !self.scratch_plan(object, strike) {
+            return None;
+        }
+        let n = self.objects[object.min(self.objects.len() - 1)].num_modes();
+        (0..n).filter(|&m| self.heard(m) > 0.0).max_by(|&a, &b| self.heard(a).total_cmp(&self.heard(b)))
+    }
+
+    /// The modes heard loudest for `strike` (loudest first) written into `out`; returns how
+    /// many. Realtime-safe.
+    pub fn loudest_modes(&mut self, object: usize, strike: Strike, out: &mut [usize]) -> usize {
+        if !self.scratch_plan(object, strike) {
+            return 0;
+        }
+        let n = self.objects[object.min(self.objects.len() - 1)].num_modes();
+        let mut found = 0;
+        for m in 0..n {
+            let h = self.heard(m);
+            if h <= 0.0 {
+                continue;
+            }
+            // Insertion into the short sorted list.
+            let mut i = found.min(out.len());
+            while i > 0 && self.heard(out[i - 1]) < h {
+                if i < out.len() {
+                    out[i] = out[i - 1];
+                }
+                i -= 1;
+            }
+            if i < out.len() {
+                out[i] = m;
+                found = (found + 1).min(out.len());
+            }
+        }
+        found
+    }
+
+    /// Mode `m`'s share of the loudest heard amplitude for `strike` (1 when it is the
+    /// loudest). Realtime-safe.
+    pub fn heard_share(&mut self, object: usize, strike: Strike, m: usize) -> f64 {
+        if !self.scratch_plan(object, strike) {
+            return 0.0;
+        }
+        let n = self.objects[object.min(self.objects.len() - 1)].num_modes();
+        let max = (0..n).map(|k| self.heard(k)).fold(0.0, f64::max);
+        if max > 0.0 && m < n {
+            self.heard(m) / max
+        } else {
+            0.0
+        }
     }
 
     /// Contact time (s) of a strike of `velocity` with the current mallet and hardness.
@@ -1208,7 +1340,9 @@ mod tests {
                 }
                 0.7 * sum * hq / 3.0
             };
-            let want: Vec<f64> = (0..len).map(|n| exact((n + 1) as f64 / fs)).collect();
+            // Output sample n is the instant n/fs after the note-on (the force starts at 0).
+            let want: Vec<f64> = (0..len).map(|n| exact(n as f64 / fs)).collect();
+            assert_eq!(out[0], 0.0, "the object is at rest at the instant of the strike");
             let peak = want.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             for (n, (&y, &w)) in out.iter().zip(&want).enumerate() {
                 assert!((f64::from(y) - w).abs() < 1e-4 * peak, "{mallet:?} sample {n}: {y} vs {w} (peak {peak})");
@@ -1231,7 +1365,7 @@ mod tests {
                 if want < 0.7e-3 {
                     continue;
                 }
-                let start = (t_c * fs).ceil() as usize + 2;
+                let start = (t_c * fs).ceil() as usize + 3;
                 let len = 4800;
                 let mut out = vec![0.0f32; start + len];
                 e.render(&mut out);
@@ -1285,8 +1419,8 @@ mod tests {
             let smooth: Vec<f64> =
                 (0..out.len() - w).map(|i| out[i..i + w].iter().map(|&v| f64::from(v)).sum::<f64>() / w as f64).collect();
             let imax = (0..smooth.len()).max_by(|&a, &b| smooth[a].total_cmp(&smooth[b])).unwrap();
-            // Output sample n is t = (n + 1)/fs; the box centre is (w − 1)/2 samples later.
-            let t_peak = (imax as f64 + 1.0 + (w as f64 - 1.0) / 2.0) / fs;
+            // Output sample n is t = n/fs; the box centre is (w − 1)/2 samples later.
+            let t_peak = (imax as f64 + (w as f64 - 1.0) / 2.0) / fs;
             assert!((t_peak / (t_c / 2.0) - 1.0).abs() < 0.03, "{mallet:?}: peak at {t_peak:e} s, T/2 = {:e}", t_c / 2.0);
         }
     }

@@ -11,7 +11,7 @@ pub const SLOWEST_STRIKE_M_PER_S: f64 = 0.05;
 /// Strike speed at velocity 1, m/s (fff: mallet percussion strokes reach 1–5 m/s).
 pub const FASTEST_STRIKE_M_PER_S: f64 = 5.0;
 /// Decades of contact stiffness the *Mallet hardness* spans around a mallet's own (0.5).
-pub const HARDNESS_DECADES: f64 = 3.0;
+pub const HARDNESS_DECADES: f64 = 4.0;
 /// Shortest and longest contact time the engine plays, s.
 pub const CONTACT_RANGE_S: (f64, f64) = (1e-5, 0.05);
 
@@ -186,23 +186,29 @@ pub fn velocity_gain(velocity: f32, sensitivity: f32) -> f32 {
     velocity.clamp(0.0, 1.0).powf(2.0 * sensitivity.clamp(0.0, 1.0))
 }
 
-/// A-weighting gain (linear) at `f` Hz, IEC 61672-1:2013 eq. (E.6), 0 dB at 1 kHz.
+/// The K-weighting filter of ITU-R BS.1770-4 (loudness, LUFS) at 48 kHz: the high shelf
+/// (stage 1) and the RLB high-pass (stage 2), coefficients from Table 1 and 2 of the
+/// recommendation, as `(b0, b1, b2, a1, a2)`.
+pub const K_WEIGHTING_48K: [[f64; 5]; 2] = [
+    [1.535_124_859_586_97, -2.691_696_189_406_38, 1.198_392_810_852_85, -1.690_659_293_182_41, 0.732_480_774_215_85],
+    [1.0, -2.0, 1.0, -1.990_047_454_833_98, 0.990_072_250_366_21],
+];
+
+/// K-weighting gain (linear) at `f` Hz: the magnitude response of [`K_WEIGHTING_48K`]
+/// (frequencies above 23.9 kHz, where the shelf is flat, take its value there).
 #[inline]
-pub fn a_weighting(f: f64) -> f64 {
-    const F1: f64 = 20.598_997;
-    const F2: f64 = 107.652_65;
-    const F3: f64 = 737.862_23;
-    const F4: f64 = 12_194.217;
-    // 10^(2.0/20): the normalisation to 0 dB at 1 kHz.
-    const A1000: f64 = 1.258_925_4;
-    let f2 = f * f;
-    let num = F4 * F4 * f2 * f2;
-    let den = (f2 + F1 * F1) * ((f2 + F2 * F2) * (f2 + F3 * F3)).sqrt() * (f2 + F4 * F4);
-    if den > 0.0 {
-        A1000 * num / den
-    } else {
-        0.0
+pub fn k_weighting(f: f64) -> f64 {
+    let w = 2.0 * std::f64::consts::PI * f.clamp(0.0, 23_900.0) / 48_000.0;
+    let (s1, c1) = w.sin_cos();
+    let (s2, c2) = (2.0 * w).sin_cos();
+    let mut g = 1.0;
+    for [b0, b1, b2, a1, a2] in K_WEIGHTING_48K {
+        // |B(e^{jw})| / |A(e^{jw})| with z⁻¹ = e^{−jw}.
+        let (nr, ni) = (b0 + b1 * c1 + b2 * c2, -(b1 * s1 + b2 * s2));
+        let (dr, di) = (1.0 + a1 * c1 + a2 * c2, -(a1 * s1 + a2 * s2));
+        g *= ((nr * nr + ni * ni) / (dr * dr + di * di)).sqrt();
     }
+    g
 }
 
 /// A small, fast, deterministic white-noise source (xorshift32) in [−1, 1).
@@ -313,15 +319,26 @@ mod tests {
         }
     }
 
-    /// IEC 61672-1 Table 3 design goals: −19.1 dB at 100 Hz, 0 at 1 kHz, −2.5 at 10 kHz.
+    /// BS.1770-4: the −0.691 dB in its loudness formula cancels the K-filter's gain at
+    /// 997 Hz; and the closed-form response equals the two biquads run in time on a sine
+    /// (steady-state amplitude), from 20 Hz to 20 kHz.
     #[test]
-    fn a_weighting_matches_the_standard_table() {
-        let db = |f: f64| 20.0 * a_weighting(f).log10();
-        assert!((db(100.0) + 19.1).abs() < 0.05);
-        assert!(db(1000.0).abs() < 0.01);
-        assert!((db(10_000.0) + 2.5).abs() < 0.05);
-        // The table's nominal 31.5 Hz is the exact base-10 frequency 10^1.5.
-        assert!((db(10f64.powf(1.5)) + 39.4).abs() < 0.05);
+    fn k_weighting_is_bs1770s_filter() {
+        assert!((20.0 * k_weighting(997.0).log10() - 0.691).abs() < 0.005, "{}", 20.0 * k_weighting(997.0).log10());
+        for f in [20.0, 38.0, 100.0, 500.0, 1500.0, 4000.0, 10_000.0, 20_000.0] {
+            let n = 96_000;
+            let mut x: Vec<f64> = (0..n).map(|i| (2.0 * std::f64::consts::PI * f * i as f64 / 48_000.0).sin()).collect();
+            for [b0, b1, b2, a1, a2] in K_WEIGHTING_48K {
+                let (mut x1, mut x2, mut y1, mut y2) = (0.0, 0.0, 0.0, 0.0);
+                for v in x.iter_mut() {
+                    let y = b0 * *v + b1 * x1 + b2 * x2 - a1 * y1 - a2 * y2;
+                    (x2, x1, y2, y1) = (x1, *v, y1, y);
+                    *v = y;
+                }
+            }
+            let amp = x[n / 2..].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            assert!((amp / k_weighting(f) - 1.0).abs() < 2e-3, "{f} Hz: {amp} vs {}", k_weighting(f));
+        }
     }
 
     #[test]

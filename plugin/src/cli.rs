@@ -582,12 +582,14 @@ pub fn predicted_modes(opts: &SoundOptions, note: u8, velocity: u8) -> Result<Ve
     if note > 127 || velocity == 0 || velocity > 127 {
         return Err("--note must be 0..=127 and --velocity 1..=127".into());
     }
-    let host = configured_host(opts, 64)?;
-    let plugin = host.plugin();
+    let mut host = configured_host(opts, 64)?;
+    let plugin = host.plugin_mut();
     let mut strike = plugin.strike_for(note, f32::from(velocity) / 127.0);
     if let Some(p) = opts.position {
         strike.position = p;
     }
+    // The tuning the note gets when played (Pitch reference: Strongest mode).
+    plugin.tune_to_strongest(note, &mut strike);
     let engine = plugin.engine().ok_or("the plugin did not activate")?;
     Ok(engine.predict_modes(engine.object(), strike))
 }

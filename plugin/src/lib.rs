@@ -22,6 +22,8 @@ use std::sync::Arc;
 
 /// Voices in the pool (the CLAP voice capacity).
 pub const MAX_VOICES: usize = 64;
+/// Modes tried as the *Strongest mode* pitch reference of a note.
+pub const PITCH_CANDIDATES: usize = 6;
 /// Mono scratch length; longer host buffers are processed in pieces of this size.
 pub const MAX_BLOCK: usize = 8192;
 
@@ -153,11 +155,16 @@ impl Struck {
     }
 
     /// With *Pitch reference* = *Strongest mode* (Pitched keys, *Keys tune the object*):
-    /// retunes `strike` so that the mode that rings loudest for it sounds at `key`'s
-    /// equal-tempered pitch. Which mode is loudest depends on the tuning (the mallet's
-    /// spectrum falls with frequency), so the choice is iterated until it holds (at most 4
-    /// rounds). Realtime-safe.
-    fn tune_to_strongest(&mut self, key: u8, strike: &mut Strike) {
+    /// retunes `strike` so that the object's strongest mode sounds at `key`'s equal-tempered
+    /// pitch. The strongest mode is the one heard loudest (see `Engine::strongest_mode`) when
+    /// it sounds at the root key, chosen once for all keys so the keyboard transposes one
+    /// mode (no jumps between neighbouring keys). Which mode is loudest depends on the tuning
+    /// (the mallet's spectrum falls with frequency), so the choice must hold at its own
+    /// tuning: the candidates are the modes heard loudest with the lowest mode at the root,
+    /// and the first candidate that is still the loudest once tuned to the root is chosen; if
+    /// none is, the candidate with the largest share of the loudest at its own tuning.
+    /// Realtime-safe (at most 2·[`PITCH_CANDIDATES`] + 1 passes over the modes).
+    pub fn tune_to_strongest(&mut self, key: u8, strike: &mut Strike) {
         let p = &self.params;
         if p.key_mode.value() != KeyMode::Pitched
             || !p.key_tuning.value()
@@ -165,19 +172,30 @@ impl Struck {
         {
             return;
         }
+        let root = p.root_note.value().clamp(0, 127) as u8;
         let object = self.object_index();
         let (Some(bank), Some(engine)) = (self.library.banks.get(object), self.engine.as_mut()) else { return };
-        let omega_key = 2.0 * std::f64::consts::PI * 440.0 * 2f64.powf((f64::from(key) - 69.0) / 12.0);
-        let mut mode = 0;
-        for _ in 0..4 {
-            let Some(m) = engine.strongest_mode(object, *strike) else { return };
-            if let Some(&l) = bank.lambdas.get(m) {
-                strike.lambda_factor = omega_key * omega_key / l;
-            }
-            if m == mode {
+        let omega = |k: u8| 2.0 * std::f64::consts::PI * 440.0 * 2f64.powf((f64::from(k) - 69.0) / 12.0);
+        let factor = |m: usize, k: u8| bank.lambdas.get(m).map(|&l| omega(k) * omega(k) / l);
+        let Some(lowest_at_root) = factor(0, root) else { return };
+        let at_root = Strike { lambda_factor: lowest_at_root, ..*strike };
+        let mut candidates = [0usize; PITCH_CANDIDATES];
+        let found = engine.loudest_modes(object, at_root, &mut candidates);
+        let mut best = (f64::NEG_INFINITY, None);
+        for &k in &candidates[..found] {
+            let Some(f) = factor(k, root) else { continue };
+            let trial = Strike { lambda_factor: f, ..*strike };
+            if engine.strongest_mode(object, trial) == Some(k) {
+                best = (f64::INFINITY, Some(k));
                 break;
             }
-            mode = m;
+            let share = engine.heard_share(object, trial, k);
+            if share > best.0 {
+                best = (share, Some(k));
+            }
+        }
+        if let Some(f) = best.1.and_then(|k| factor(k, key)) {
+            strike.lambda_factor = f;
         }
     }
 

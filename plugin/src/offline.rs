@@ -188,6 +188,11 @@ impl OfflineHost {
         &self.plugin
     }
 
+    /// The hosted plugin, mutably (for the command line's queries that use its engine).
+    pub fn plugin_mut(&mut self) -> &mut Struck {
+        &mut self.plugin
+    }
+
     /// Sample rate in Hz.
     pub fn sample_rate(&self) -> f32 {
         self.sample_rate

@@ -106,3 +106,33 @@ pub fn spectral_centroid(x: &[f32], sample_rate: f64) -> f64 {
 pub fn cents(a: f64, b: f64) -> f64 {
     1200.0 * (a / b).log2()
 }
+
+/// K-weighted RMS of `x` at 48 kHz: the two biquads of ITU-R BS.1770-4 run over the
+/// samples (the recommendation's own procedure, independent of the engine's per-mode sum),
+/// then the root mean square.
+///
+/// # Panics
+/// If `sample_rate` is not 48 kHz (the recommendation's coefficients are for 48 kHz).
+pub fn k_weighted_rms(x: &[f32], sample_rate: f64) -> f64 {
+    assert_eq!(sample_rate, 48_000.0, "BS.1770 coefficients are for 48 kHz");
+    let mut y: Vec<f64> = x.iter().map(|v| f64::from(*v)).collect();
+    for [b0, b1, b2, a1, a2] in dsp::exciter::K_WEIGHTING_48K {
+        let (mut x1, mut x2, mut y1, mut y2) = (0.0, 0.0, 0.0, 0.0);
+        for v in y.iter_mut() {
+            let out = b0 * *v + b1 * x1 + b2 * x2 - a1 * y1 - a2 * y2;
+            (x2, x1, y2, y1) = (x1, *v, y1, out);
+            *v = out;
+        }
+    }
+    (y.iter().map(|v| v * v).sum::<f64>() / y.len().max(1) as f64).sqrt()
+}
+
+/// Peak absolute sample.
+pub fn peak(x: &[f32]) -> f32 {
+    x.iter().fold(0.0f32, |m, v| m.max(v.abs()))
+}
+
+/// dB of a linear ratio.
+pub fn db(x: f64) -> f64 {
+    20.0 * x.log10()
+}
