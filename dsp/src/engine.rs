@@ -576,7 +576,8 @@ impl ModeSet<'_> {
         for &m in &obj.by_lambda {
             let m = usize::from(m);
             let lambda = obj.lambdas[m] * self.scale;
-            let Some((d, omega)) = mode_pole(lambda, self.damping, self.support * obj.support_q[m], self.extra, self.fs)
+            let Some((d, omega)) =
+                mode_pole(lambda, self.damping, self.support * obj.support_q[m], self.extra, self.fs)
             else {
                 amps[m] = 0.0;
                 continue;
@@ -616,7 +617,11 @@ impl ModeSet<'_> {
         } else {
             obj.norm
         };
-        Some(StrikePlan { contact_s: contact, level: exciter::velocity_gain(velocity, p.velocity_sensitivity) * norm, peak })
+        Some(StrikePlan {
+            contact_s: contact,
+            level: exciter::velocity_gain(velocity, p.velocity_sensitivity) * norm,
+            peak,
+        })
     }
 }
 
@@ -1410,18 +1415,26 @@ mod tests {
                 ..SoundParams::default()
             });
             e.reset();
-            e.note_on(NoteId { voice_id: None, channel: 0, key: 1 }, Strike { velocity: 1.0, position: 0.0, lambda_factor: 1.0 });
+            e.note_on(
+                NoteId { voice_id: None, channel: 0, key: 1 },
+                Strike { velocity: 1.0, position: 0.0, lambda_factor: 1.0 },
+            );
             let t_c = e.contact_time_s(1.0);
             let mut out = vec![0.0f32; (2.0 * t_c * fs) as usize];
             e.render(&mut out);
             // Box average over 1 ms (kills the 9–22 kHz ringing, keeps the bump symmetric).
             let w = 96;
-            let smooth: Vec<f64> =
-                (0..out.len() - w).map(|i| out[i..i + w].iter().map(|&v| f64::from(v)).sum::<f64>() / w as f64).collect();
+            let smooth: Vec<f64> = (0..out.len() - w)
+                .map(|i| out[i..i + w].iter().map(|&v| f64::from(v)).sum::<f64>() / w as f64)
+                .collect();
             let imax = (0..smooth.len()).max_by(|&a, &b| smooth[a].total_cmp(&smooth[b])).unwrap();
             // Output sample n is t = n/fs; the box centre is (w − 1)/2 samples later.
             let t_peak = (imax as f64 + (w as f64 - 1.0) / 2.0) / fs;
-            assert!((t_peak / (t_c / 2.0) - 1.0).abs() < 0.03, "{mallet:?}: peak at {t_peak:e} s, T/2 = {:e}", t_c / 2.0);
+            assert!(
+                (t_peak / (t_c / 2.0) - 1.0).abs() < 0.03,
+                "{mallet:?}: peak at {t_peak:e} s, T/2 = {:e}",
+                t_c / 2.0
+            );
         }
     }
 

@@ -105,7 +105,12 @@ impl Mallet {
     /// on a rigid object.
     pub fn hertz(e: f64, nu: f64, r: f64, m: f64) -> Mallet {
         let stiffness = 4.0 / 3.0 * e / (1.0 - nu * nu) * r.sqrt();
-        Mallet { stiffness, exponent: 1.5, mass_kg: m, hertz: Some(HertzBall { modulus_pa: e, poisson: nu, radius_m: r }) }
+        Mallet {
+            stiffness,
+            exponent: 1.5,
+            mass_kg: m,
+            hertz: Some(HertzBall { modulus_pa: e, poisson: nu, radius_m: r }),
+        }
     }
 
     /// This mallet on an object of Young's modulus `object_pa` (Poisson 0.3): the Hertz
@@ -327,7 +332,8 @@ mod tests {
         assert!((20.0 * k_weighting(997.0).log10() - 0.691).abs() < 0.005, "{}", 20.0 * k_weighting(997.0).log10());
         for f in [20.0, 38.0, 100.0, 500.0, 1500.0, 4000.0, 10_000.0, 20_000.0] {
             let n = 96_000;
-            let mut x: Vec<f64> = (0..n).map(|i| (2.0 * std::f64::consts::PI * f * i as f64 / 48_000.0).sin()).collect();
+            let mut x: Vec<f64> =
+                (0..n).map(|i| (2.0 * std::f64::consts::PI * f * i as f64 / 48_000.0).sin()).collect();
             for [b0, b1, b2, a1, a2] in K_WEIGHTING_48K {
                 let (mut x1, mut x2, mut y1, mut y2) = (0.0, 0.0, 0.0, 0.0);
                 for v in x.iter_mut() {

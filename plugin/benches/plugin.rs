@@ -15,7 +15,13 @@ fn sixteen_voices(c: &mut Criterion) {
         ..SoundOptions::default()
     };
     let notes: Vec<NoteSpec> = (0..16)
-        .map(|i| NoteSpec { key: 30 + i as u8 * 2, velocity: 110, position: Some(i as f32 / 16.0), start_s: 0.0 })
+        .map(|i| NoteSpec {
+            key: 30 + i as u8 * 2,
+            velocity: 110,
+            position: Some(i as f32 / 16.0),
+            start_s: 0.0,
+            duration_s: None,
+        })
         .collect();
     let mut host = configured_host(&opts, 512).unwrap();
     let events = note_events(&notes, 48_000.0);

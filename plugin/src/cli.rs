@@ -56,6 +56,8 @@ pub struct SoundOptions {
     pub sample_rate: u32,
     /// `id=value` parameter settings.
     pub set: Vec<String>,
+    /// Pitch of the root key's reference mode (`--pitch`): Hz or a note name ("A4", "C#5").
+    pub pitch: Option<String>,
 }
 
 impl Default for SoundOptions {
@@ -67,6 +69,7 @@ impl Default for SoundOptions {
             position: None,
             sample_rate: 48_000,
             set: vec![],
+            pitch: None,
         }
     }
 }
@@ -86,6 +89,9 @@ pub struct RenderOptions {
     pub block_size: usize,
     /// Output WAV.
     pub out: PathBuf,
+    /// `--normalize`: scale the render so its peak is this many dBFS (the output safety is
+    /// then off unless set).
+    pub normalize: Option<f64>,
 }
 
 fn find(names: &[(&str, &str)], what: &str, query: &str) -> Result<usize, String> {
@@ -183,6 +189,9 @@ pub fn configured_host(opts: &SoundOptions, max_block: usize) -> Result<OfflineH
         None => resolve_object(&lib, &opts.object)?,
     };
     host.set_param("object", object as f32).map_err(|e| e.to_string())?;
+    // A material file's own specific modulus (γ/γ₀ of this object), played when *Material
+    // sets pitch* is on, as the plugin plays a library material's.
+    let mut file_modulus = None;
     match resolve_material(&lib, &opts.material)? {
         MaterialChoice::Factory(i) => host.set_param("material", i as f32).map_err(|e| e.to_string())?,
         MaterialChoice::File(m) => {
@@ -190,6 +199,8 @@ pub fn configured_host(opts: &SoundOptions, max_block: usize) -> Result<OfflineH
             set_custom_damping(&mut host, &d)?;
             // Its recorded support damping (played when Support is As recorded, the default).
             host.set_param("csupport", m.support_c().min(2000.0) as f32).map_err(|e| e.to_string())?;
+            let reference = lib.banks.get(object).map_or(0.0, |b| b.reference.specific_modulus);
+            file_modulus = m.specific_modulus.filter(|&g| g > 0.0 && reference > 0.0).map(|g| g / reference);
         }
     }
     if let Some(s) = opts.size {
@@ -205,8 +216,97 @@ pub fn configured_host(opts: &SoundOptions, max_block: usize) -> Result<OfflineH
         let v: f32 = v.trim().parse().map_err(|_| format!("--set {k}: '{v}' is not a number"))?;
         host.set_param_checked(k.trim(), v).map_err(|e| format!("--set {}: {e}", kv.trim()))?;
     }
+    if let Some(ratio) = file_modulus {
+        if host.plugin().struck_params().material_pitch.value() {
+            let gamma = host.param("gamma").map_err(|e| e.to_string())? * ratio as f32;
+            check_range("set gamma (the material file's pitch)", gamma, 0.001, 1000.0)?;
+            host.set_param("gamma", gamma).map_err(|e| e.to_string())?;
+        }
+    }
+    if let Some(text) = &opts.pitch {
+        let hz = parse_pitch(text)?;
+        host.reset();
+        let now = reference_pitch_hz(&mut host)?;
+        let gamma = host.param("gamma").map_err(|e| e.to_string())? * ((hz / now) * (hz / now)) as f32;
+        if !(0.001..=1000.0).contains(&gamma) {
+            return Err(format!(
+                "--pitch {text}: the object's reference mode is at {now:.2} Hz; {hz:.2} Hz needs γ/γ₀ = {gamma}, outside 0.001..=1000"
+            ));
+        }
+        host.set_param("gamma", gamma).map_err(|e| e.to_string())?;
+    }
     host.reset();
     Ok(host)
+}
+
+/// Parses `--pitch`: a frequency in Hz ("523.25", "523.25Hz") or a note name with octave
+/// ("A4" = 440 Hz, "C#5", "Eb3", "c4").
+///
+/// # Errors
+/// Anything else, or a frequency outside 1 Hz..=24 kHz.
+pub fn parse_pitch(text: &str) -> Result<f64, String> {
+    let t = text.trim();
+    let bad = || format!("--pitch '{text}': expected Hz (e.g. 523.25) or a note name with octave (e.g. C5, F#3, Bb4)");
+    let hz = if let Ok(v) = t.trim_end_matches("Hz").trim_end_matches("hz").trim().parse::<f64>() {
+        v
+    } else {
+        let mut chars = t.chars();
+        let letter = chars.next().ok_or_else(bad)?.to_ascii_uppercase();
+        let base = match letter {
+            'C' => 0,
+            'D' => 2,
+            'E' => 4,
+            'F' => 5,
+            'G' => 7,
+            'A' => 9,
+            'B' => 11,
+            _ => return Err(bad()),
+        };
+        let rest = chars.as_str();
+        let (shift, octave) = match rest.chars().next() {
+            Some('#') | Some('♯') => (1, &rest[rest.chars().next().map_or(0, char::len_utf8)..]),
+            Some('b') | Some('♭') => (-1, &rest[rest.chars().next().map_or(0, char::len_utf8)..]),
+            _ => (0, rest),
+        };
+        let octave: i32 = octave.parse().map_err(|_| bad())?;
+        let midi = 12 * (octave + 1) + base + shift;
+        440.0 * 2f64.powf((f64::from(midi) - 69.0) / 12.0)
+    };
+    if !(hz.is_finite() && (1.0..=24_000.0).contains(&hz)) {
+        return Err(format!("--pitch '{text}': {hz} Hz is outside 1..=24000 Hz"));
+    }
+    Ok(hz)
+}
+
+/// Frequency (Hz) at which the root key's reference mode (*Pitch reference*) sounds now.
+fn reference_pitch_hz(host: &mut OfflineHost) -> Result<f64, String> {
+    let plugin = host.plugin_mut();
+    let params = plugin.struck_params().clone();
+    let root = params.root_note.value().clamp(0, 127) as u8;
+    let mut strike = plugin.strike_for(root, 1.0);
+    plugin.tune_to_strongest(root, &mut strike);
+    let lib = plugin.library().clone();
+    let bank = lib.banks.get(params.object.value().max(0) as usize).ok_or("no object")?;
+    let engine = plugin.engine().ok_or("the plugin did not activate")?;
+    let p = engine.params();
+    let scale = p.modulus_ratio * strike.lambda_factor / (p.size * p.size);
+    // The reference mode: the one tuned to the root (the chosen or strongest), else the lowest.
+    let mode = match params.pitch_reference.value() {
+        crate::params::PitchReference::Chosen => (params.pitch_mode.value() - 1).max(0) as usize,
+        crate::params::PitchReference::Strongest if params.key_tuning.value() => {
+            let w = 2.0 * std::f64::consts::PI * 440.0 * 2f64.powf((f64::from(root) - 69.0) / 12.0);
+            (0..bank.lambdas.len())
+                .min_by(|&a, &b| {
+                    (bank.lambdas[a] * strike.lambda_factor - w * w)
+                        .abs()
+                        .total_cmp(&(bank.lambdas[b] * strike.lambda_factor - w * w).abs())
+                })
+                .unwrap_or(0)
+        }
+        _ => 0,
+    }
+    .min(bank.lambdas.len().saturating_sub(1));
+    Ok((bank.lambdas[mode] * scale).sqrt() / (2.0 * std::f64::consts::PI))
 }
 
 fn check_range(name: &str, v: f32, lo: f32, hi: f32) -> Result<(), String> {
@@ -228,22 +328,40 @@ pub struct NoteSpec {
     pub position: Option<f32>,
     /// Start time, seconds.
     pub start_s: f64,
+    /// How long the key is held (`~seconds`), if given; else until the render ends.
+    pub duration_s: Option<f64>,
 }
 
-/// Parses `"60:100@0.25,67:80@0.5+1.0"` (key:velocity@position+start_seconds; `@…` and
-/// `+…` optional).
+/// Parses `"60:100@0.25,67:80@0.5+1.0~0.5"` (key:velocity@position+start_seconds~held_seconds;
+/// `@…`, `+…` and `~…` optional).
 ///
 /// # Errors
 /// A message naming the bad entry and what is expected.
 pub fn parse_notes(text: &str) -> Result<Vec<NoteSpec>, String> {
     let bad = |entry: &str, why: &str| {
-        format!("bad note '{entry}': {why} (expected key:velocity@position+start_seconds, e.g. 60:100@0.25+0.5)")
+        format!(
+            "bad note '{entry}': {why} (expected key:velocity@position+start_seconds~held_seconds, e.g. 60:100@0.25+0.5~1)"
+        )
     };
     let mut out = Vec::new();
     for entry in text.split(',').map(str::trim).filter(|e| !e.is_empty()) {
-        let (rest, start) = match entry.split_once('+') {
+        let (rest, held) = match entry.split_once('~') {
             Some((a, b)) => (a, Some(b)),
             None => (entry, None),
+        };
+        let duration_s = match held {
+            Some(d) => {
+                let d: f64 = d.trim().parse().map_err(|_| bad(entry, "held time must be seconds > 0"))?;
+                if !(d.is_finite() && d > 0.0) {
+                    return Err(bad(entry, "held time must be seconds > 0"));
+                }
+                Some(d)
+            }
+            None => None,
+        };
+        let (rest, start) = match rest.split_once('+') {
+            Some((a, b)) => (a, Some(b)),
+            None => (rest, None),
         };
         let (rest, pos) = match rest.split_once('@') {
             Some((a, b)) => (a, Some(b)),
@@ -278,7 +396,7 @@ pub fn parse_notes(text: &str) -> Result<Vec<NoteSpec>, String> {
             }
             None => 0.0,
         };
-        out.push(NoteSpec { key, velocity, position, start_s });
+        out.push(NoteSpec { key, velocity, position, start_s, duration_s });
     }
     if out.is_empty() {
         return Err("--notes holds no notes".into());
@@ -288,7 +406,13 @@ pub fn parse_notes(text: &str) -> Result<Vec<NoteSpec>, String> {
 
 /// The demo phrase played when `render` gets no notes.
 pub fn demo_notes() -> Vec<NoteSpec> {
-    let n = |key, velocity, position, start_s| NoteSpec { key, velocity, position: Some(position), start_s };
+    let n = |key, velocity, position, start_s| NoteSpec {
+        key,
+        velocity,
+        position: Some(position),
+        start_s,
+        duration_s: None,
+    };
     vec![
         n(60, 100, 0.15, 0.0),
         n(67, 80, 0.45, 0.35),
@@ -313,6 +437,13 @@ pub fn note_events(notes: &[NoteSpec], sample_rate: f64) -> Vec<TimedEvent> {
             *v = voice_id;
         }
         ev.push(TimedEvent { sample, event: on });
+        if let Some(d) = n.duration_s {
+            let mut off = note_off(n.key);
+            if let NoteEvent::NoteOff { voice_id: v, .. } = &mut off {
+                *v = voice_id;
+            }
+            ev.push(TimedEvent { sample: ((n.start_s + d) * sample_rate).round() as u64, event: off });
+        }
         if let Some(p) = n.position {
             ev.push(TimedEvent {
                 sample,
@@ -380,13 +511,21 @@ pub fn render(opts: &RenderOptions) -> Result<String, String> {
     }
     events.sort_by_key(|e| e.sample);
     let last = events.last().map_or(0, |e| e.sample) as f64 / sr;
-    let seconds = opts.seconds.unwrap_or(last + 3.0);
+    // Without --seconds: until the output has stayed under −90 dBFS for 0.1 s after the last
+    // event, at most MAX_TAIL_S later.
+    let auto = opts.seconds.is_none();
+    let seconds = opts.seconds.unwrap_or(last + MAX_TAIL_S);
     if !(seconds.is_finite() && seconds > 0.0 && seconds <= 3600.0) {
         return Err(format!("--seconds {seconds} is outside (0, 3600]"));
     }
+    if let Some(n) = opts.normalize {
+        if !(n.is_finite() && (-60.0..=0.0).contains(&n)) {
+            return Err(format!("--normalize {n} is outside -60..=0 dBFS"));
+        }
+    }
     let total = (seconds * sr).round() as usize;
     // WAV sizes are 32-bit: refuse now rather than write a wrapped (corrupt) header later.
-    if total as u64 > MAX_WAV_FRAMES {
+    if total as u64 > MAX_WAV_FRAMES && !auto {
         let bytes = total as u64 * WAV_FRAME_BYTES + WAV_HEADER_BYTES_COUNTED + 8;
         return Err(format!(
             "the WAV would be {:.2} GiB ({seconds} s at {} Hz, stereo 32-bit float) but WAV files stop at 4 GiB; render at most {:.0} s at this rate",
@@ -395,6 +534,7 @@ pub fn render(opts: &RenderOptions) -> Result<String, String> {
             (MAX_WAV_FRAMES as f64 / sr).floor()
         ));
     }
+    let total = total.min(MAX_WAV_FRAMES as usize);
     // Notes still held at the end are released there (hosts do the same on stop).
     let mut offs: Vec<TimedEvent> = events
         .iter()
@@ -409,11 +549,33 @@ pub fn render(opts: &RenderOptions) -> Result<String, String> {
     for e in &mut events {
         set_timing(&mut e.event, 0);
     }
+    let last_event = events.iter().filter(|e| e.sample < total as u64).map(|e| e.sample).max().unwrap_or(0) as usize;
     // Check the output before spending time rendering.
     let inputs = render_inputs(opts);
     let input_refs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
     presets::output::check_not_input(&opts.out, &input_refs).map_err(|e| e.to_string())?;
-    let mut host = configured_host(&opts.sound, opts.block_size)?;
+    let mut sound = opts.sound.clone();
+    // --normalize measures the plugin's own peak: the output safety would bend it.
+    if opts.normalize.is_some() && !sound.set.iter().any(|kv| kv.trim_start().starts_with("safety")) {
+        sound.set.push("safety=0".into());
+    }
+    let ending = Ending { auto, total, last_event, fade: (FADE_S * sr).round() as usize };
+    // --normalize: a first pass finds the peak (and the length); the render is deterministic,
+    // so the second pass, scaled, is the same audio.
+    let (gain, length) = match opts.normalize {
+        Some(target) => {
+            let mut host = configured_host(&sound, opts.block_size)?;
+            let pass = render_pass(&mut host, &events, opts.block_size, &ending, 1.0, |_, _| Ok(()))
+                .map_err(|e: hound::Error| e.to_string())?;
+            if pass.peak <= 0.0 {
+                return Err("--normalize: the render is silent".into());
+            }
+            (10f32.powf(target as f32 / 20.0) / pass.peak, Some(pass.length))
+        }
+        None => (1.0, None),
+    };
+    let ending = Ending { auto: auto && length.is_none(), total: length.unwrap_or(total), ..ending };
+    let mut host = configured_host(&sound, opts.block_size)?;
     let mut file = presets::output::AtomicFile::create(&opts.out).map_err(|e| e.to_string())?;
     let spec = hound::WavSpec {
         channels: 2,
@@ -423,30 +585,120 @@ pub fn render(opts: &RenderOptions) -> Result<String, String> {
     };
     let write_err = |e: hound::Error| format!("cannot write {}: {e}", opts.out.display());
     let mut writer = hound::WavWriter::new(&mut file, spec).map_err(write_err)?;
-    let mut peak = 0.0f32;
-    host.render_blocks(&events, total, opts.block_size, |left, right| {
-        for (&l, &r) in left.iter().zip(right) {
-            peak = peak.max(l.abs()).max(r.abs());
-            writer.write_sample(l)?;
-            writer.write_sample(r)?;
-        }
-        Ok(())
+    let pass = render_pass(&mut host, &events, opts.block_size, &ending, gain, |l, r| {
+        writer.write_sample(l)?;
+        writer.write_sample(r)
     })
     .map_err(write_err)?;
     writer.finalize().map_err(write_err)?;
     file.commit().map_err(|e| e.to_string())?;
+    if pass.peak > 1.0 {
+        warn(&format!(
+            "the render clips: its peak is {:+.1} dBFS (turn the output safety on, lower the gain, or use --normalize)",
+            20.0 * pass.peak.log10()
+        ));
+    }
     let lib = host.plugin().library().clone();
     let p = host.plugin().struck_params();
     let obj = lib.banks.get(p.object.value() as usize).map_or("?", |b| b.name.as_str());
     let mat = lib.materials.get(p.material.value() as usize).map_or("Custom", |m| m.name.as_str());
+    let mut notes = String::new();
+    if pass.faded {
+        notes += ", last 10 ms faded out";
+    }
+    if gain != 1.0 {
+        notes += &format!(", normalised by {:+.1} dB", 20.0 * gain.log10());
+    }
     Ok(format!(
-        "wrote {} ({:.2} s, {} Hz, peak {:.1} dBFS): {} notes on {obj}, {mat}",
+        "wrote {} ({:.2} s, {} Hz, peak {:.1} dBFS{notes}): {} notes on {obj}, {mat}",
         opts.out.display(),
-        seconds,
+        pass.length as f64 / sr,
         opts.sound.sample_rate,
-        20.0 * peak.max(1e-12).log10(),
+        20.0 * pass.peak.max(1e-12).log10(),
         events.iter().filter(|e| matches!(e.event, NoteEvent::NoteOn { .. })).count()
     ))
+}
+
+/// Longest tail rendered after the last event when `render` has no `--seconds`, s.
+pub const MAX_TAIL_S: f64 = 60.0;
+/// The level under which a render without `--seconds` ends (−90 dBFS).
+pub const END_LEVEL: f32 = 3.162_277_7e-5;
+/// How long the output must stay under [`END_LEVEL`] before the render ends, s.
+pub const END_HOLD_S: f64 = 0.1;
+/// Fade-out applied to a render cut while still sounding, s.
+pub const FADE_S: f64 = 0.01;
+
+/// Where a render ends: at `total` frames (auto: earlier, once quiet after `last_event`).
+struct Ending {
+    auto: bool,
+    total: usize,
+    last_event: usize,
+    fade: usize,
+}
+
+/// What a render pass produced.
+struct Pass {
+    peak: f32,
+    length: usize,
+    faded: bool,
+}
+
+/// Why a pass stopped early.
+enum Stop<E> {
+    Quiet,
+    Sink(E),
+}
+
+/// One render pass: blocks through the plugin, scaled by `gain`, faded over the last
+/// `fade` frames when it runs to `total` and the `fade` frames before were above −90 dBFS, each frame
+/// handed to `sink`; ends early when `auto` and quiet.
+fn render_pass<E>(
+    host: &mut OfflineHost,
+    events: &[TimedEvent],
+    block_size: usize,
+    ending: &Ending,
+    gain: f32,
+    mut sink: impl FnMut(f32, f32) -> Result<(), E>,
+) -> Result<Pass, E> {
+    let sr = f64::from(host.sample_rate());
+    let hold = (END_HOLD_S * sr).round() as usize;
+    let (mut peak, mut pos, mut quiet_since, mut faded, mut recent) = (0.0f32, 0usize, 0usize, false, 0.0f32);
+    let fade_start = ending.total.saturating_sub(ending.fade);
+    let result = host.render_blocks(events, ending.total, block_size, |left, right| {
+        for (&l, &r) in left.iter().zip(right) {
+            let (mut l, mut r) = (l * gain, r * gain);
+            if pos + ending.fade >= fade_start && pos < fade_start {
+                recent = recent.max(l.abs()).max(r.abs());
+            }
+            if pos >= fade_start && ending.fade > 0 {
+                // Faded when the 10 ms before it still sounded.
+                if pos == fade_start && recent > END_LEVEL {
+                    faded = true;
+                }
+                if faded {
+                    // Raised-cosine fade to 0 at the last frame.
+                    let x = (pos - fade_start) as f32 / ending.fade as f32;
+                    let g = 0.5 * (1.0 + (std::f32::consts::PI * x).cos());
+                    (l, r) = (l * g, r * g);
+                }
+            }
+            let a = l.abs().max(r.abs());
+            peak = peak.max(a);
+            if a > END_LEVEL {
+                quiet_since = pos + 1;
+            }
+            sink(l, r).map_err(Stop::Sink)?;
+            pos += 1;
+            if ending.auto && pos > ending.last_event && pos - quiet_since.max(ending.last_event) >= hold {
+                return Err(Stop::Quiet);
+            }
+        }
+        Ok(())
+    });
+    match result {
+        Ok(_) | Err(Stop::Quiet) => Ok(Pass { peak, length: pos, faded }),
+        Err(Stop::Sink(e)) => Err(e),
+    }
 }
 
 /// Prints the object list.

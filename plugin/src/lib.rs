@@ -112,9 +112,11 @@ impl Struck {
         .clamp(0.0, MAX_SUPPORT_PER_S);
         // The object's Young's modulus as played, E = γ·ρ (the bank's reference density),
         // for the Hertz contact of a hard mallet on it.
-        let object_modulus = self.library.banks.get(self.object_index()).map_or(0.0, |b| {
-            b.reference.specific_modulus * modulus * b.reference.density
-        });
+        let object_modulus = self
+            .library
+            .banks
+            .get(self.object_index())
+            .map_or(0.0, |b| b.reference.specific_modulus * modulus * b.reference.density);
         SoundParams {
             mallet: p.mallet.value().kind().mallet().on_object(object_modulus),
             normalize: p.normalize_level.value(),

@@ -428,7 +428,7 @@ fn the_streamed_wav_equals_the_in_memory_render() {
             "--notes",
             notes,
             "--seconds",
-            "1.5",
+            "1.0",
             "--sample-rate",
             "44100",
             "--block-size",
@@ -444,12 +444,18 @@ fn the_streamed_wav_equals_the_in_memory_render() {
     let opts = SoundOptions { material: "glass-ren2013".into(), sample_rate: 44_100, ..SoundOptions::default() };
     let mut host = configured_host(&opts, 333).unwrap();
     let events = note_events(&parse_notes(notes).unwrap(), 44_100.0);
-    let ([l, r], _) = host.render(&events, 66_150, 333);
+    let ([l, r], _) = host.render(&events, 44_100, 333);
     let interleaved: Vec<f32> = l.iter().zip(&r).flat_map(|(a, b)| [*a, *b]).collect();
     assert_eq!(wav.len(), interleaved.len());
     assert!(wav.iter().any(|v| v.abs() > 1e-3));
-    let same = wav.iter().zip(&interleaved).all(|(a, b)| a.to_bits() == b.to_bits());
+    // The glass still rings at 1 s: the render fades its last 10 ms out (441 frames).
+    let fade = 2 * 441;
+    let body = wav.len() - fade;
+    let same = wav[..body].iter().zip(&interleaved[..body]).all(|(a, b)| a.to_bits() == b.to_bits());
     assert!(same, "the streamed WAV differs from the in-memory render");
+    assert!(interleaved[body..].iter().any(|v| v.abs() > 3.2e-5), "the tail was not sounding");
+    assert!(wav[wav.len() - 2..].iter().all(|v| v.abs() < 1e-6), "the cut tail is not faded to 0");
+    assert!(stderr(&o).contains("last 10 ms faded out"), "{}", stderr(&o));
 }
 
 /// A recording of three strikes, made by the binary.
@@ -532,4 +538,136 @@ fn bank_build_never_replaces_its_mesh_or_a_file_on_failure_and_checks_the_folder
     // --points outside its range is an error, not a silent clamp.
     let e = error_line(&struck(&dir, &[&small[..], &["--points", "0", "--out", out.to_str().unwrap()]].concat()));
     assert!(e.contains("--points must be 1..="), "{e}");
+}
+
+fn read_wav(path: &Path) -> Vec<f32> {
+    hound::WavReader::open(path).unwrap().samples::<f32>().map(Result::unwrap).collect()
+}
+
+/// Issue 11 part 5: without --seconds a render runs until the sound has decayed under
+/// −90 dBFS (and stays there 0.1 s), not a fixed 3 s; `~held` releases a key so the release
+/// damping is heard; issue 11 part 2: --normalize puts the peak at the asked level, and a
+/// render that clips (safety off) warns.
+#[test]
+fn renders_end_when_silent_normalise_and_warn_when_they_clip() {
+    let dir = scratch("ending");
+    let out = dir.join("x.wav");
+    let o = struck(
+        &dir,
+        &[
+            "render",
+            "--object",
+            "bar",
+            "--material",
+            "wood-ren2013",
+            "--notes",
+            "60:100",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let x = read_wav(&out);
+    let len = x.len() / 2;
+    assert!(len > 4_800 && len < 3 * 48_000, "length {len} frames");
+    let end_level = 10f32.powf(-90.0 / 20.0);
+    assert!(x[x.len() - 9_600..].iter().all(|v| v.abs() < end_level), "the last 0.1 s is not under −90 dBFS");
+    assert!(x[..x.len() - 9_600].iter().any(|v| v.abs() >= end_level));
+    // A held key released after 0.2 s with release damping decays sooner than one held.
+    let held = |notes: &str| {
+        let o = struck(&dir, &["render", "--notes", notes, "--set", "release=100", "--out", out.to_str().unwrap()]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        read_wav(&out).len()
+    };
+    let (released, ringing) = (held("60:100~0.2"), held("60:100"));
+    assert!(released * 2 < ringing, "released {released} frames, held {ringing}");
+    // --normalize: the peak lands on the target.
+    for (arg, target) in [("-3", -3.0f32), ("-12.5", -12.5)] {
+        let o = struck(
+            &dir,
+            &["render", "--notes", "60:127,64:127,67:127", "--normalize", arg, "--out", out.to_str().unwrap()],
+        );
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let peak = read_wav(&out).iter().fold(0.0f32, |m, v| m.max(v.abs()));
+        assert!((20.0 * peak.log10() - target).abs() < 0.01, "peak {} dBFS for {target}", 20.0 * peak.log10());
+    }
+    // A loud chord with the safety off clips and says so; with it on, it does not.
+    let chord = "48:127,60:127+0.5,64:127+0.5,67:127+0.5,72:127+0.5";
+    let o = struck(
+        &dir,
+        &[
+            "render",
+            "--object",
+            "fem-bowl",
+            "--material",
+            "glass-ren2013",
+            "--notes",
+            chord,
+            "--set",
+            "safety=0",
+            "--seconds",
+            "1",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(stderr(&o).contains("warning: the render clips"), "{}", stderr(&o));
+    let o = struck(
+        &dir,
+        &[
+            "render",
+            "--object",
+            "fem-bowl",
+            "--material",
+            "glass-ren2013",
+            "--notes",
+            chord,
+            "--seconds",
+            "1",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+    );
+    assert!(!stderr(&o).contains("clips"), "{}", stderr(&o));
+    assert!(read_wav(&out).iter().all(|v| v.abs() <= 1.0));
+}
+
+/// Issue 11 part 3: --pitch puts the root key's reference mode at a frequency or note
+/// (measured on `struck modes`' lowest mode), and a material file's own specific modulus
+/// sets the pitch with *Material sets pitch* as a library material's does.
+#[test]
+fn pitch_and_the_material_files_pitch_are_honoured() {
+    let dir = scratch("pitch");
+    let lowest = |args: &[&str]| -> f64 {
+        let mut a = vec!["modes", "--object", "bar", "--json"];
+        a.extend_from_slice(args);
+        let o = struck(&dir, &a);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let mut f: Vec<f64> = v.as_array().unwrap().iter().map(|m| m["freq_hz"].as_f64().unwrap()).collect();
+        f.sort_by(f64::total_cmp);
+        f[0]
+    };
+    // Root 60 with keys tuning the lowest mode: --pitch moves it (damped frequency, so
+    // within a few millicents of the undamped target).
+    for (p, hz) in [("440", 440.0), ("A4", 440.0), ("C#5", 554.365_261_953_744_1), ("Bb3", 233.081_880_759_044_96)] {
+        let f = lowest(&["--pitch", p]);
+        assert!((1200.0 * (f / hz).log2()).abs() < 0.1, "--pitch {p}: {f} Hz");
+    }
+    let e = error_line(&struck(&dir, &["modes", "--pitch", "H4"]));
+    assert!(e.contains("--pitch 'H4'"), "{e}");
+    // A material file with a specific modulus 4× the bar's reference plays an octave up
+    // with *Material sets pitch* (keys off so the object's own pitch plays).
+    let bar = presets::factory_bank("bar").unwrap();
+    let mut m = presets::factory_material("glass-ren2013").unwrap();
+    m.specific_modulus = Some(4.0 * bar.reference.specific_modulus);
+    let file = dir.join("stiff-glass.json");
+    std::fs::write(&file, m.to_json()).unwrap();
+    let f = file.to_str().unwrap();
+    // (Decays ×0.05: the bar's lowest mode is 15.7 Hz, where damping lowers the damped
+    // frequency by 0.4 %.)
+    let off = lowest(&["--material", f, "--set", "keytune=0", "--set", "dscale=0.05"]);
+    let on = lowest(&["--material", f, "--set", "keytune=0", "--set", "matpitch=1", "--set", "dscale=0.05"]);
+    assert!((on / off - 2.0).abs() < 1e-3, "{off} → {on}");
 }

@@ -203,6 +203,7 @@ fn render_taps(name: &str) -> PathBuf {
         seconds: Some(4.5),
         block_size: 512,
         out: wav.clone(),
+        normalize: None,
     };
     struck::cli::render(&opts).expect("render the taps");
     wav
@@ -351,6 +352,7 @@ fn ab_plays_the_recording_and_resyntheses_and_a_known_object_gives_gamma() {
         seconds: Some(3.5),
         block_size: 512,
         out: wav.clone(),
+        normalize: None,
     };
     struck::cli::render(&opts).expect("render the taps");
     let mut h = harness_sized(&plugin, 1100.0);

@@ -33,7 +33,7 @@ pub fn render(host: &mut OfflineHost, notes: &[NoteSpec], seconds: f64, block: u
 
 /// One note at time 0.
 pub fn note(key: u8, velocity: u8, position: Option<f32>) -> NoteSpec {
-    NoteSpec { key, velocity, position, start_s: 0.0 }
+    NoteSpec { key, velocity, position, start_s: 0.0, duration_s: None }
 }
 
 /// Complex demodulation of `x` at `freq_hz` over `[start, start + len)` samples with a

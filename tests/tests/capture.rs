@@ -24,6 +24,7 @@ fn estimator_recovers_the_material_the_plugin_played() {
         seconds: Some(7.5),
         block_size: 512,
         out: wav.clone(),
+        normalize: None,
     };
     render(&opts).unwrap();
     let out = tmp("material.json");

@@ -269,8 +269,10 @@ fn clap_binary_matches_offline_host_and_round_trips_state() {
     // --- 1. The CLAP binary plays what the offline host plays. ---
     let clap_default = render_note(&mut a, num_samples);
     let mut offline = configured_host(&SoundOptions::default(), BLOCK).unwrap();
-    let events =
-        note_events(&[NoteSpec { key: KEY, velocity: VELOCITY, position: None, start_s: 0.0 }], f64::from(SAMPLE_RATE));
+    let events = note_events(
+        &[NoteSpec { key: KEY, velocity: VELOCITY, position: None, start_s: 0.0, duration_s: None }],
+        f64::from(SAMPLE_RATE),
+    );
     let (reference, _sent) = offline.render(&events, num_samples, BLOCK);
 
     let (r0, r1) = (rms(&clap_default[0]), rms(&clap_default[1]));

@@ -45,6 +45,7 @@ fn a_midi_file_note_starts_at_its_time_in_the_wav() {
         seconds: Some(1.0),
         block_size: 300,
         out: wav.clone(),
+        normalize: None,
     };
     render(&opts).unwrap();
     let mut r = hound::WavReader::open(&wav).unwrap();
@@ -69,6 +70,7 @@ fn unwritable_output_and_bad_midi_are_one_line_errors() {
         seconds: Some(0.1),
         block_size: 64,
         out: "/nonexistent-dir/x.wav".into(),
+        normalize: None,
     };
     let e = render(&opts).unwrap_err();
     assert!(e.starts_with("cannot write /nonexistent-dir/x.wav") && !e.contains('\n'), "{e}");
@@ -105,6 +107,7 @@ fn a_bank_file_given_as_the_object_plays_like_the_listed_bank() {
             seconds: Some(0.5),
             block_size: 256,
             out: wav.clone(),
+            normalize: None,
         };
         render(&opts).map(|_| {
             let x: Vec<f32> = hound::WavReader::open(&wav).unwrap().samples::<f32>().map(Result::unwrap).collect();
@@ -196,6 +199,7 @@ fn bank_build_from_an_obj_surface_then_render_it() {
         seconds: Some(0.3),
         block_size: 128,
         out: wav.clone(),
+        normalize: None,
     };
     render(&opts).unwrap();
     let x: Vec<f32> = hound::WavReader::open(&wav).unwrap().samples::<f32>().map(Result::unwrap).collect();

@@ -62,10 +62,10 @@ fn strongest_modes_ring_within_a_cent_and_decay_within_a_percent() {
 #[test]
 fn block_sizes_do_not_change_the_output() {
     let notes = [
-        NoteSpec { key: 60, velocity: 100, position: Some(0.2), start_s: 0.0 },
-        NoteSpec { key: 67, velocity: 70, position: Some(0.7), start_s: 0.1013 },
+        NoteSpec { key: 60, velocity: 100, position: Some(0.2), start_s: 0.0, duration_s: None },
+        NoteSpec { key: 67, velocity: 70, position: Some(0.7), start_s: 0.1013, duration_s: None },
         // A retrigger of the first note while it rings.
-        NoteSpec { key: 60, velocity: 127, position: Some(0.5), start_s: 0.3331 },
+        NoteSpec { key: 60, velocity: 127, position: Some(0.5), start_s: 0.3331, duration_s: None },
     ];
     let set = [("noise", 0.4), ("release", 20.0)];
     let reference = render(&mut host("circular-plate", "steel-sterling-hybrid", SR, &set), &notes, 0.8, 512);
@@ -178,6 +178,7 @@ fn sixty_four_overlapping_notes_with_fast_retriggers_stay_finite_and_bounded() {
             velocity: 1 + (seed >> 25) as u8,
             position: Some((seed >> 8) as f32 / 16_777_216.0),
             start_s: i as f64 * 0.004,
+            duration_s: None,
         });
     }
     let mut h = host("rect-plate", "porcelain-ren2013", SR, &[("noise", 0.5), ("hard", 1.0)]);
@@ -264,7 +265,8 @@ fn poly_modulation_of_the_strike_position_moves_that_note_only() {
     use struck::offline::TimedEvent;
     let sr = f64::from(SR);
     // Note 0 at the parameter's position 0.3 with a +0.4 poly-mod offset, note 1 unmodulated.
-    let notes = [note(50, 100, None), NoteSpec { key: 62, velocity: 100, position: None, start_s: 0.0 }];
+    let notes =
+        [note(50, 100, None), NoteSpec { key: 62, velocity: 100, position: None, start_s: 0.0, duration_s: None }];
     let mut events = struck::cli::note_events(&notes, sr);
     events.push(TimedEvent {
         sample: 0,

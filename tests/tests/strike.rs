@@ -186,11 +186,19 @@ fn the_strongest_partial_sounds_at_the_key() {
                 // and the engine takes the candidate closest to it (3.9 and 3.0 dB under).
                 let allowed_db = if o == "fem-bell" || o == "fem-sphere-shell" { 4.0 } else { 3.0 };
                 if at_key < loudest.1 * 10f64.powf(-allowed_db / 20.0) {
-                    not_loudest.push(format!("{o}: loudest partial at {:.1} Hz, {:.1} dB over the key's", loudest.0, db(loudest.1 / at_key)));
+                    not_loudest.push(format!(
+                        "{o}: loudest partial at {:.1} Hz, {:.1} dB over the key's",
+                        loudest.0,
+                        db(loudest.1 / at_key)
+                    ));
                 }
             }
             let (fm, _) = measure_mode(&x, sr, f_key, 960, 144_000, 24_000);
-            assert!(cents(fm, f_key).abs() < 1.0, "{o} key {key}: {fm:.3} Hz vs {f_key:.3} ({:.2} cents)", cents(fm, f_key));
+            assert!(
+                cents(fm, f_key).abs() < 1.0,
+                "{o} key {key}: {fm:.3} Hz vs {f_key:.3} ({:.2} cents)",
+                cents(fm, f_key)
+            );
         }
     }
     assert!(not_loudest.is_empty(), "{not_loudest:?}");

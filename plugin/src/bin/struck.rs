@@ -98,16 +98,22 @@ enum Command {
     Render {
         #[command(flatten)]
         sound: SoundArgs,
-        /// Notes "key:velocity@position+start_seconds", comma separated; `@position` and
-        /// `+start` are optional (position: the strike-position parameter; start: 0).
+        /// Notes "key:velocity@position+start_seconds~held_seconds", comma separated;
+        /// `@position`, `+start` and `~held` are optional (position: the strike-position
+        /// parameter; start: 0; held: until the end, so the release damping is heard after it).
         #[arg(long)]
         notes: Option<String>,
         /// A standard MIDI file to play (with or instead of --notes).
         #[arg(long)]
         midi: Option<PathBuf>,
-        /// Length in seconds (default: until 3 s after the last note starts).
+        /// Length in seconds (default: until the sound has decayed under −90 dBFS, at most
+        /// 60 s after the last note). A tail cut while sounding is faded out over 10 ms.
         #[arg(long)]
         seconds: Option<f64>,
+        /// Scale the render so its peak is at DBFS (default −1; the output safety is off for
+        /// it unless set with --set safety=1).
+        #[arg(long, value_name = "DBFS", num_args = 0..=1, default_missing_value = "-1")]
+        normalize: Option<f64>,
         /// Host block size in samples.
         #[arg(long, default_value_t = 512)]
         block_size: usize,
@@ -203,6 +209,10 @@ struct SoundArgs {
     /// Set any parameter: `--set id=value` (plain units; repeatable; see `struck params`).
     #[arg(long = "set", value_name = "ID=VALUE")]
     set: Vec<String>,
+    /// Play the object at this pitch: the root key's reference mode (parameter *Pitch
+    /// reference*) sounds at HZ or NOTE ("523.25", "C5", "F#3"), by setting γ/γ₀.
+    #[arg(long, value_name = "HZ|NOTE")]
+    pitch: Option<String>,
 }
 
 impl SoundArgs {
@@ -214,6 +224,7 @@ impl SoundArgs {
             position: self.position,
             sample_rate: self.sample_rate,
             set: self.set.clone(),
+            pitch: self.pitch.clone(),
         }
     }
 }
@@ -239,7 +250,7 @@ fn run(cli: Cli) -> Result<(), String> {
             eprintln!("{summary}");
             Ok(())
         }
-        Command::Render { sound, notes, midi, seconds, block_size, out } => {
+        Command::Render { sound, notes, midi, seconds, normalize, block_size, out } => {
             let opts = RenderOptions {
                 sound: sound.options(),
                 notes,
@@ -247,6 +258,7 @@ fn run(cli: Cli) -> Result<(), String> {
                 seconds,
                 block_size,
                 out,
+                normalize,
             };
             let summary = cli::render(&opts)?;
             eprintln!("{summary}");
