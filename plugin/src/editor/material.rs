@@ -65,6 +65,9 @@ pub(super) fn apply_damping(
     Ok(())
 }
 
+/// Height of the T60 plot, logical points.
+const T60_PLOT_HEIGHT: f32 = 170.0;
+
 impl EditorUi {
     pub(super) fn material_panel(&mut self, ui: &mut egui::Ui, setter: &ParamSetter) {
         ui.heading("Material");
@@ -134,46 +137,16 @@ impl EditorUi {
             ui.colored_label(Color32::from_rgb(255, 170, 60), m.as_str());
         }
 
-        egui::CollapsingHeader::new("Custom damping law").default_open(true).show(ui, |ui| {
-            if selected < custom {
-                ui.label(egui::RichText::new("These knobs play when Material is Custom.").weak());
-            }
-            egui::Grid::new("damping-knobs").num_columns(2).show(ui, |ui| {
-                param_row(ui, setter, &p.damping_model);
-                param_row(ui, setter, &p.alpha1_per_s);
-                param_row(ui, setter, &p.damping_1k_per_s);
-                param_row(ui, setter, &p.exponent);
-                param_row(ui, setter, &p.caughey_10k_per_s);
-                param_row(ui, setter, &p.custom_support_per_s);
-            });
-        });
-        egui::Grid::new("sound-knobs").num_columns(2).show(ui, |ui| {
-            param_row(ui, setter, &p.decay_scale);
-            param_row(ui, setter, &p.support_mode);
-            param_row(ui, setter, &p.support_amount_per_s);
-            param_row(ui, setter, &p.modulus_ratio);
-            param_row(ui, setter, &p.material_pitch);
-            param_row(ui, setter, &p.size);
-            param_row(ui, setter, &p.hardness);
-            param_row(ui, setter, &p.noise);
-            param_row(ui, setter, &p.velocity_sensitivity);
-            param_row(ui, setter, &p.release_damping_per_s);
-            param_row(ui, setter, &p.pressure_damping_per_s);
-            param_row(ui, setter, &p.quality_db);
-            param_row(ui, setter, &p.gain_db);
-            param_row(ui, setter, &p.key_mode);
-            param_row(ui, setter, &p.root_note);
-            param_row(ui, setter, &p.key_tuning);
-        });
-
-        ui.add_space(6.0);
+        // The T60 curve first, so it is whole on screen at the default window size (issue 11
+        // part 6); the knobs follow in groups.
+        ui.add_space(4.0);
         ui.label("Decay time T60 = ln(1000)/d, d = c(λ)/2, λ = (2πf)² (dots: last capture)");
         let d = logic::current_damping(&p, &lib);
         let scale = f64::from(p.decay_scale.value());
         let curve = logic::t60_curve(&d, scale, F_MIN_HZ, F_MAX_HZ, 200);
         let (plot, _, painter) = Plot::show(
             ui,
-            190.0,
+            T60_PLOT_HEIGHT,
             Axis::log(F_MIN_HZ, F_MAX_HZ),
             Axis::log(1e-3, 100.0),
             "frequency (Hz)",
@@ -190,5 +163,67 @@ impl EditorUi {
             }
         }
         plot.line(&painter, &curve, Stroke::new(2.0, Color32::from_rgb(255, 190, 60)));
+        ui.add_space(4.0);
+
+        egui::CollapsingHeader::new("Custom damping law").default_open(true).show(ui, |ui| {
+            if selected < custom {
+                ui.label(egui::RichText::new("These knobs play when Material is Custom.").weak());
+            }
+            egui::Grid::new("damping-knobs").num_columns(2).show(ui, |ui| {
+                param_row(ui, setter, &p.damping_model);
+                param_row(ui, setter, &p.alpha1_per_s);
+                param_row(ui, setter, &p.damping_1k_per_s);
+                param_row(ui, setter, &p.exponent);
+                param_row(ui, setter, &p.caughey_10k_per_s);
+                param_row(ui, setter, &p.custom_support_per_s);
+            });
+        });
+        egui::CollapsingHeader::new("Material and object").default_open(true).show(ui, |ui| {
+            egui::Grid::new("material-knobs").num_columns(2).show(ui, |ui| {
+                param_row(ui, setter, &p.decay_scale);
+                param_row(ui, setter, &p.support_mode);
+                param_row(ui, setter, &p.support_amount_per_s);
+                param_row(ui, setter, &p.modulus_ratio);
+                param_row(ui, setter, &p.material_pitch);
+                param_row(ui, setter, &p.size);
+            });
+        });
+        egui::CollapsingHeader::new("Mallet").default_open(true).show(ui, |ui| {
+            egui::Grid::new("mallet-knobs").num_columns(2).show(ui, |ui| {
+                param_row(ui, setter, &p.mallet);
+                param_row(ui, setter, &p.hardness);
+                param_row(ui, setter, &p.velocity_sensitivity);
+                param_row(ui, setter, &p.variation);
+                param_row(ui, setter, &p.noise);
+            });
+        });
+        egui::CollapsingHeader::new("Keys and pitch").default_open(true).show(ui, |ui| {
+            egui::Grid::new("key-knobs").num_columns(2).show(ui, |ui| {
+                param_row(ui, setter, &p.key_mode);
+                param_row(ui, setter, &p.root_note);
+                param_row(ui, setter, &p.key_tuning);
+                param_row(ui, setter, &p.pitch_reference);
+                param_row(ui, setter, &p.pitch_mode);
+                // The chosen mode's label, when the bank names its modes.
+                if let Some(label) = logic::object_index(&p, &lib)
+                    .and_then(|i| lib.banks.get(i))
+                    .and_then(|b| b.mode_labels.get((p.pitch_mode.value() - 1).max(0) as usize))
+                {
+                    ui.label("");
+                    ui.label(egui::RichText::new(format!("mode {}: {label}", p.pitch_mode.value())).weak());
+                    ui.end_row();
+                }
+            });
+        });
+        egui::CollapsingHeader::new("Notes and output").default_open(true).show(ui, |ui| {
+            egui::Grid::new("output-knobs").num_columns(2).show(ui, |ui| {
+                param_row(ui, setter, &p.release_damping_per_s);
+                param_row(ui, setter, &p.pressure_damping_per_s);
+                param_row(ui, setter, &p.quality_db);
+                param_row(ui, setter, &p.gain_db);
+                param_row(ui, setter, &p.normalize_level);
+                param_row(ui, setter, &p.output_safety);
+            });
+        });
     }
 }
