@@ -33,22 +33,25 @@ pub const MAX_UNWEIGHTED_RMS: f64 = 0.4;
 /// Modes closer than this (Hz) interfere within the loudness window: their cross terms are
 /// counted (the degenerate pairs of symmetric objects, struck between their nodes, cancel
 /// or reinforce); farther apart they add as powers.
-pub const COHERENT_HZ: f64 = 4.0 / LOUDNESS_WINDOW_S;
+pub const COHERENT_HZ: f64 = 1.0 / LOUDNESS_WINDOW_S;
 /// Modes closer than this (Hz) are heard as one partial when choosing the strongest mode.
 pub const PARTIAL_HZ: f64 = 1.0;
 /// Most earlier modes within [`COHERENT_HZ`] whose cross terms are counted.
-const COHERENT_MAX: usize = 16;
+const COHERENT_MAX: usize = 8;
 
-/// Mean of cos(Δω·t)·e^(−D·t) over t in [0, τ]: Re[(1 − e^(−(D − iΔω)τ)) / ((D − iΔω)τ)].
+/// Mean of cos(Δω·t)·e^(−D·t) over t in [0, τ]: Re[(1 − e^(−(D − iΔω)τ)) / ((D − iΔω)τ)],
+/// given `x` = Dτ, `y` = −Δωτ and `end` = e^(−(D − iΔω)τ) = e^(−x)·(cos y − i·sin y) (as
+/// (re, im), computed by the caller from per-mode factors).
 #[inline]
-fn window_mean(decay: f64, delta_omega: f64, tau: f64) -> f64 {
-    let (x, y) = (decay * tau, -delta_omega * tau);
+fn window_mean(x: f64, y: f64, end: (f64, f64)) -> f64 {
     if x.abs() + y.abs() < 1e-9 {
         return 1.0;
     }
-    // 1 − e^(−(x + iy)) = 1 − e^(−x)(cos y − i sin y).
-    let e = (-x).exp();
-    let (num_r, num_i) = (1.0 - e * y.cos(), e * y.sin());
+    // (1 − end) / (x + iy), real part; for y = 0 it is −expm1(−x)/x, accurate for small x.
+    if y == 0.0 {
+        return -(-x).exp_m1() / x;
+    }
+    let (num_r, num_i) = (1.0 - end.0, -end.1);
     (num_r * x + num_i * y) / (x * x + y * y)
 }
 /// Largest relative jitter of the strike force and contact time at *Variation* 1.
@@ -354,76 +357,111 @@ fn cmul(a: C64, b: C64) -> C64 {
     (a.0 * b.0 - a.1 * b.1, a.0 * b.1 + a.1 * b.0)
 }
 
-/// ∫₀^w e^(κσ) dσ = (e^(κw) − 1)/κ, accurate for small |κw| (expm1 and sin² of the half
-/// angle instead of e^(κw) − 1).
 #[inline]
-fn exp_integral(k: C64, w: f64) -> C64 {
-    let (x, y) = (k.0 * w, k.1 * w);
-    if x.abs() + y.abs() < 1e-12 {
-        return (w, 0.0);
-    }
-    let (sy, cy) = y.sin_cos();
-    let sh = (0.5 * y).sin();
-    let num = (x.exp_m1() * cy - 2.0 * sh * sh, x.exp() * sy);
-    // num / k · w/w: (e^(κw) − 1)/(κw) · w.
-    let kw = (x, y);
-    let den = kw.0 * kw.0 + kw.1 * kw.1;
-    let q = ((num.0 * kw.0 + num.1 * kw.1) / den, (num.1 * kw.0 - num.0 * kw.1) / den);
-    (q.0 * w, q.1 * w)
+fn cdiv(a: C64, b: C64) -> C64 {
+    let den = b.0 * b.0 + b.1 * b.1;
+    ((a.0 * b.0 + a.1 * b.1) / den, (a.1 * b.0 - a.0 * b.1) / den)
 }
 
-/// ∫_{σ₀}^{h} (cos aσ, sin aσ)·e^(−sσ) dσ for the mode s = −d + iω: the two integrals the
-/// pulse drive needs, each complex.
-fn cos_sin_integrals(a: f64, d: f64, omega: f64, sigma0: f64, h: f64) -> (C64, C64) {
-    // With κ± = ±ia − s = d + i(±a − ω): ∫ e^(κσ) over [σ₀, h] = e^(κσ₀)·J(κ, h − σ₀).
-    let part = |kappa: C64| -> C64 {
-        let start = if sigma0 == 0.0 {
-            (1.0, 0.0)
-        } else {
-            let (sn, cs) = (kappa.1 * sigma0).sin_cos();
-            let m = (kappa.0 * sigma0).exp();
-            (m * cs, m * sn)
-        };
-        cmul(start, exp_integral(kappa, h - sigma0))
-    };
-    let jp = part((d, a - omega));
-    let jm = part((d, -a - omega));
-    // cos = (e^{iaσ} + e^{−iaσ})/2, sin = (e^{iaσ} − e^{−iaσ})/(2i).
-    let ic = (0.5 * (jp.0 + jm.0), 0.5 * (jp.1 + jm.1));
-    let is = (0.5 * (jp.1 - jm.1), -0.5 * (jp.0 - jm.0));
-    (ic, is)
-}
-
-/// The exact discrete drive of one mode (decay `d`, angular frequency `omega`) by a
-/// unit-area half-sine force F(t) = (π/2T)·sin(πt/T) on [0, T] (issue 11 part 1).
+/// The force pulse of one strike, sampled: what [`PulseShape::drive`] needs that does not
+/// depend on the mode, computed once per strike.
 ///
-/// The resonator's state is the complex z(t) of ż = s·z + F(t), s = −d + iω, whose
-/// imaginary part is the convolution of F with e^(−dt)·sin(ωt) (SCIENCE.md §1), sampled
-/// every h = 1/fs. Over sample n the kernel adds, before its advance by e^(sh),
-/// uₙ = ∫₀^h F(nh + σ)·e^(−sσ) dσ = (π/2T)·[sin(anh)·I_c + cos(anh)·I_s], a = π/T, with
-/// I_c, I_s = ∫₀^h (cos, sin)(aσ)·e^(−sσ) dσ. So `P` = (π/2T)·I_c and `Q` = (π/2T)·I_s
-/// weight the mode-independent signals sin(anh) and cos(anh). The pulse ends inside its last
-/// sample L = ⌈T/h⌉ − 1; the kernel runs that sample with the sine continued, and the
-/// returned `corr` (already advanced by the pole) removes the part past T exactly.
-/// Returns (P, Q, corr).
-fn pulse_drive(d: f64, omega: f64, contact_s: f64, fs: f64) -> (C64, C64, C64) {
-    let h = 1.0 / fs;
-    let a = std::f64::consts::PI / contact_s;
-    let scale = 0.5 * a;
-    let (ic, is) = cos_sin_integrals(a, d, omega, 0.0, h);
-    let len = (contact_s * fs).ceil().max(1.0);
-    let last = len - 1.0;
-    let sigma0 = contact_s - last * h;
-    let corr = if sigma0 < h * (1.0 - 1e-12) {
-        let (tc, ts) = cos_sin_integrals(a, d, omega, sigma0.max(0.0), h);
-        let (sl, cl) = (a * last * h).sin_cos();
-        let delta = (-scale * (sl * tc.0 + cl * ts.0), -scale * (sl * tc.1 + cl * ts.1));
-        let pole = ((-d * h).exp() * (omega * h).cos(), (-d * h).exp() * (omega * h).sin());
-        cmul(pole, delta)
-    } else {
-        (0.0, 0.0)
-    };
-    ((scale * ic.0, scale * ic.1), (scale * is.0, scale * is.1), corr)
+/// The exact discrete drive of a mode (decay d, angular frequency ω) by a unit-area half-sine
+/// force F(t) = (π/2T)·sin(πt/T) on [0, T] (issue 11 part 1): the resonator's state is the
+/// complex z(t) of ż = s·z + F(t), s = −d + iω, whose imaginary part is the convolution of F
+/// with e^(−dt)·sin(ωt) (SCIENCE.md §1), sampled every h = 1/fs. Over sample n the kernel
+/// adds, before its advance by e^(sh), uₙ = ∫₀^h F(nh + σ)·e^(−sσ) dσ
+/// = (π/2T)·[sin(anh)·I_c + cos(anh)·I_s], a = π/T, with I_c, I_s = ∫₀^h (cos, sin)(aσ)·e^(−sσ) dσ:
+/// `P` = (π/2T)·I_c and `Q` = (π/2T)·I_s weight the mode-independent signals sin(anh) and
+/// cos(anh). The pulse ends inside its last sample L = ⌈T/h⌉ − 1; the kernel runs that
+/// sample with the sine continued, and `corr` (advanced by the pole) removes the part past
+/// T exactly. With κ± = ±ia − s = d + i(±a − ω), each integral is a sum of
+/// ∫ e^(κσ) dσ = (e^(κσ₂) − e^(κσ₁))/κ, whose mode-dependent factors e^(dσ)·e^(−iωσ) need
+/// one exponential and one sine/cosine per interval end (the e^(±iaσ) are shared).
+#[derive(Clone, Copy, Debug)]
+struct PulseShape {
+    h: f64,
+    scale: f64,
+    /// Where the pulse ends inside its last sample, 0 < σ₀ ≤ h (σ₀ = h: no correction).
+    sigma0: f64,
+    /// e^(iah), e^(iaσ₀), and (sin, cos) of a·L·h.
+    cis_ah: C64,
+    cis_a0: C64,
+    last: (f64, f64),
+}
+
+impl PulseShape {
+    fn new(contact_s: f64, fs: f64) -> Self {
+        let h = 1.0 / fs;
+        let a = PI / contact_s;
+        let last = (contact_s * fs).ceil().max(1.0) - 1.0;
+        let sigma0 = (contact_s - last * h).clamp(0.0, h);
+        let cis = |x: f64| {
+            let (s, c) = x.sin_cos();
+            (c, s)
+        };
+        PulseShape {
+            h,
+            scale: 0.5 * a,
+            sigma0,
+            cis_ah: cis(a * h),
+            cis_a0: cis(a * sigma0),
+            last: (a * last * h).sin_cos(),
+        }
+    }
+
+    /// (P, Q, corr) of the mode with decay `d` and pole `pole` = e^((−d + iω)h) (its
+    /// f64 value; `e_dh` = e^(dh), `cis_wh` = e^(iωh)), see the type's documentation.
+    fn drive(&self, d: f64, omega: f64, e_dh: f64, cis_wh: C64) -> (C64, C64, C64) {
+        let h = self.h;
+        // e^(κ±·σ) = e^(dσ)·e^(±iaσ)·e^(−iωσ).
+        let conj = |c: C64| (c.0, -c.1);
+        let at = |e_d: f64, cis_a: C64, cis_w: C64| -> (C64, C64) {
+            let w = conj(cis_w);
+            let p = cmul(cis_a, w);
+            let m = cmul(conj(cis_a), w);
+            ((e_d * p.0, e_d * p.1), (e_d * m.0, e_d * m.1))
+        };
+        let a = 2.0 * self.scale;
+        let kp = (d, a - omega);
+        let km = (d, -a - omega);
+        // ∫_{σ1}^{σ2} e^(κσ) dσ for κ±, given e^(κσ) at both ends; κ → 0 is the length.
+        let integral = |k: C64, e2: C64, e1: C64, len: f64| -> C64 {
+            if k.0.abs() + k.1.abs() < 1e-9 / h {
+                (len, 0.0)
+            } else {
+                cdiv((e2.0 - e1.0, e2.1 - e1.1), k)
+            }
+        };
+        let (ph, mh) = at(e_dh, self.cis_ah, cis_wh);
+        let jp = integral(kp, ph, (1.0, 0.0), h);
+        let jm = integral(km, mh, (1.0, 0.0), h);
+        // cos = (e^{iaσ} + e^{−iaσ})/2, sin = (e^{iaσ} − e^{−iaσ})/(2i).
+        let ic = (0.5 * (jp.0 + jm.0), 0.5 * (jp.1 + jm.1));
+        let is = (0.5 * (jp.1 - jm.1), -0.5 * (jp.0 - jm.0));
+        let corr = if self.sigma0 < h * (1.0 - 1e-12) {
+            let (sn, cs) = (omega * self.sigma0).sin_cos();
+            let (p0, m0) = at((d * self.sigma0).exp(), self.cis_a0, (cs, sn));
+            let tp = integral(kp, ph, p0, h - self.sigma0);
+            let tm = integral(km, mh, m0, h - self.sigma0);
+            let tc = (0.5 * (tp.0 + tm.0), 0.5 * (tp.1 + tm.1));
+            let ts = (0.5 * (tp.1 - tm.1), -0.5 * (tp.0 - tm.0));
+            let (sl, cl) = self.last;
+            let delta = (-self.scale * (sl * tc.0 + cl * ts.0), -self.scale * (sl * tc.1 + cl * ts.1));
+            cmul((cis_wh.0 / e_dh, cis_wh.1 / e_dh), delta)
+        } else {
+            (0.0, 0.0)
+        };
+        ((self.scale * ic.0, self.scale * ic.1), (self.scale * is.0, self.scale * is.1), corr)
+    }
+}
+
+/// The pulse drive of one mode (see [`PulseShape`]): (P, Q, corr) and the mode's pole.
+fn pulse_drive(shape: &PulseShape, d: f64, omega: f64) -> ((C64, C64, C64), ModeCoeffs) {
+    let e_dh = (d * shape.h).exp();
+    let (sn, cs) = (omega * shape.h).sin_cos();
+    let pole = ModeCoeffs { pr: (cs / e_dh) as f32, pi: (sn / e_dh) as f32 };
+    (shape.drive(d, omega, e_dh, (cs, sn)), pole)
 }
 
 /// Mode `m`'s fixed draw of a unit-mean exponential, for the support damping: a hash of the
@@ -517,6 +555,10 @@ impl Jitter {
     const NONE: Jitter = Jitter { position: 0.0, force: 1.0, contact: 1.0 };
 }
 
+/// A mode remembered for the loudness cross terms: (ω, d, K-weighted amplitude, amplitude,
+/// e^((−d + iω)τ) once computed).
+type Recent = (f64, f64, f64, f64, Option<C64>);
+
 /// How a strike will play: its contact time, the level factor applied to every mode's
 /// gain, and the strongest mode's amplitude (for the quality threshold).
 #[derive(Clone, Copy, Debug)]
@@ -550,7 +592,8 @@ impl ModeSet<'_> {
     /// [`LOUDNESS_WINDOW_S`] of [`REFERENCE_RMS`]: the window's mean square of the modes,
     /// Σₘ ½·(K(fₘ)·aₘ)²·W(2dₘ, 0) + Σ_{close pairs} K·a·K'·a'·W(d + d', Δω) with
     /// W(D, Δω) the mean of cos(Δω t)·e^(−Dt) over the window (pairs within [`COHERENT_HZ`];
-    /// the sum-frequency terms average out). Capped so the unweighted RMS stays under
+    /// the sum-frequency terms average out; only the modes above the quality threshold, the ones
+    /// that will ring). Capped so the unweighted RMS stays under
     /// [`MAX_UNWEIGHTED_RMS`]. Velocity then changes loudness only by
     /// [`exciter::velocity_gain`] and brightness by the contact time. Without `normalize`,
     /// the object's fixed normalisation of a unit impulse.
@@ -569,12 +612,8 @@ impl ModeSet<'_> {
             .clamp(exciter::CONTACT_RANGE_S.0, exciter::CONTACT_RANGE_S.1);
         let contact_ref = p.mallet.contact_time_s(exciter::strike_speed(1.0), stiffness);
         let tau = LOUDNESS_WINDOW_S;
-        let (mut peak, mut weighted, mut flat) = (0.0f32, 0.0f64, 0.0f64);
-        // The last modes (ω, d, K-weighted amplitude, amplitude), a ring, for cross terms.
-        let mut recent = [(0.0f64, 0.0f64, 0.0f64, 0.0f64); COHERENT_MAX];
-        let mut count = 0usize;
-        for &m in &obj.by_lambda {
-            let m = usize::from(m);
+        let mut peak = 0.0f32;
+        for m in 0..obj.num_modes() {
             let lambda = obj.lambdas[m] * self.scale;
             let Some((d, omega)) =
                 mode_pole(lambda, self.damping, self.support * obj.support_q[m], self.extra, self.fs)
@@ -583,33 +622,62 @@ impl ModeSet<'_> {
                 continue;
             };
             poles[m] = (d, omega);
-            let f = omega / (2.0 * PI);
-            let g = f64::from(gains[m]);
-            amps[m] = (g * exciter::pulse_spectrum(f, contact)) as f32;
+            amps[m] = (f64::from(gains[m]) * exciter::pulse_spectrum(omega / (2.0 * PI), contact)) as f32;
             peak = peak.max(amps[m].abs());
-            if p.normalize {
-                let r = g * exciter::pulse_spectrum(f, contact_ref);
+        }
+        if peak <= 0.0 {
+            return None;
+        }
+        // The loudness of the modes that will ring (above the quality threshold), in ascending
+        // frequency for the cross terms of close ones.
+        let (mut weighted, mut flat) = (0.0f64, 0.0f64);
+        if p.normalize {
+            let threshold = peak * 10f32.powf(-p.quality_db / 20.0);
+            // The last modes, a ring, for cross terms: (ω, d, K-weighted amplitude, amplitude,
+            // e^((−d + iω)τ) as (re, im)).
+            let mut recent: [Recent; COHERENT_MAX] = [(0.0, 0.0, 0.0, 0.0, None); COHERENT_MAX];
+            let mut count = 0usize;
+            for &m in &obj.by_lambda {
+                let m = usize::from(m);
+                if amps[m] == 0.0 || amps[m].abs() < threshold {
+                    continue;
+                }
+                let (d, omega) = poles[m];
+                let f = omega / (2.0 * PI);
+                let r = f64::from(gains[m]) * exciter::pulse_spectrum(f, contact_ref);
                 let rk = r * exciter::k_weighting(f);
                 // Mean square over the window: ½·r²·mean(e^(−2dt)) for the mode itself, and
                 // r·r'·mean(cos(Δω t)·e^(−(d + d')t)) with each close earlier mode.
-                let w = window_mean(2.0 * d, 0.0, tau);
+                let w = window_mean(2.0 * d * tau, 0.0, (0.0, 0.0));
                 weighted += 0.5 * rk * rk * w;
                 flat += 0.5 * r * r * w;
-                for &(o2, d2, rk2, r2) in recent.iter().take(count.min(COHERENT_MAX)) {
-                    if (omega - o2).abs() < 2.0 * PI * COHERENT_HZ {
-                        let c = window_mean(d + d2, omega - o2, tau);
-                        weighted += rk * rk2 * c;
-                        flat += r * r2 * c;
+                // e^((−d + iω)τ) of a mode, computed once and only for modes with a close
+                // neighbour; a pair's end factor is e₁·conj(e₂).
+                let cis_tau = |d: f64, omega: f64| {
+                    let (sn, cs) = (omega * tau).sin_cos();
+                    let m = (-d * tau).exp();
+                    (m * cs, m * sn)
+                };
+                let mut e = None;
+                for k in 0..count.min(COHERENT_MAX) {
+                    let (o2, d2, rk2, r2, e2) = recent[k];
+                    if (omega - o2).abs() >= 2.0 * PI * COHERENT_HZ {
+                        continue;
                     }
+                    let e1 = *e.get_or_insert_with(|| cis_tau(d, omega));
+                    let e2 = e2.unwrap_or_else(|| cis_tau(d2, o2));
+                    recent[k].4 = Some(e2);
+                    // e^(−(D − iΔω)τ), D = d + d₂, Δω = ω − ω₂.
+                    let end = (e1.0 * e2.0 + e1.1 * e2.1, e1.1 * e2.0 - e1.0 * e2.1);
+                    let c = window_mean((d + d2) * tau, -(omega - o2) * tau, end);
+                    weighted += rk * rk2 * c;
+                    flat += r * r2 * c;
                 }
-                recent[count % COHERENT_MAX] = (omega, d, rk, r);
+                recent[count % COHERENT_MAX] = (omega, d, rk, r, e);
                 count += 1;
             }
         }
         let (weighted, flat) = (weighted.max(0.0), flat.max(0.0));
-        if peak <= 0.0 {
-            return None;
-        }
         let norm = if p.normalize {
             let by_a = if weighted > 0.0 { REFERENCE_RMS / weighted.sqrt() } else { f64::INFINITY };
             let cap = if flat > 0.0 { MAX_UNWEIGHTED_RMS / flat.sqrt() } else { 1.0 };
@@ -923,6 +991,7 @@ impl Engine {
         let burst = ((10.0 * contact).max(3e-3) * fs).round().max(1.0) as usize;
         let drive_scale = noise * (3.0 * 13.8 / burst as f32).sqrt();
         voice.bank.clear_forcing();
+        let shape = PulseShape::new(contact, fs);
         let mut energy = 0.0f32;
         for m in 0..n {
             let a = self.amps[m];
@@ -930,9 +999,10 @@ impl Engine {
                 continue;
             }
             let (d, omega) = self.poles[m];
+            let ((pp, qq, corr), pole) = pulse_drive(&shape, d, omega);
             let mut slot = voice.slot_of_mode[m];
             if slot == NO_SLOT {
-                match voice.bank.push(ModeCoeffs::new(d, omega, fs)) {
+                match voice.bank.push(pole) {
                     Some(k) => {
                         slot = k as u16;
                         voice.slot_of_mode[m] = slot;
@@ -943,7 +1013,6 @@ impl Engine {
             }
             let k = usize::from(slot);
             let g = f64::from(self.gains[m]) * f64::from(level) * f64::from(1.0 - noise);
-            let (pp, qq, corr) = pulse_drive(d, omega, contact, fs);
             let f = |x: f64| (g * x) as f32;
             voice.bank.set_forcing(k, (f(pp.0), f(pp.1)), (f(qq.0), f(qq.1)), a * level * drive_scale);
             voice.corr_re[k] = f(corr.0);

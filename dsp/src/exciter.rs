@@ -205,15 +205,16 @@ pub const K_WEIGHTING_48K: [[f64; 5]; 2] = [
 pub fn k_weighting(f: f64) -> f64 {
     let w = 2.0 * std::f64::consts::PI * f.clamp(0.0, 23_900.0) / 48_000.0;
     let (s1, c1) = w.sin_cos();
-    let (s2, c2) = (2.0 * w).sin_cos();
-    let mut g = 1.0;
+    // Double angle: one sine/cosine per call (the engine weighs every mode of a strike).
+    let (s2, c2) = (2.0 * s1 * c1, 2.0 * c1 * c1 - 1.0);
+    let mut g2 = 1.0;
     for [b0, b1, b2, a1, a2] in K_WEIGHTING_48K {
-        // |B(e^{jw})| / |A(e^{jw})| with z⁻¹ = e^{−jw}.
+        // |B(e^{jw})|² / |A(e^{jw})|² with z⁻¹ = e^{−jw}.
         let (nr, ni) = (b0 + b1 * c1 + b2 * c2, -(b1 * s1 + b2 * s2));
         let (dr, di) = (1.0 + a1 * c1 + a2 * c2, -(a1 * s1 + a2 * s2));
-        g *= ((nr * nr + ni * ni) / (dr * dr + di * di)).sqrt();
+        g2 *= (nr * nr + ni * ni) / (dr * dr + di * di);
     }
-    g
+    g2.sqrt()
 }
 
 /// A small, fast, deterministic white-noise source (xorshift32) in [−1, 1).
