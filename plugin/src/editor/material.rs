@@ -165,7 +165,7 @@ impl EditorUi {
         plot.line(&painter, &curve, Stroke::new(2.0, Color32::from_rgb(255, 190, 60)));
         ui.add_space(4.0);
 
-        egui::CollapsingHeader::new("Custom damping law").default_open(true).show(ui, |ui| {
+        egui::CollapsingHeader::new("Custom damping law").default_open(selected >= custom).show(ui, |ui| {
             if selected < custom {
                 ui.label(egui::RichText::new("These knobs play when Material is Custom.").weak());
             }
@@ -178,6 +178,15 @@ impl EditorUi {
                 param_row(ui, setter, &p.custom_support_per_s);
             });
         });
+        egui::CollapsingHeader::new("Mallet").default_open(true).show(ui, |ui| {
+            egui::Grid::new("mallet-knobs").num_columns(2).show(ui, |ui| {
+                param_row(ui, setter, &p.mallet);
+                param_row(ui, setter, &p.hardness);
+                param_row(ui, setter, &p.velocity_sensitivity);
+                param_row(ui, setter, &p.variation);
+                param_row(ui, setter, &p.noise);
+            });
+        });
         egui::CollapsingHeader::new("Material and object").default_open(true).show(ui, |ui| {
             egui::Grid::new("material-knobs").num_columns(2).show(ui, |ui| {
                 param_row(ui, setter, &p.decay_scale);
@@ -186,15 +195,6 @@ impl EditorUi {
                 param_row(ui, setter, &p.modulus_ratio);
                 param_row(ui, setter, &p.material_pitch);
                 param_row(ui, setter, &p.size);
-            });
-        });
-        egui::CollapsingHeader::new("Mallet").default_open(true).show(ui, |ui| {
-            egui::Grid::new("mallet-knobs").num_columns(2).show(ui, |ui| {
-                param_row(ui, setter, &p.mallet);
-                param_row(ui, setter, &p.hardness);
-                param_row(ui, setter, &p.velocity_sensitivity);
-                param_row(ui, setter, &p.variation);
-                param_row(ui, setter, &p.noise);
             });
         });
         egui::CollapsingHeader::new("Keys and pitch").default_open(true).show(ui, |ui| {
