@@ -248,8 +248,17 @@ fn max_diff(a: &[Vec<f32>; 2], b: &[Vec<f32>; 2]) -> (f32, usize, usize) {
     worst
 }
 
+/// The tests of this file one at a time: the GUI test's X11/OpenGL start-up and another
+/// test loading the same plugin binary at once crashed the process once (SIGSEGV, a loaded
+/// machine); each test holds this lock.
+fn serial() -> std::sync::MutexGuard<'static, ()> {
+    static LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    LOCK.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
 #[test]
 fn clap_binary_matches_offline_host_and_round_trips_state() {
+    let _one_at_a_time = serial();
     let started = std::time::Instant::now();
     let entry = load_entry();
     let num_samples = SAMPLE_RATE as usize; // 1.0 s
@@ -354,6 +363,7 @@ fn host_phrase() -> (Vec<(usize, Note)>, usize) {
 /// (tests/hosts/pedalboard_host.py), which must render the same through VST3.
 #[test]
 fn clap_binary_renders_the_host_phrase() {
+    let _one_at_a_time = serial();
     let entry = load_entry();
     let (notes, num_samples) = host_phrase();
     let mut a = instantiate(&entry);
@@ -453,6 +463,7 @@ fn wait_for<T>(plugin: &mut PluginInstance<TestHost>, what: &str, mut f: impl Fn
 /// `target/tmp/editor-screenshots/clap-host-window.png`.
 #[test]
 fn the_editor_opens_in_a_host_window_resizes_and_reopens_at_its_size() {
+    let _one_at_a_time = serial();
     use clack_extensions::gui::{GuiApiType, GuiConfiguration, GuiSize, PluginGui, Window as ClapWindow};
     use x11rb::connection::Connection;
     use x11rb::protocol::xproto::{ConnectionExt, CreateWindowAux, ImageFormat, WindowClass};
