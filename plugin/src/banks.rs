@@ -28,6 +28,21 @@ pub enum BankCommand {
         name: Option<String>,
         out: PathBuf,
     },
+    Tune {
+        shape: String,
+        dims: String,
+        ratios: String,
+        exponent: f64,
+        modes: usize,
+        young: f64,
+        density: f64,
+        poisson: f64,
+        resolution: usize,
+        points: usize,
+        id: Option<String>,
+        name: Option<String>,
+        out: PathBuf,
+    },
     Info {
         bank: PathBuf,
         json: bool,
@@ -38,6 +53,7 @@ pub enum BankCommand {
 /// Built-in shapes: name, dimension names (metres), an example.
 pub const SHAPES: &[(&str, &[&str], &str)] = &[
     ("bar", &["length", "width", "thickness"], "0.5,0.03,0.01"),
+    ("undercut-bar", &["length", "width", "thickness", "depth", "cut", "exponent"], "0.4,0.06,0.02,0.56,0.44,4"),
     ("plate", &["length", "width", "thickness"], "0.4,0.3,0.003"),
     ("block", &["length", "width", "height"], "0.2,0.08,0.05"),
     ("circular-plate", &["radius", "thickness"], "0.15,0.002"),
@@ -69,6 +85,9 @@ pub fn parse_shape(name: &str, dims: &str) -> Result<Shape, String> {
     }
     let shape = match name {
         "bar" => Shape::Bar { length: v[0], width: v[1], thickness: v[2] },
+        "undercut-bar" => {
+            Shape::UndercutBar { length: v[0], width: v[1], thickness: v[2], depth: v[3], cut: v[4], exponent: v[5] }
+        }
         "plate" => Shape::Plate { length: v[0], width: v[1], thickness: v[2] },
         "block" => Shape::Block { length: v[0], width: v[1], height: v[2] },
         "circular-plate" => Shape::CircularPlate { radius: v[0], thickness: v[1] },
@@ -120,6 +139,87 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
             Ok(())
         }
         BankCommand::Info { bank, json } => info(&bank, json),
+        BankCommand::Tune {
+            shape,
+            dims,
+            ratios,
+            exponent,
+            modes,
+            young,
+            density,
+            poisson,
+            resolution,
+            points,
+            id,
+            name,
+            out,
+        } => {
+            if shape != "bar" {
+                return Err(format!(
+                    "--shape {shape}: only a bar can be tuned (an undercut is cut from its underside)"
+                ));
+            }
+            let material = fem::Material { young, density, poisson };
+            material.validate().map_err(|e| e.to_string())?;
+            let Shape::Bar { length, width, thickness } = parse_shape("bar", &dims)? else {
+                return Err("--dims: length,width,thickness".into());
+            };
+            let r: Vec<f64> = ratios
+                .split(',')
+                .map(|x| x.trim().parse::<f64>().map_err(|_| format!("--ratios: '{x}' is not a number")))
+                .collect::<Result<_, _>>()?;
+            let targets = match r.as_slice() {
+                [one, a, b] if (*one - 1.0).abs() < 1e-12 => [*a, *b],
+                [a, b] => [*a, *b],
+                _ => return Err("--ratios takes 1,r2,r3 (e.g. 1,4,10)".into()),
+            };
+            if !(1..=presets::MAX_BANK_MODES).contains(&modes) || !(1..=presets::MAX_BANK_POINTS).contains(&points) {
+                return Err("--modes or --points out of range".into());
+            }
+            presets::output::check_output(&out, &[]).map_err(|e| e.to_string())?;
+            let tuned = fem::tune::tune_undercut_bar(
+                length,
+                width,
+                thickness,
+                exponent,
+                targets,
+                &material,
+                resolution,
+                &|line| eprintln!("{line}"),
+            )
+            .map_err(|e| e.to_string())?;
+            let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("bank");
+            let id = kebab(id.as_deref().unwrap_or(stem));
+            let name = name.unwrap_or_else(|| id.clone());
+            let opts =
+                BuildOptions { max_modes: modes, max_freq_hz: Some(20_000.0), resolution, strike_points: points };
+            let (mut bank, _) =
+                fem::build_bank(&id, &name, &tuned.shape, &material, &opts, &progress()).map_err(|e| e.to_string())?;
+            let f = tuned.bending_hz;
+            bank.description = format!(
+                "{} Tuned by `struck bank tune` to bending ratios 1:{}:{}: {:.2} : {:.2} : {:.2} Hz ({:+.2}, {:+.2} cents).",
+                bank.description, targets[0], targets[1], f[0], f[1], f[2], tuned.cents[0], tuned.cents[1]
+            );
+            bank.save(&out).map_err(|e| e.to_string())?;
+            end_progress_line();
+            let dims = tuned.shape.dimensions();
+            eprintln!(
+                "wrote {}: undercut depth {:.4}, cut {:.4} (exponent {}); bending modes {:.2}, {:.2}, {:.2} Hz = 1 : {:.4} : {:.4} ({:+.2}, {:+.2} cents) after {} FEM analyses",
+                out.display(),
+                dims[3],
+                dims[4],
+                dims[5],
+                f[0],
+                f[1],
+                f[2],
+                f[1] / f[0],
+                f[2] / f[0],
+                tuned.cents[0],
+                tuned.cents[1],
+                tuned.evaluations
+            );
+            Ok(())
+        }
         BankCommand::Build {
             shape,
             dims,

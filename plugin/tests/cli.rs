@@ -671,3 +671,25 @@ fn pitch_and_the_material_files_pitch_are_honoured() {
     let on = lowest(&["--material", f, "--set", "keytune=0", "--set", "matpitch=1", "--set", "dscale=0.05"]);
     assert!((on / off - 2.0).abs() < 1e-3, "{off} → {on}");
 }
+
+/// Issue 11 part 4: `struck bank tune` refuses what it cannot tune in one line, before any
+/// FEM work (the tuner itself: `presets` unit tests and the factory tuned bars' test).
+#[test]
+fn bank_tune_refuses_bad_requests_in_one_line() {
+    let dir = scratch("tune");
+    let out = dir.join("t.json");
+    let o = out.to_str().unwrap();
+    for (args, want) in [
+        (vec!["--dims", "0.3,0.04,0.02", "--ratios", "1,10,4"], "ratios must rise"),
+        (vec!["--dims", "0.3,0.04,0.02", "--ratios", "1,four,10"], "--ratios: 'four' is not a number"),
+        (vec!["--dims", "0.3,0.04", "--ratios", "1,4,10"], "--dims for bar takes 3"),
+        (vec!["--shape", "plate", "--dims", "0.3,0.04,0.02", "--ratios", "1,4,10"], "only a bar can be tuned"),
+        (vec!["--dims", "0.3,0.04,0.02", "--ratios", "1,4,10", "--exponent", "40"], "exponent"),
+    ] {
+        let mut a = vec!["bank", "tune", "--out", o];
+        a.extend(args.iter().copied());
+        let e = error_line(&struck(&dir, &a));
+        assert!(e.contains(want), "{args:?}: {e}");
+    }
+    assert!(!out.exists());
+}

@@ -53,6 +53,50 @@ const FEM_BANKS: &[FemBank] = &[
     ("fem-sphere-shell", "Sphere shell (FEM, steel Ø 20 cm)", "sphere-shell", "0.1,0.004", 200e9, 7850.0, 0.3, 16, 80),
 ];
 
+/// One factory tuned bar: id, name, dims (m, before the undercut), ratios, E, ρ, ν,
+/// resolution, modes.
+type TunedBank = (&'static str, &'static str, &'static str, &'static str, f64, f64, f64, usize, usize);
+
+/// The factory tuned bars (issue 11 part 4), built by `struck bank tune`. Wood is taken as
+/// isotropic with its modulus along the grain (rosewood E ≈ 20 GPa, ρ ≈ 1050 kg/m³; Fletcher
+/// & Rossing §19.2 give c_L ≈ 4.4 km/s for Honduras rosewood); the vibraphone bar is
+/// aluminium.
+const TUNED_BANKS: &[TunedBank] = &[
+    (
+        "fem-marimba-bar",
+        "Marimba bar (FEM, rosewood, tuned 1:4:10)",
+        "0.38,0.06,0.02",
+        "1,4,10",
+        20e9,
+        1050.0,
+        0.3,
+        40,
+        60,
+    ),
+    (
+        "fem-xylophone-bar",
+        "Xylophone bar (FEM, rosewood, tuned 1:3:6)",
+        "0.25,0.04,0.022",
+        "1,3,6",
+        20e9,
+        1050.0,
+        0.3,
+        40,
+        60,
+    ),
+    (
+        "fem-vibraphone-bar",
+        "Vibraphone bar (FEM, aluminium, tuned 1:4:10)",
+        "0.34,0.05,0.012",
+        "1,4,10",
+        69e9,
+        2700.0,
+        0.33,
+        40,
+        60,
+    ),
+];
+
 /// Regenerates `presets/factory/banks/*.json` with the FEM bank builder.
 fn banks() -> Result<(), String> {
     nice_plug_xtask::chdir_workspace_root().map_err(|e| e.to_string())?;
@@ -97,6 +141,21 @@ fn banks() -> Result<(), String> {
                 "--out",
                 &out,
             ])
+            .status()
+            .map_err(|e| format!("cannot run struck: {e}"))?;
+        if !status.success() {
+            failed.push(id);
+        }
+    }
+    for &(id, name, dims, ratios, e, rho, nu, res, modes) in TUNED_BANKS {
+        let out = format!("presets/factory/banks/{id}.json");
+        let (e, rho, nu, res, modes) =
+            (e.to_string(), rho.to_string(), nu.to_string(), res.to_string(), modes.to_string());
+        eprintln!("== {id}: tuned bar {dims}, {ratios}");
+        let status = Command::new(&struck)
+            .args(["bank", "tune", "--dims", dims, "--ratios", ratios, "--young", &e, "--density", &rho])
+            .args(["--poisson", &nu, "--resolution", &res, "--modes", &modes, "--id", id, "--name", name])
+            .args(["--out", &out])
             .status()
             .map_err(|e| format!("cannot run struck: {e}"))?;
         if !status.success() {

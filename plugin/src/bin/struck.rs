@@ -177,6 +177,51 @@ enum BankCommand {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Tune a bar: the undercut whose first three vertical bending modes stand at --ratios
+    /// (thin-beam start, then Newton's method on the FEM), then build its bank.
+    #[command(allow_negative_numbers = true)]
+    Tune {
+        /// The shape to tune: bar (an undercut is cut from its underside).
+        #[arg(long, default_value = "bar")]
+        shape: String,
+        /// The bar before its undercut: length,width,thickness in metres.
+        #[arg(long)]
+        dims: String,
+        /// Target ratios of the first three bending modes, e.g. 1,4,10 (marimba, vibraphone)
+        /// or 1,3,6 (xylophone).
+        #[arg(long)]
+        ratios: String,
+        /// Flatness of the undercut's bottom: thickness ∝ 1 − depth·(1 − |u|^exponent).
+        #[arg(long, default_value_t = 4.0)]
+        exponent: f64,
+        /// Number of modes of the bank.
+        #[arg(long, default_value_t = 100)]
+        modes: usize,
+        /// Young's modulus, Pa.
+        #[arg(long, default_value_t = 200e9)]
+        young: f64,
+        /// Density, kg/m³.
+        #[arg(long, default_value_t = 7850.0)]
+        density: f64,
+        /// Poisson's ratio.
+        #[arg(long, default_value_t = 0.3)]
+        poisson: f64,
+        /// Mesh resolution: elements along the length.
+        #[arg(long, default_value_t = 40)]
+        resolution: usize,
+        /// Number of strike points.
+        #[arg(long, default_value_t = 64)]
+        points: usize,
+        /// Bank id (kebab-case; default from the output file name).
+        #[arg(long)]
+        id: Option<String>,
+        /// Display name (default: the id).
+        #[arg(long)]
+        name: Option<String>,
+        /// Output bank JSON.
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Summarise a bank JSON file (validates it).
     Info {
         /// Bank JSON file.
@@ -293,6 +338,35 @@ impl From<BankCommand> for struck::banks::BankCommand {
                 scale,
                 modes,
                 max_freq,
+                young,
+                density,
+                poisson,
+                resolution,
+                points,
+                id,
+                name,
+                out,
+            },
+            BankCommand::Tune {
+                shape,
+                dims,
+                ratios,
+                exponent,
+                modes,
+                young,
+                density,
+                poisson,
+                resolution,
+                points,
+                id,
+                name,
+                out,
+            } => B::Tune {
+                shape,
+                dims,
+                ratios,
+                exponent,
+                modes,
                 young,
                 density,
                 poisson,

@@ -32,6 +32,10 @@ pub const FACTORY_FEM_BANKS: &[(&str, &str)] = &[
     ("fem-bell", include_str!("../../factory/banks/fem-bell.json")),
     ("fem-block", include_str!("../../factory/banks/fem-block.json")),
     ("fem-sphere-shell", include_str!("../../factory/banks/fem-sphere-shell.json")),
+    // Tuned bars (issue 11 part 4), built by `struck bank tune` (see `cargo xtask banks`).
+    ("fem-marimba-bar", include_str!("../../factory/banks/fem-marimba-bar.json")),
+    ("fem-xylophone-bar", include_str!("../../factory/banks/fem-xylophone-bar.json")),
+    ("fem-vibraphone-bar", include_str!("../../factory/banks/fem-vibraphone-bar.json")),
 ];
 
 /// All factory banks: the analytic `"bar"`, `"circular-plate"`, `"rect-plate"` (computed now,

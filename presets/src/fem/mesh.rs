@@ -383,6 +383,23 @@ pub(crate) fn mesh_with_geometry(shape: &Shape, resolution: usize) -> Result<(Te
     };
     match *shape {
         Shape::Bar { length, width, thickness } => boxed(length, width, thickness, true),
+        Shape::UndercutBar { length, width, thickness, depth, cut, exponent } => {
+            // The box's layers between the cut underside and the flat top: quadratic nodes
+            // are placed on the curved underside by the map.
+            let h = length.max(width).max(thickness) / res;
+            let (base, tris) = rect_base(length, width, divisions(length, h), divisions(width, h));
+            let lay = Layered { base, tris, layers: divisions(thickness, h).max(2) };
+            let bottom =
+                move |x: f64| thickness - super::tune::undercut_thickness(x, length, thickness, depth, cut, exponent);
+            let mesh = lay.build(
+                &|q| {
+                    let zb = bottom(q[0]);
+                    [q[0], q[1], zb + q[2] * (thickness - zb)]
+                },
+                &mid3,
+            )?;
+            Ok((mesh, Geometry::Box { lx: length, ly: width, lz: thickness, line: true }))
+        }
         Shape::Plate { length, width, thickness } => boxed(length, width, thickness, false),
         Shape::Block { length, width, height } => boxed(length, width, height, false),
         Shape::CircularPlate { radius, thickness } => {

@@ -30,6 +30,7 @@ pub mod import;
 pub mod mesh;
 pub mod strike;
 pub mod surface;
+pub mod tune;
 pub mod voxel;
 
 use std::time::Instant;
@@ -49,6 +50,12 @@ pub enum Shape {
     /// Rectangular bar [0, length] × [0, width] × [0, thickness]; struck on the top face
     /// along its centre line.
     Bar { length: f64, width: f64, thickness: f64 },
+    /// A bar with an arch cut from its underside, as on marimba, xylophone and vibraphone
+    /// bars: at x the thickness is `thickness`·(1 − `depth`·(1 − |u|^`exponent`)) with
+    /// u = (x − length/2)/(`cut`·length/2) over the cut (|u| < 1), the full thickness outside.
+    /// `depth` and `cut` are fractions (of the thickness and the length); the top face is
+    /// flat and struck along its centre line, like [`Shape::Bar`]. See [`tune`].
+    UndercutBar { length: f64, width: f64, thickness: f64, depth: f64, cut: f64, exponent: f64 },
     /// Rectangular plate [0, length] × [0, width] × [0, thickness]; struck over the top face.
     Plate { length: f64, width: f64, thickness: f64 },
     /// Block / tile [0, length] × [0, width] × [0, height]; struck over the top face.
@@ -74,6 +81,7 @@ impl Shape {
     pub fn kind(&self) -> &'static str {
         match self {
             Shape::Bar { .. } => "bar",
+            Shape::UndercutBar { .. } => "undercut-bar",
             Shape::Plate { .. } => "plate",
             Shape::Block { .. } => "block",
             Shape::CircularPlate { .. } => "circular-plate",
@@ -92,6 +100,9 @@ impl Shape {
                 vec![length, width, thickness]
             }
             Shape::Block { length, width, height } => vec![length, width, height],
+            Shape::UndercutBar { length, width, thickness, depth, cut, exponent } => {
+                vec![length, width, thickness, depth, cut, exponent]
+            }
             Shape::CircularPlate { radius, thickness } => vec![radius, thickness],
             Shape::Tube { length, outer_radius, wall } => vec![length, outer_radius, wall],
             Shape::Bowl { radius, wall } | Shape::SphereShell { radius, wall } => vec![radius, wall],
@@ -105,6 +116,7 @@ impl Shape {
         match self {
             Shape::Bar { .. } | Shape::Plate { .. } => &["length", "width", "thickness"],
             Shape::Block { .. } => &["length", "width", "height"],
+            Shape::UndercutBar { .. } => &["length", "width", "thickness", "depth", "cut", "exponent"],
             Shape::CircularPlate { .. } => &["radius", "thickness"],
             Shape::Tube { .. } => &["length", "outer_radius", "wall"],
             Shape::Bowl { .. } | Shape::SphereShell { .. } => &["radius", "wall"],
@@ -120,6 +132,7 @@ impl Shape {
             }
             Shape::Tube { length, outer_radius, .. } => length.max(2.0 * outer_radius),
             Shape::Cup { radius, height, .. } | Shape::Bell { radius, height, .. } => (2.0 * radius).max(height),
+            Shape::UndercutBar { length, width, thickness, .. } => length.max(width).max(thickness),
             _ => self.dimensions().into_iter().fold(0.0, f64::max),
         }
     }
@@ -142,6 +155,17 @@ impl Shape {
             Shape::Bowl { radius, wall } | Shape::SphereShell { radius, wall } => wall < 0.5 * radius,
             Shape::Cup { radius, height, wall } => wall < 0.25 * radius && wall < 0.25 * height,
             Shape::Bell { radius, height, wall } => wall < 0.25 * radius && wall < 0.25 * height,
+            Shape::UndercutBar { depth, cut, exponent, .. } => {
+                if !(depth < 0.95 && cut <= 1.0 && (1.0..=16.0).contains(&exponent)) {
+                    return Err(FemError::InvalidShape {
+                        shape: self.kind(),
+                        reason: format!(
+                            "depth must be under 0.95 (of the thickness), cut at most 1 (of the length) and the exponent in 1..=16; found {depth}, {cut}, {exponent}"
+                        ),
+                    });
+                }
+                true
+            }
             _ => true,
         };
         if !wall_ok {
@@ -506,7 +530,7 @@ pub fn build_bank(
     let dims_text =
         shape.field_names().iter().zip(&dims).map(|(n, v)| format!("{n} {v} m")).collect::<Vec<_>>().join(", ");
     let frame = match shape {
-        Shape::Bar { .. } | Shape::Plate { .. } | Shape::Block { .. } => {
+        Shape::Bar { .. } | Shape::UndercutBar { .. } | Shape::Plate { .. } | Shape::Block { .. } => {
             "Frame: box [0, length] x [0, width] x [0, thickness]; strike points on the top face; xy = (x/length, y/width)."
         }
         Shape::CircularPlate { .. } => {
