@@ -37,7 +37,7 @@ pub const COHERENT_HZ: f64 = 4.0 / LOUDNESS_WINDOW_S;
 /// Modes closer than this (Hz) are heard as one partial when choosing the strongest mode.
 pub const PARTIAL_HZ: f64 = 1.0;
 /// Most earlier modes within [`COHERENT_HZ`] whose cross terms are counted.
-const COHERENT_MAX: usize = 16;
+const COHERENT_MAX: usize = 8;
 
 /// Mean of cos(Δω·t)·e^(−D·t) over t in [0, τ]: Re[(1 − e^(−(D − iΔω)τ)) / ((D − iΔω)τ)],
 /// given `x` = Dτ, `y` = −Δωτ and `end` = e^(−(D − iΔω)τ) = e^(−x)·(cos y − i·sin y) (as
