@@ -32,6 +32,9 @@ pub enum BankCommand {
         shape: String,
         dims: String,
         ratios: String,
+        vary: Option<String>,
+        first_mode: usize,
+        tolerance: f64,
         exponent: f64,
         modes: usize,
         young: f64,
@@ -48,6 +51,100 @@ pub enum BankCommand {
         json: bool,
     },
     Shapes,
+}
+
+/// Parses `--ratios` (1,r2,r3,… or r2,r3,…) into the ratios to the first mode.
+fn parse_ratios(ratios: &str) -> Result<Vec<f64>, String> {
+    let r: Vec<f64> = ratios
+        .split(',')
+        .map(|x| x.trim().parse::<f64>().map_err(|_| format!("--ratios: '{x}' is not a number")))
+        .collect::<Result<_, _>>()?;
+    let r = match r.split_first() {
+        Some((one, rest)) if (*one - 1.0).abs() < 1e-12 => rest.to_vec(),
+        _ => r,
+    };
+    if r.is_empty() || r[0] <= 1.0 || !r.windows(2).all(|w| w[1] > w[0]) || r.iter().any(|x| !x.is_finite()) {
+        return Err(format!("--ratios must rise from 1, e.g. 1,4,10; found {ratios}"));
+    }
+    Ok(r)
+}
+
+/// `bank tune --vary` / `--shape tube`: fits the named dimensions (see
+/// [`fem::tune::tune_dimensions`]) and builds the bank.
+#[allow(clippy::too_many_arguments)]
+fn tune_dimensions(
+    kind: &str,
+    dims: &str,
+    ratios: &str,
+    vary: &str,
+    first_mode: usize,
+    tolerance: f64,
+    young: f64,
+    density: f64,
+    poisson: f64,
+    opts: BuildOptions,
+    id: Option<String>,
+    name: Option<String>,
+    out: &std::path::Path,
+) -> Result<(), String> {
+    let material = fem::Material { young, density, poisson };
+    material.validate().map_err(|e| e.to_string())?;
+    let shape = parse_shape(kind, dims)?;
+    let targets = parse_ratios(ratios)?;
+    let names = shape.field_names();
+    let vary: Vec<usize> =
+        vary.split(',')
+            .map(|v| {
+                names.iter().position(|n| *n == v.trim()).ok_or_else(|| {
+                    format!("--vary: '{}' is not a dimension of {kind} ({})", v.trim(), names.join(", "))
+                })
+            })
+            .collect::<Result<_, _>>()?;
+    if !((1..=64).contains(&first_mode) && tolerance.is_finite() && tolerance > 0.0) {
+        return Err("--first-mode must be 1 to 64 and --tolerance > 0 cents".into());
+    }
+    if !(1..=presets::MAX_BANK_MODES).contains(&opts.max_modes)
+        || !(1..=presets::MAX_BANK_POINTS).contains(&opts.strike_points)
+    {
+        return Err("--modes or --points out of range".into());
+    }
+    presets::output::check_output(out, &[]).map_err(|e| e.to_string())?;
+    let tuned = fem::tune::tune_dimensions(&shape, &vary, first_mode, &targets, &material, opts.resolution, &|line| {
+        eprintln!("{line}")
+    })
+    .map_err(|e| e.to_string())?;
+    let worst = tuned.cents.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+    let fitted: Vec<String> =
+        vary.iter().map(|&i| format!("{} {:.5} m", names[i], tuned.shape.dimensions()[i])).collect();
+    let hz: Vec<String> = tuned.bending_hz.iter().map(|f| format!("{f:.2}")).collect();
+    let cents: Vec<String> = tuned.cents.iter().map(|c| format!("{c:+.1}")).collect();
+    let summary = format!(
+        "bending modes {first_mode}.. at {} Hz, ratios off by [{}] cents ({}) after {} FEM analyses",
+        hz.join(", "),
+        cents.join(", "),
+        fitted.join(", "),
+        tuned.evaluations
+    );
+    if worst > tolerance {
+        return Err(format!(
+            "no {} of this {kind} reaches 1:{ratios} within {tolerance} cents: best {summary}",
+            fitted.join(", ")
+        ));
+    }
+    let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("bank");
+    let id = kebab(id.as_deref().unwrap_or(stem));
+    let name = name.unwrap_or_else(|| id.clone());
+    let (mut bank, _) =
+        fem::build_bank(&id, &name, &tuned.shape, &material, &opts, &progress()).map_err(|e| e.to_string())?;
+    bank.description = format!(
+        "{} Tuned by `struck bank tune` to bending ratios 1:{}: {summary}.",
+        bank.description,
+        targets.iter().map(|t| t.to_string()).collect::<Vec<_>>().join(":")
+    );
+    bank.save(out).map_err(|e| e.to_string())?;
+    end_progress_line();
+    eprintln!("wrote {}: {summary}", out.display());
+    Ok(())
 }
 
 /// Built-in shapes: name, dimension names (metres), an example.
@@ -143,6 +240,9 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
             shape,
             dims,
             ratios,
+            vary,
+            first_mode,
+            tolerance,
             exponent,
             modes,
             young,
@@ -154,10 +254,16 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
             name,
             out,
         } => {
-            if shape != "bar" {
-                return Err(format!(
-                    "--shape {shape}: only a bar can be tuned (an undercut is cut from its underside)"
-                ));
+            if shape != "bar" && shape != "tube" {
+                return Err(format!("--shape {shape}: only a bar or a tube can be tuned"));
+            }
+            if shape == "tube" || vary.is_some() {
+                let vary = vary.unwrap_or_else(|| "outer_radius".into());
+                let opts =
+                    BuildOptions { max_modes: modes, max_freq_hz: Some(20_000.0), resolution, strike_points: points };
+                return tune_dimensions(
+                    &shape, &dims, &ratios, &vary, first_mode, tolerance, young, density, poisson, opts, id, name, &out,
+                );
             }
             let material = fem::Material { young, density, poisson };
             material.validate().map_err(|e| e.to_string())?;

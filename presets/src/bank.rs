@@ -14,6 +14,93 @@ pub const MAX_BANK_MODES: usize = 4096;
 pub const MAX_BANK_POINTS: usize = 1024;
 /// Tolerance above 1 accepted for |gain| (f32 round-off of the normalisation).
 const GAIN_TOLERANCE: f32 = 1e-4;
+/// Most triangles of a bank's drawing surface (a coarse picture, not the FEM mesh).
+pub const MAX_DRAW_TRIANGLES: usize = 20_000;
+
+/// A coarse closed triangulated surface of the reference object, for drawing it: vertices
+/// in metres in the frame of the strike points' `position_m`, triangles wound
+/// counter-clockwise seen from outside (outward normals).
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq, Default)]
+pub struct DrawSurface {
+    /// Vertex positions, metres.
+    pub vertices: Vec<[f32; 3]>,
+    /// Vertex indices of each triangle, outward winding.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl DrawSurface {
+    /// The surface of the box `min`..`max`, two triangles per face.
+    pub fn cuboid(min: [f64; 3], max: [f64; 3]) -> DrawSurface {
+        let v = |i: usize| {
+            [
+                (if i & 1 == 0 { min[0] } else { max[0] }) as f32,
+                (if i & 2 == 0 { min[1] } else { max[1] }) as f32,
+                (if i & 4 == 0 { min[2] } else { max[2] }) as f32,
+            ]
+        };
+        // Quads (counter-clockwise from outside): -z, +z, -y, +y, -x, +x.
+        let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+        let triangles = quads.iter().flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
+        DrawSurface { vertices: (0..8).map(v).collect(), triangles }
+    }
+
+    /// The surface of a disc of `radius` about the z axis between `z0` and `z1`, with
+    /// `segments` around.
+    pub fn disc(radius: f64, z0: f64, z1: f64, segments: usize) -> DrawSurface {
+        let n = segments.max(3);
+        let mut vertices = vec![[0.0, 0.0, z0 as f32], [0.0, 0.0, z1 as f32]];
+        for k in 0..n {
+            let a = 2.0 * std::f64::consts::PI * k as f64 / n as f64;
+            let (x, y) = ((radius * a.cos()) as f32, (radius * a.sin()) as f32);
+            vertices.push([x, y, z0 as f32]);
+            vertices.push([x, y, z1 as f32]);
+        }
+        let mut triangles = Vec::with_capacity(4 * n);
+        for k in 0..n {
+            let (b0, t0) = (2 + 2 * k as u32, 3 + 2 * k as u32);
+            let (b1, t1) = (2 + 2 * ((k + 1) % n) as u32, 3 + 2 * ((k + 1) % n) as u32);
+            triangles.push([0, b1, b0]);
+            triangles.push([1, t0, t1]);
+            triangles.push([b0, b1, t1]);
+            triangles.push([b0, t1, t0]);
+        }
+        DrawSurface { vertices, triangles }
+    }
+
+    /// The volume enclosed (divergence theorem; positive for outward winding), m³.
+    pub fn volume(&self) -> f64 {
+        let p = |i: u32| self.vertices[i as usize].map(f64::from);
+        self.triangles
+            .iter()
+            .map(|t| {
+                let (a, b, c) = (p(t[0]), p(t[1]), p(t[2]));
+                (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+                    + a[2] * (b[0] * c[1] - b[1] * c[0]))
+                    / 6.0
+            })
+            .sum()
+    }
+
+    fn validate(&self) -> Result<(), PresetError> {
+        if self.triangles.is_empty() || self.triangles.len() > MAX_DRAW_TRIANGLES {
+            return Err(PresetError::invalid(
+                "surface.triangles",
+                format!("{} triangles; a drawing has 1 to {MAX_DRAW_TRIANGLES}", self.triangles.len()),
+            ));
+        }
+        if let Some(i) = self.vertices.iter().position(|v| !v.iter().all(|x| x.is_finite())) {
+            return Err(PresetError::invalid(format!("surface.vertices[{i}]"), "must be finite metres"));
+        }
+        let n = self.vertices.len();
+        if let Some(i) = self.triangles.iter().position(|t| t.iter().any(|&k| k as usize >= n)) {
+            return Err(PresetError::invalid(
+                format!("surface.triangles[{i}]"),
+                format!("vertex index out of range (there are {n} vertices)"),
+            ));
+        }
+        Ok(())
+    }
+}
 
 /// One place where the object can be struck.
 #[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
@@ -71,6 +158,9 @@ pub struct Bank {
     /// One label per mode (e.g. `"bend 3"`, `"(m,n)=(0,2)"`), or empty.
     #[serde(default)]
     pub mode_labels: Vec<String>,
+    /// A coarse surface of the reference object for the editor's drawing (optional).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub surface: Option<DrawSurface>,
 }
 
 impl Bank {
@@ -193,7 +283,8 @@ impl Bank {
     /// ≤ 0, or smaller than the one before; no strike points or more than
     /// [`MAX_BANK_POINTS`]; non-finite or out-of-[0, 1] `xy`; non-finite `position_m`; a
     /// gains matrix that is not points × modes; non-finite gains, |gain| > 1, or all gains
-    /// zero; `mode_labels` neither empty nor one per mode.
+    /// zero; `mode_labels` neither empty nor one per mode; a `surface` with no or more than
+    /// [`MAX_DRAW_TRIANGLES`] triangles, non-finite vertices or indices out of range.
     pub fn validate(&self) -> Result<(), PresetError> {
         json::check_version(self.schema_version)?;
         json::check_id(&self.id)?;
@@ -287,6 +378,9 @@ impl Bank {
             return Err(PresetError::invalid("gains", "all gains are zero: the bank would be silent"));
         }
 
+        if let Some(surface) = &self.surface {
+            surface.validate()?;
+        }
         if !self.mode_labels.is_empty() && self.mode_labels.len() != n_modes {
             return Err(PresetError::invalid(
                 "mode_labels",

@@ -26,7 +26,7 @@ mod json;
 mod material;
 pub mod output;
 
-pub use bank::{Bank, BankReference, StrikePoint, MAX_BANK_MODES, MAX_BANK_POINTS};
+pub use bank::{Bank, BankReference, DrawSurface, StrikePoint, MAX_BANK_MODES, MAX_BANK_POINTS, MAX_DRAW_TRIANGLES};
 pub use damping::{DampingModel, DampingSpec, AUDIBLE_LAMBDA_MAX, AUDIBLE_LAMBDA_MIN, MAX_EXPONENT};
 pub use error::PresetError;
 pub use factory::{

@@ -254,3 +254,119 @@ fn the_tuned_bars_ring_at_their_ratios() {
         }
     }
 }
+
+/// The frequency (Hz) of the strongest partial of `x` within ±`cents_window` of `guess`: an
+/// amplitude scan in 0.5 Hz steps over a 0.5 s window, refined by [`measure_mode`].
+fn partial_near(x: &[f32], sr: f64, guess: f64, cents_window: f64) -> f64 {
+    let (lo, hi) = (guess * 2f64.powf(-cents_window / 1200.0), guess * 2f64.powf(cents_window / 1200.0));
+    let mut best = (0.0, guess);
+    let mut f = lo;
+    while f <= hi {
+        let a = amplitude(x, sr, f, 960, 24_000);
+        if a > best.0 {
+            best = (a, f);
+        }
+        f += 0.5;
+    }
+    measure_mode(x, sr, best.1, 960, 96_000, 24_000).0
+}
+
+/// Partials of real instruments, measured on sample-library recordings by the independent
+/// sub-band ESPRIT analysis of `tests/recordings/subspace.py` (not by Struck's extractor):
+/// bending modes 1–5 of the FluidR3_GM glockenspiel's C6 bar (`Glocken C8`, key 84), Hz.
+const REAL_GLOCKENSPIEL_HZ: [f64; 5] = [1049.75, 2876.92, 5554.07, 9105.33, 13341.28];
+/// … and bending modes 1–10 of the freepats tubular bell (`014_Tubular_Bells.pat` sample 0,
+/// root 698.4 Hz: the strike note is an octave under mode 4), Hz.
+const REAL_CHIME_HZ: [f64; 10] =
+    [159.72, 442.87, 862.67, 1401.84, 2043.14, 2768.05, 3558.49, 4403.56, 5284.73, 6185.77];
+
+/// Issue 11 part 4: the factory glockenspiel bar and tubular chime, played through
+/// `process()`, sound the partials of the real instruments above within 15 cents: each
+/// partial's ratio to a reference partial measured on the output against the recording's —
+/// the glockenspiel's bending modes 2–5 to mode 1; the chime's modes 4–8 to mode 3 (the
+/// strike-note group 4, 5, 6 and its neighbours, the partials the chime was fitted to; the
+/// others are printed: a uniform tube does not follow the real bell's plugged tube there).
+#[test]
+fn the_glockenspiel_bar_and_the_chime_ring_at_a_real_ones_partials() {
+    let sr = f64::from(SR);
+    for (object, real, first, last) in [
+        ("fem-glockenspiel-bar", &REAL_GLOCKENSPIEL_HZ[..], 0usize, 4usize),
+        ("fem-tubular-chime", &REAL_CHIME_HZ[..], 2, 7),
+    ] {
+        // Key 48, the lowest mode at the key; struck at the path's start (an end), where
+        // every bending mode moves; decays slowed so that 2 s windows resolve the partials.
+        let mut h = host(object, "metal-ren2013", SR, &[("dscale", 0.05)]);
+        let x = render(&mut h, &[note(48, 110, Some(0.0))], 2.6, 4096);
+        let f_key = 440.0 * 2f64.powf((48.0 - 69.0) / 12.0);
+        let f_low = partial_near(&x, sr, f_key, 10.0);
+        assert!(cents(f_low, f_key).abs() < 1.0, "{object}: lowest mode {f_low:.3} Hz, key {f_key:.3}");
+        let scale = f_low / real[0];
+        let f_ref = partial_near(&x, sr, real[first] * scale, 60.0);
+        let mut worst: f64 = 0.0;
+        for (k, &f_real) in real.iter().enumerate() {
+            if k == first {
+                continue;
+            }
+            // Checked partials are searched within ±25 cents (a shell mode of the tube rings
+            // 50 cents under its mode 8); the others, only printed, within ±60.
+            let checked = k > first && k <= last;
+            let f = partial_near(&x, sr, f_real * f_ref / real[first], if checked { 25.0 } else { 60.0 });
+            let c = cents(f / f_ref, f_real / real[first]);
+            println!(
+                "{object}: mode {} at {f:.2} Hz, ratio to mode {} {:.4} vs the real {:.4} ({c:+.1} cents){}",
+                k + 1,
+                first + 1,
+                f / f_ref,
+                f_real / real[first],
+                if checked { "" } else { ", not checked" }
+            );
+            if checked {
+                worst = worst.max(c.abs());
+            }
+        }
+        assert!(worst <= 15.0, "{object}: a partial is {worst:.1} cents from the real instrument's");
+    }
+}
+
+/// Not a check: prints the README's table of level and brightness per object (run by hand:
+/// `cargo test -p struck-tests --test strike -- --ignored --nocapture readme_table`). The
+/// checks on these quantities are the tests above.
+#[test]
+#[ignore]
+fn readme_table_of_level_and_centroid_per_object() {
+    let sr = f64::from(SR);
+    for b in presets::factory_banks() {
+        let id = b.id;
+        let mut row = format!("| `{id}` |");
+        for mat in ["glass-ren2013", "wood-ren2013", "metal-ren2013", "plastic-ren2013"] {
+            let mut h = host(&id, mat, SR, &[]);
+            let x = render(&mut h, &[note(60, 127, Some(0.5))], 0.05, 512);
+            row += &format!(" {:.1} |", db(k_weighted_rms(&x, sr)));
+        }
+        let mut lv = Vec::new();
+        for &(size, key) in &[(0.5f32, 36u8), (2.0, 96), (1.0, 60), (0.5, 96), (2.0, 36)] {
+            let mut h = host(&id, "glass-ren2013", SR, &[("size", size)]);
+            let x = render(&mut h, &[note(key, 127, Some(0.5))], 0.05, 512);
+            lv.push(db(k_weighted_rms(&x, sr)));
+        }
+        let (lo, hi) = lv.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+        row += &format!(" {:.1}…{:.1} |", lo, hi);
+        let c = |vel: u8, mallet: f32, hard: f32| {
+            let mut h = host(&id, "glass-ren2013", SR, &[("mallet", mallet), ("hard", hard)]);
+            let x = render(&mut h, &[note(60, vel, Some(0.3))], 0.05, 512);
+            spectral_centroid(&x, sr)
+        };
+        let (c30, c100) = (c(30, 0.0, 1.0), c(100, 0.0, 1.0));
+        let (h0, h1) = (c(100, 2.0, 0.0), c(100, 2.0, 1.0));
+        row += &format!(
+            " {:.0} → {:.0} Hz (×{:.2}) | {:.0} → {:.0} Hz (×{:.2}) |",
+            c30,
+            c100,
+            c100 / c30,
+            h0,
+            h1,
+            h1 / h0
+        );
+        println!("{row}");
+    }
+}

@@ -53,9 +53,21 @@ const FEM_BANKS: &[FemBank] = &[
     ("fem-sphere-shell", "Sphere shell (FEM, steel Ø 20 cm)", "sphere-shell", "0.1,0.004", 200e9, 7850.0, 0.3, 16, 80),
 ];
 
-/// One factory tuned bar: id, name, dims (m, before the undercut), ratios, E, ρ, ν,
-/// resolution, modes.
-type TunedBank = (&'static str, &'static str, &'static str, &'static str, f64, f64, f64, usize, usize);
+/// One factory tuned object: id, name, dims (m: the bar before the undercut, or the start of
+/// the fit), ratios, the `--shape`, `--vary` and `--first-mode` of `struck bank tune` ("" and
+/// 1 for an undercut bar), E, ρ, ν, resolution, modes.
+type TunedBank = (
+    &'static str,
+    &'static str,
+    &'static str,
+    &'static str,
+    (&'static str, &'static str, usize),
+    f64,
+    f64,
+    f64,
+    usize,
+    usize,
+);
 
 /// The factory tuned bars (issue 11 part 4), built by `struck bank tune`. Wood is taken as
 /// isotropic with its modulus along the grain (rosewood E ≈ 20 GPa, ρ ≈ 1050 kg/m³; Fletcher
@@ -67,6 +79,7 @@ const TUNED_BANKS: &[TunedBank] = &[
         "Marimba bar (FEM, rosewood, tuned 1:4:10)",
         "0.38,0.06,0.02",
         "1,4,10",
+        ("bar", "", 1),
         20e9,
         1050.0,
         0.3,
@@ -78,6 +91,7 @@ const TUNED_BANKS: &[TunedBank] = &[
         "Xylophone bar (FEM, rosewood, tuned 1:3:6)",
         "0.25,0.04,0.022",
         "1,3,6",
+        ("bar", "", 1),
         20e9,
         1050.0,
         0.3,
@@ -89,13 +103,47 @@ const TUNED_BANKS: &[TunedBank] = &[
         "Vibraphone bar (FEM, aluminium, tuned 1:4:10)",
         "0.34,0.05,0.012",
         "1,4,10",
+        ("bar", "", 1),
         69e9,
         2700.0,
         0.33,
         40,
         60,
     ),
+    // A plain steel bar whose thickness is fitted to the bending partials of a real
+    // glockenspiel bar (FluidR3_GM's C6, measured by tests/recordings/subspace.py).
+    (
+        "fem-glockenspiel-bar",
+        "Glockenspiel bar (FEM, steel, a real bar's partials)",
+        "0.16,0.03,0.0062",
+        "1,2.7407,5.2911,8.6742,12.7096",
+        ("bar", "thickness", 1),
+        200e9,
+        7850.0,
+        0.3,
+        40,
+        60,
+    ),
+    // A brass tube whose radius is fitted to bending modes 3–8 of a real tubular bell
+    // (freepats' 014_Tubular_Bells, measured by tests/recordings/subspace.py): the strike-note
+    // group 4, 5, 6 (≈ 2 : 3 : 4) and its neighbours. The 2.5 mm wall keeps the tube's shell
+    // (ovalling) modes above its bending mode 10 (with 1.5 mm they crowd round mode 8).
+    (
+        "fem-tubular-chime",
+        "Tubular chime (FEM, brass, a real bell's partials)",
+        "1.0,0.016,0.0025",
+        CHIME_RATIOS,
+        ("tube", "outer_radius", 3),
+        100e9,
+        8500.0,
+        0.34,
+        60,
+        100,
+    ),
 ];
+
+/// Bending modes 4–8 of the freepats tubular bell over its mode 3 (862.67 Hz).
+const CHIME_RATIOS: &str = "1,1.62500,2.36839,3.20870,4.12497,5.10457";
 
 /// Regenerates `presets/factory/banks/*.json` with the FEM bank builder.
 fn banks() -> Result<(), String> {
@@ -147,13 +195,30 @@ fn banks() -> Result<(), String> {
             failed.push(id);
         }
     }
-    for &(id, name, dims, ratios, e, rho, nu, res, modes) in TUNED_BANKS {
+    for &(id, name, dims, ratios, (shape, vary, first), e, rho, nu, res, modes) in TUNED_BANKS {
         let out = format!("presets/factory/banks/{id}.json");
         let (e, rho, nu, res, modes) =
             (e.to_string(), rho.to_string(), nu.to_string(), res.to_string(), modes.to_string());
-        eprintln!("== {id}: tuned bar {dims}, {ratios}");
-        let status = Command::new(&struck)
-            .args(["bank", "tune", "--dims", dims, "--ratios", ratios, "--young", &e, "--density", &rho])
+        eprintln!("== {id}: tuned {shape} {dims}, {ratios}");
+        let mut cmd = Command::new(&struck);
+        cmd.args([
+            "bank",
+            "tune",
+            "--shape",
+            shape,
+            "--dims",
+            dims,
+            "--ratios",
+            ratios,
+            "--young",
+            &e,
+            "--density",
+            &rho,
+        ]);
+        if !vary.is_empty() {
+            cmd.args(["--vary", vary, "--first-mode", &first.to_string(), "--tolerance", "15"]);
+        }
+        let status = cmd
             .args(["--poisson", &nu, "--resolution", &res, "--modes", &modes, "--id", id, "--name", name])
             .args(["--out", &out])
             .status()

@@ -177,20 +177,34 @@ enum BankCommand {
         #[arg(long)]
         out: PathBuf,
     },
-    /// Tune a bar: the undercut whose first three vertical bending modes stand at --ratios
-    /// (thin-beam start, then Newton's method on the FEM), then build its bank.
+    /// Tune a bar or a tube so that its bending modes stand at --ratios, then build its bank.
+    /// A bar without --vary gets an undercut (thin-beam start, then Newton's method on the
+    /// FEM); with --vary, or a tube, the named dimensions are fitted (Gauss–Newton on the FEM).
     #[command(allow_negative_numbers = true)]
     Tune {
-        /// The shape to tune: bar (an undercut is cut from its underside).
+        /// The shape to tune: bar (an undercut is cut from its underside unless --vary is
+        /// given) or tube.
         #[arg(long, default_value = "bar")]
         shape: String,
-        /// The bar before its undercut: length,width,thickness in metres.
+        /// The shape's dimensions in metres (`struck bank shapes`): for the undercut, the bar
+        /// before it (length,width,thickness); otherwise the start of the fit.
         #[arg(long)]
         dims: String,
-        /// Target ratios of the first three bending modes, e.g. 1,4,10 (marimba, vibraphone)
-        /// or 1,3,6 (xylophone).
+        /// Target ratios of successive bending modes to the first, e.g. 1,4,10 (marimba,
+        /// vibraphone) or 1,3,6 (xylophone); an undercut takes three, --vary two or more.
         #[arg(long)]
         ratios: String,
+        /// Dimensions to fit instead of cutting an undercut, by name (e.g. thickness for a
+        /// glockenspiel bar; outer_radius or length,outer_radius for a tube; default for a
+        /// tube: outer_radius).
+        #[arg(long)]
+        vary: Option<String>,
+        /// The bending mode (1 = lowest) the ratios are of: 1,r2,… are modes K, K+1, ….
+        #[arg(long, default_value_t = 1)]
+        first_mode: usize,
+        /// With --vary: fail if a ratio stays further than this from its target, cents.
+        #[arg(long, default_value_t = 5.0)]
+        tolerance: f64,
         /// Flatness of the undercut's bottom: thickness ∝ 1 − depth·(1 − |u|^exponent).
         #[arg(long, default_value_t = 4.0)]
         exponent: f64,
@@ -351,6 +365,9 @@ impl From<BankCommand> for struck::banks::BankCommand {
                 shape,
                 dims,
                 ratios,
+                vary,
+                first_mode,
+                tolerance,
                 exponent,
                 modes,
                 young,
@@ -365,6 +382,9 @@ impl From<BankCommand> for struck::banks::BankCommand {
                 shape,
                 dims,
                 ratios,
+                vary,
+                first_mode,
+                tolerance,
                 exponent,
                 modes,
                 young,

@@ -9,6 +9,7 @@
 //! excited by a normal strike and are left out.
 
 use super::{assemble, BankInfo, Mode};
+use crate::DrawSurface;
 use crate::{Bank, BankReference, StrikePoint};
 
 /// Reference material: aluminium, Young's modulus in Pa.
@@ -139,6 +140,7 @@ pub fn bar_bank() -> Bank {
             dimensions_m: vec![l, w, t],
             size_m: l,
         },
+        surface: DrawSurface::cuboid([0.0, -w / 2.0, -t / 2.0], [l, w / 2.0, t / 2.0]),
     };
     assemble(info, points, modes)
 }

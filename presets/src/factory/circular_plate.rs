@@ -14,6 +14,7 @@
 
 use super::bessel::{bessel_i_scaled, bessel_j};
 use super::{assemble, simpson, BankInfo, Mode};
+use crate::DrawSurface;
 use crate::{Bank, BankReference, StrikePoint};
 
 /// Reference material: cartridge brass, Young's modulus in Pa.
@@ -208,6 +209,7 @@ pub fn circular_plate_bank() -> Bank {
             dimensions_m: vec![a, h],
             size_m: 2.0 * a,
         },
+        surface: DrawSurface::disc(a, -h / 2.0, h / 2.0, 72),
     };
     assemble(info, points, modes)
 }

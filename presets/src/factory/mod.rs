@@ -12,7 +12,7 @@ pub use circular_plate::{circular_plate_bank, free_circular_plate_roots, Circula
 pub use materials::{factory_material, factory_materials, FACTORY_MATERIAL_IDS};
 pub use rect_plate::rect_plate_bank;
 
-use crate::{Bank, BankReference, StrikePoint, SCHEMA_VERSION};
+use crate::{Bank, BankReference, DrawSurface, StrikePoint, SCHEMA_VERSION};
 
 /// Factory banks keep every mode whose frequency at the reference is at or below this, Hz.
 pub const FACTORY_MAX_FREQ_HZ: f64 = 20_000.0;
@@ -36,6 +36,9 @@ pub const FACTORY_FEM_BANKS: &[(&str, &str)] = &[
     ("fem-marimba-bar", include_str!("../../factory/banks/fem-marimba-bar.json")),
     ("fem-xylophone-bar", include_str!("../../factory/banks/fem-xylophone-bar.json")),
     ("fem-vibraphone-bar", include_str!("../../factory/banks/fem-vibraphone-bar.json")),
+    // A glockenspiel bar and a tubular chime fitted to real instruments' partials.
+    ("fem-glockenspiel-bar", include_str!("../../factory/banks/fem-glockenspiel-bar.json")),
+    ("fem-tubular-chime", include_str!("../../factory/banks/fem-tubular-chime.json")),
 ];
 
 /// All factory banks: the analytic `"bar"`, `"circular-plate"`, `"rect-plate"` (computed now,
@@ -73,6 +76,8 @@ pub(crate) struct BankInfo {
     pub description: String,
     pub provenance: String,
     pub reference: BankReference,
+    /// The object's drawing, in the frame of the strike points' `position_m`.
+    pub surface: DrawSurface,
 }
 
 /// Sorts modes by λ, drops those above [`FACTORY_MAX_FREQ_HZ`], transposes to
@@ -95,6 +100,7 @@ pub(crate) fn assemble(info: BankInfo, points: Vec<StrikePoint>, mut modes: Vec<
         points,
         gains,
         mode_labels: modes.into_iter().map(|m| m.label).collect(),
+        surface: Some(info.surface),
     }
 }
 

@@ -6,6 +6,7 @@
 //! 2/sqrt(ρ h a b) · sin · sin.
 
 use super::{assemble, BankInfo, Mode};
+use crate::DrawSurface;
 use crate::{Bank, BankReference, StrikePoint};
 
 /// Reference material: steel, Young's modulus in Pa.
@@ -90,6 +91,7 @@ pub fn rect_plate_bank() -> Bank {
             dimensions_m: vec![a, b, h],
             size_m: a,
         },
+        surface: DrawSurface::cuboid([0.0, 0.0, -h / 2.0], [a, b, h / 2.0]),
     };
     assemble(info, points, modes)
 }

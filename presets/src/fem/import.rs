@@ -407,6 +407,7 @@ fn build(
             .collect(),
         gains: gains.iter().map(|r| r.iter().map(|&g| g as f32).collect()).collect(),
         mode_labels: modes.frequencies_hz().iter().map(|f| format!("{f:.1} Hz")).collect(),
+        surface: super::strike::Surface::new(mesh).drawing(mesh, crate::MAX_DRAW_TRIANGLES),
     };
     finish_bank(bank, mesh, &modes, t0, progress)
 }

@@ -112,7 +112,36 @@ impl Shape {
         }
     }
 
-    fn field_names(&self) -> &'static [&'static str] {
+    /// The same kind of shape with other dimensions (in the order of [`Shape::dimensions`];
+    /// missing ones keep their value).
+    pub fn with_dimensions(&self, d: &[f64]) -> Shape {
+        let mut v = self.dimensions();
+        for (slot, &x) in v.iter_mut().zip(d) {
+            *slot = x;
+        }
+        match self {
+            Shape::Bar { .. } => Shape::Bar { length: v[0], width: v[1], thickness: v[2] },
+            Shape::UndercutBar { .. } => Shape::UndercutBar {
+                length: v[0],
+                width: v[1],
+                thickness: v[2],
+                depth: v[3],
+                cut: v[4],
+                exponent: v[5],
+            },
+            Shape::Plate { .. } => Shape::Plate { length: v[0], width: v[1], thickness: v[2] },
+            Shape::Block { .. } => Shape::Block { length: v[0], width: v[1], height: v[2] },
+            Shape::CircularPlate { .. } => Shape::CircularPlate { radius: v[0], thickness: v[1] },
+            Shape::Tube { .. } => Shape::Tube { length: v[0], outer_radius: v[1], wall: v[2] },
+            Shape::Bowl { .. } => Shape::Bowl { radius: v[0], wall: v[1] },
+            Shape::Cup { .. } => Shape::Cup { radius: v[0], height: v[1], wall: v[2] },
+            Shape::Bell { .. } => Shape::Bell { radius: v[0], height: v[1], wall: v[2] },
+            Shape::SphereShell { .. } => Shape::SphereShell { radius: v[0], wall: v[1] },
+        }
+    }
+
+    /// Names of the dimensions, in the order of [`Shape::dimensions`].
+    pub fn field_names(&self) -> &'static [&'static str] {
         match self {
             Shape::Bar { .. } | Shape::Plate { .. } => &["length", "width", "thickness"],
             Shape::Block { .. } => &["length", "width", "height"],
@@ -582,8 +611,28 @@ pub fn build_bank(
             .collect(),
         gains: gains.iter().map(|r| r.iter().map(|&g| g as f32).collect()).collect(),
         mode_labels: modes.frequencies_hz().iter().map(|f| format!("{f:.1} Hz")).collect(),
+        surface: drawing_surface(shape, opts.resolution),
     };
     finish_bank(bank, &mesh, &modes, t0, progress)
+}
+
+/// Most triangles of the drawing surface a shape's bank carries (a few tens of kB of JSON).
+pub const DRAW_TRIANGLES: usize = 6000;
+
+/// A coarse drawing of `shape` (the boundary of a coarser mesh of it, the finest of
+/// resolutions up to `resolution` and 16 whose boundary has at most [`DRAW_TRIANGLES`]
+/// triangles), or `None` when no mesh that coarse can be made.
+pub fn drawing_surface(shape: &Shape, resolution: usize) -> Option<crate::DrawSurface> {
+    let mut r = resolution.min(16);
+    while r >= 4 {
+        if let Ok((mesh, _)) = mesh::mesh_with_geometry(shape, r) {
+            if let Some(d) = strike::Surface::new(&mesh).drawing(&mesh, DRAW_TRIANGLES) {
+                return Some(d);
+            }
+        }
+        r = r * 3 / 4;
+    }
+    None
 }
 
 /// Normalises and validates a freshly built bank and reports how it was made (shared by

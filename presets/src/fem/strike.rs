@@ -86,6 +86,33 @@ impl Surface {
         Surface { faces }
     }
 
+    /// The boundary's corner triangles as a drawing surface (outward winding, only the
+    /// vertices they use), or `None` above `max_triangles`.
+    pub fn drawing(&self, mesh: &TetMesh, max_triangles: usize) -> Option<crate::DrawSurface> {
+        if self.faces.len() > max_triangles {
+            return None;
+        }
+        let mut index: HashMap<u32, u32> = HashMap::new();
+        let mut vertices = Vec::new();
+        let mut triangles = Vec::with_capacity(self.faces.len());
+        for f in &self.faces {
+            let x = |k: usize| mesh.nodes[f.nodes[k] as usize];
+            let n = cross(sub(x(1), x(0)), sub(x(2), x(0)));
+            let order = if dot(n, f.normal) >= 0.0 { [0, 1, 2] } else { [0, 2, 1] };
+            let mut tri = [0u32; 3];
+            for (slot, &k) in tri.iter_mut().zip(&order) {
+                let node = f.nodes[k];
+                *slot = *index.entry(node).or_insert_with(|| {
+                    let p = mesh.nodes[node as usize];
+                    vertices.push([p[0] as f32, p[1] as f32, p[2] as f32]);
+                    (vertices.len() - 1) as u32
+                });
+            }
+            triangles.push(tri);
+        }
+        Some(crate::DrawSurface { vertices, triangles })
+    }
+
     /// Number of boundary faces.
     pub fn len(&self) -> usize {
         self.faces.len()

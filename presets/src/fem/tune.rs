@@ -21,6 +21,7 @@
 //! where a general minimiser (Nelder–Mead, argmin) spends tens.
 
 use super::{analyse, mesh, strike_gains, BuildOptions, FemError, Material, Shape};
+use faer::linalg::solvers::Solve;
 use faer::{Mat, Side};
 
 /// Target accuracy of the tuned ratios, cents.
@@ -195,31 +196,219 @@ pub fn beam_start(exponent: f64, targets: [f64; 2]) -> ([f64; 2], [f64; 2]) {
     newton2(best.0, &mut f, 1e-4, 0.01, 30).unwrap_or(best)
 }
 
-/// The first three vertical bending frequencies (Hz) of a shape by FEM: the modes whose
-/// vertical displacement along the top face's centre line is large (torsion leaves the
-/// centre line still, sideways bending moves it sideways), lowest first.
+/// The first three vertical bending frequencies (Hz) of a bar by FEM (see
+/// [`bending_modes`]).
 pub fn bending_frequencies(shape: &Shape, material: &Material, resolution: usize) -> Result<[f64; 3], FemError> {
-    let (length, width, thickness) = match *shape {
+    let f = bending_modes(shape, material, resolution, 3)?;
+    Ok([f[0], f[1], f[2]])
+}
+
+/// The first `count` bending frequencies (Hz) of a bar or a tube by FEM, lowest first.
+///
+/// - Bars: the modes whose vertical displacement along the top face's centre line is large
+///   (torsion leaves the centre line still, sideways bending moves it sideways).
+/// - Tubes: the modes whose normal motion around each section is the first circumferential
+///   harmonic cos(θ − φ), as bending makes it (eight generatrices 45° apart); breathing and
+///   ovalling are the other harmonics, torsion and stretching hardly move the wall normally.
+///   Each bending mode of a tube comes as a pair (two planes); a pair counts once.
+///
+/// # Errors
+/// The FEM's errors; [`FemError::InvalidShape`] for other shapes; [`FemError::NoModes`] if
+/// fewer than `count` bending modes are among the first `4 count + 8` modes (`6 count + 8`
+/// for a tube).
+pub fn bending_modes(
+    shape: &Shape,
+    material: &Material,
+    resolution: usize,
+    count: usize,
+) -> Result<Vec<f64>, FemError> {
+    // Points on lines along the object: the bar's top centre line; eight generatrices of the
+    // tube, 45° apart.
+    let lines: Vec<Vec<[f64; 3]>> = match *shape {
         Shape::Bar { length, width, thickness } | Shape::UndercutBar { length, width, thickness, .. } => {
-            (length, width, thickness)
+            vec![(0..25).map(|i| [length * (0.02 + 0.96 * i as f64 / 24.0), 0.5 * width, thickness]).collect()]
         }
-        _ => return Err(FemError::InvalidShape { shape: shape.kind(), reason: "not a bar".into() }),
+        Shape::Tube { length, outer_radius, .. } => (0..8)
+            .map(|k| {
+                let (s, c) = (k as f64 * std::f64::consts::FRAC_PI_4).sin_cos();
+                (0..25)
+                    .map(|i| [outer_radius * c, outer_radius * s, length * (0.02 + 0.96 * i as f64 / 24.0)])
+                    .collect()
+            })
+            .collect(),
+        _ => {
+            return Err(FemError::InvalidShape { shape: shape.kind(), reason: "only bars and tubes are tuned".into() })
+        }
     };
     let (mesh, _) = mesh::mesh_with_geometry(shape, resolution)?;
-    let opts = BuildOptions { max_modes: 16, max_freq_hz: None, resolution, strike_points: 1 };
+    // A tube's shell (ovalling) modes crowd among its bending modes: look further up.
+    let max_modes = if lines.len() > 1 { 6 * count + 8 } else { 4 * count + 8 };
+    let opts = BuildOptions { max_modes, max_freq_hz: None, resolution, strike_points: 1 };
     let modes = analyse(&mesh, material, &opts, &|_, _| {})?;
-    let points: Vec<[f64; 3]> =
-        (0..25).map(|i| [length * (0.02 + 0.96 * i as f64 / 24.0), 0.5 * width, thickness]).collect();
-    let gains = strike_gains(&mesh, &modes, &points);
     let n = modes.lambdas.len();
-    let energy: Vec<f64> = (0..n).map(|m| gains.iter().map(|row| row[m] * row[m]).sum()).collect();
-    let top = energy.iter().copied().fold(0.0, f64::max);
     let f = modes.frequencies_hz();
-    let bending: Vec<f64> = (0..n).filter(|&m| energy[m] >= 0.05 * top).map(|m| f[m]).take(3).collect();
-    if bending.len() < 3 {
+    let gains: Vec<Vec<Vec<f64>>> = lines.iter().map(|l| strike_gains(&mesh, &modes, l)).collect();
+    // Per mode: energy of the bending motion, and of the motion bending does not make. On the
+    // tube, bending moves the wall as cos(θ − φ) around each section: the first harmonic of
+    // the eight generatrices' normal motion (|G₁|² + |G₋₁|² = 2|G₁|² of Σ|G|² = 8 Σ g²);
+    // ovalling and breathing are the other harmonics.
+    let (bend, other): (Vec<f64>, Vec<f64>) = (0..n)
+        .map(|m| {
+            if gains.len() == 1 {
+                return (gains[0].iter().map(|row| row[m] * row[m]).sum(), 0.0);
+            }
+            let (mut first, mut total) = (0.0, 0.0);
+            for z in 0..gains[0].len() {
+                let (mut re, mut im) = (0.0, 0.0);
+                for (k, line) in gains.iter().enumerate() {
+                    let (s, c) = (k as f64 * std::f64::consts::FRAC_PI_4).sin_cos();
+                    re += line[z][m] * c;
+                    im -= line[z][m] * s;
+                    total += line[z][m] * line[z][m];
+                }
+                first += 2.0 * (re * re + im * im) / 8.0;
+            }
+            (first, (total - first).max(0.0))
+        })
+        .unzip();
+    let top = bend.iter().copied().fold(0.0, f64::max);
+    let mut out: Vec<f64> = Vec::new();
+    for m in 0..n {
+        if bend[m] >= 0.05 * top && bend[m] > 4.0 * other[m] {
+            // A pair's second member (same frequency within 0.3 %) counts once.
+            if out.last().is_none_or(|&prev| f[m] > prev * 1.003) {
+                out.push(f[m]);
+            }
+        }
+    }
+    if out.len() < count {
         return Err(FemError::NoModes);
     }
-    Ok([bending[0], bending[1], bending[2]])
+    out.truncate(count);
+    Ok(out)
+}
+
+/// What [`tune_dimensions`] found.
+#[derive(Clone, Debug)]
+pub struct TunedShape {
+    /// The tuned shape.
+    pub shape: Shape,
+    /// Frequencies of the bending modes the ratios are of (FEM), Hz.
+    pub bending_hz: Vec<f64>,
+    /// Deviation of each ratio (mode k / first mode, k ≥ 2) from its target, cents.
+    pub cents: Vec<f64>,
+    /// FEM analyses run.
+    pub evaluations: usize,
+}
+
+/// Tunes the dimensions `vary` (indices into [`Shape::dimensions`]) of a bar or tube so
+/// that the bending modes `first`, `first + 1`, … (1 = the lowest) stand at 1 : `targets[0]`
+/// : `targets[1]` : … to the mode `first`: Gauss–Newton with Levenberg damping on the
+/// logarithms of the varied dimensions (they stay positive), a forward-difference Jacobian
+/// (1 % steps) and halving steps, on the 3-D FEM, from `shape`'s own dimensions. With fewer
+/// varied dimensions than ratios it is a least-squares fit (in cents): the result says how
+/// close it came. Stops when every ratio is within [`TUNE_CENTS`], or after
+/// [`FEM_STEPS`] steps, or when no step improves.
+///
+/// # Errors
+/// The FEM's errors; [`FemError::InvalidShape`] for no targets, targets that do not rise,
+/// no or repeated dimensions to vary, or a step that leaves the shape invalid at the start.
+#[allow(clippy::too_many_arguments)]
+pub fn tune_dimensions(
+    shape: &Shape,
+    vary: &[usize],
+    first: usize,
+    targets: &[f64],
+    material: &Material,
+    resolution: usize,
+    progress: &dyn Fn(&str),
+) -> Result<TunedShape, FemError> {
+    shape.validate()?;
+    let dims0 = shape.dimensions();
+    let invalid = |reason: String| FemError::InvalidShape { shape: shape.kind(), reason };
+    if targets.is_empty() || !targets.windows(2).all(|w| w[1] > w[0]) || targets[0] <= 1.0 {
+        return Err(invalid(format!("the ratios must rise above 1: {targets:?}")));
+    }
+    let mut sorted = vary.to_vec();
+    sorted.sort_unstable();
+    sorted.dedup();
+    if vary.is_empty() || sorted.len() != vary.len() || vary.iter().any(|&i| i >= dims0.len()) {
+        return Err(invalid(format!("the dimensions to vary must be distinct, of {:?}", shape.field_names())));
+    }
+    let first = first.max(1);
+    let count = first + targets.len();
+    let names = shape.field_names();
+    let at = |p: &[f64]| {
+        let mut d = dims0.clone();
+        for (&i, &x) in vary.iter().zip(p) {
+            d[i] = x.exp();
+        }
+        shape.with_dimensions(&d)
+    };
+    let mut evaluations = 0;
+    let mut eval = |p: &[f64]| -> Result<(Vec<f64>, Vec<f64>), FemError> {
+        let s = at(p);
+        s.validate()?;
+        let f = bending_modes(&s, material, resolution, count)?;
+        evaluations += 1;
+        let base = f[first - 1];
+        let r: Vec<f64> = targets.iter().enumerate().map(|(k, &t)| cents(f[first + k] / base, t)).collect();
+        let dims: Vec<String> = vary.iter().zip(p).map(|(&i, x)| format!("{} {:.5}", names[i], x.exp())).collect();
+        let ratios: Vec<String> = r.iter().map(|c| format!("{c:+.1}")).collect();
+        progress(&format!(
+            "FEM {evaluations}: {}: {:.2} Hz, ratios off by [{}] cents",
+            dims.join(", "),
+            base,
+            ratios.join(", ")
+        ));
+        Ok((f, r))
+    };
+    let sq = |r: &[f64]| r.iter().map(|x| x * x).sum::<f64>();
+    let mut p: Vec<f64> = vary.iter().map(|&i| dims0[i].ln()).collect();
+    let (mut f, mut r) = eval(&p)?;
+    let k = p.len();
+    let mut mu = 1e-3;
+    for _ in 0..FEM_STEPS {
+        if r.iter().all(|c| c.abs() < TUNE_CENTS) {
+            break;
+        }
+        // Jacobian of the residuals (cents) in ln(dimension).
+        let h = 0.01;
+        let mut jac = Mat::<f64>::zeros(r.len(), k);
+        for j in 0..k {
+            let mut q = p.clone();
+            q[j] += h;
+            let (_, rq) = eval(&q)?;
+            for i in 0..r.len() {
+                jac[(i, j)] = (rq[i] - r[i]) / h;
+            }
+        }
+        let jtj = jac.transpose() * &jac;
+        let jtr: Vec<f64> = (0..k).map(|j| (0..r.len()).map(|i| jac[(i, j)] * r[i]).sum()).collect();
+        let mut moved = false;
+        for _ in 0..5 {
+            let a = Mat::from_fn(k, k, |i, j| jtj[(i, j)] + if i == j { mu * jtj[(i, i)].max(1e-12) } else { 0.0 });
+            let b = Mat::from_fn(k, 1, |i, _| -jtr[i]);
+            let Ok(llt) = a.llt(Side::Lower) else { break };
+            let dp = llt.solve(&b);
+            // At most a 20 % change of a dimension per step.
+            let q: Vec<f64> = (0..k).map(|j| p[j] + dp[(j, 0)].clamp(-0.2, 0.2)).collect();
+            if at(&q).validate().is_ok() {
+                if let Ok((fq, rq)) = eval(&q) {
+                    if sq(&rq) < sq(&r) {
+                        (p, f, r, moved) = (q, fq, rq, true);
+                        mu = (mu * 0.3).max(1e-6);
+                        break;
+                    }
+                }
+            }
+            mu *= 10.0;
+        }
+        if !moved {
+            break;
+        }
+    }
+    Ok(TunedShape { shape: at(&p), bending_hz: f[first - 1..].to_vec(), cents: r, evaluations })
 }
 
 /// Tunes the undercut of a `length` × `width` × `thickness` bar (flat-bottom exponent
@@ -309,5 +498,23 @@ mod tests {
         let shallow = beam_frequencies(0.2, 0.5, 4.0, 60).unwrap();
         let deep = beam_frequencies(0.5, 0.5, 4.0, 60).unwrap();
         assert!(deep[1] / deep[0] > shallow[1] / shallow[0]);
+    }
+
+    /// A slender tube's bending modes, picked out among its shell and torsion modes, against
+    /// Euler–Bernoulli's free–free closed form f = (βL)²/(2π L²)·√(E I/(ρ A)), I/A = (R² + r²)/4
+    /// (Blevins 1979, Table 8-1): each within 1.5 % (shear and rotary inertia lower the FEM's
+    /// a little), each pair of planes counted once.
+    #[test]
+    fn a_slender_tubes_bending_modes_are_eulers() {
+        let (l, r, w) = (1.0, 0.008, 0.001);
+        let shape = Shape::Tube { length: l, outer_radius: r, wall: w };
+        let m = Material::ALUMINIUM;
+        let f = bending_modes(&shape, &m, 60, 3).unwrap();
+        let ri: f64 = r - w;
+        let k = ((m.young / m.density) * (r * r + ri * ri) / 4.0).sqrt() / (2.0 * std::f64::consts::PI * l * l);
+        for (got, bl) in f.iter().zip([4.730_040_7f64, 7.853_204_6, 10.995_607_8]) {
+            let want = bl * bl * k;
+            assert!((got / want - 1.0).abs() < 0.015, "{f:?}: {got} Hz vs {want} Hz");
+        }
     }
 }
