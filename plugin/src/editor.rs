@@ -12,6 +12,7 @@
 
 pub mod ab;
 mod capture;
+pub mod drawing;
 pub mod logic;
 mod material;
 mod object;

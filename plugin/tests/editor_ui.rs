@@ -73,24 +73,32 @@ fn screenshot(h: &mut Harness<'_, State>, name: &str) {
     }
 }
 
-/// Screen position of strike point `i` of the current object in the object view (the
-/// mapping of `editor/object.rs`: a square of side (height − 24) centred in the view, y up).
-fn point_on_screen(h: &Harness<'_, State>, plugin: &Struck, i: usize) -> egui::Pos2 {
-    let rect = h.get_by_label("Object view").rect();
-    let side = rect.height() - 24.0;
-    let area = egui::Rect::from_center_size(rect.center(), egui::Vec2::splat(side));
+/// The object view's picture of the current object (`editor/drawing.rs`).
+fn picture(plugin: &Struck) -> struck::editor::drawing::ObjectDrawing {
     let bank = &plugin.library().banks[plugin.struck_params().object.value() as usize];
-    let xy = bank.points[i].xy;
-    egui::pos2(area.left() + xy[0] * area.width(), area.bottom() - xy[1] * area.height())
+    struck::editor::drawing::object_drawing(bank)
 }
 
-/// A strike point whose drawing position no other point shares.
+/// Screen position of strike point `i` of the current object in the object view (the
+/// mapping of `editor/object.rs`: the picture fitted into the view less a 12 px margin and a
+/// 22 px label line, centred, y up).
+fn point_on_screen(h: &Harness<'_, State>, plugin: &Struck, i: usize) -> egui::Pos2 {
+    let rect = h.get_by_label("Object view").rect();
+    let area = egui::Rect::from_min_max(rect.min + egui::vec2(12.0, 22.0), rect.max - egui::vec2(12.0, 12.0));
+    let pic = picture(plugin);
+    let scale = (area.width() / pic.size[0]).min(area.height() / pic.size[1]);
+    let q = pic.points[i];
+    let c = area.center();
+    egui::pos2(c.x + (q[0] - 0.5 * pic.size[0]) * scale, c.y - (q[1] - 0.5 * pic.size[1]) * scale)
+}
+
+/// A strike point the camera sees whose drawing position no other point shares.
 fn distinct_point(plugin: &Struck, avoid: usize) -> usize {
-    let bank = &plugin.library().banks[plugin.struck_params().object.value() as usize];
-    let n = bank.points.len();
+    let pic = picture(plugin);
+    let n = pic.points.len();
     (0..n)
         .rev()
-        .find(|&i| i != avoid && bank.points.iter().filter(|p| p.xy == bank.points[i].xy).count() == 1)
+        .find(|&i| i != avoid && pic.visible[i] && pic.points.iter().filter(|p| **p == pic.points[i]).count() == 1)
         .expect("a distinct strike point")
 }
 
@@ -476,5 +484,61 @@ fn the_t60_plot_is_whole_on_screen_and_the_new_controls_are_there() {
     let h = harness(&plugin);
     for name in ["Mallet", "Variation", "Pitch reference", "Pitch mode", "Normalise level", "Output safety"] {
         h.get_by_label(&format!("{name} slider"));
+    }
+}
+
+/// Issue 11 part 6: the object view draws the object itself — its surface from the bank,
+/// shaded — with the strike path on it. For every factory object: something is painted, the
+/// strike points the camera sees lie on the painted picture, flat objects show every point
+/// (they are on the top face), solids at least a third (the front of the path); the picture
+/// of the analytic plate has the proportions of a box a × b × h seen from 55° above (width
+/// a, height b·sin 55° + h·cos 55°), and the much thinner bar is stretched to 0.12.
+#[test]
+fn the_object_view_draws_each_object_with_its_strike_path_on_it() {
+    use struck::editor::drawing::{distance_to_picture, object_drawing, FLAT_ELEVATION, MIN_ASPECT};
+    let plugin = Struck::default();
+    let lib = plugin.library();
+    for bank in &lib.banks {
+        let pic = object_drawing(bank);
+        assert!(pic.facets.len() >= 4, "{}: {} facets painted", bank.id, pic.facets.len());
+        let seen: Vec<usize> = (0..pic.points.len()).filter(|&i| pic.visible[i]).collect();
+        let flat = bank.id.contains("bar") || bank.id.contains("plate") || bank.id == "fem-block";
+        let share = seen.len() as f64 / pic.points.len() as f64;
+        println!(
+            "{:22} {:5} facets, {:3}/{:3} points seen, picture {:.3} x {:.3}",
+            bank.id,
+            pic.facets.len(),
+            seen.len(),
+            pic.points.len(),
+            pic.size[0],
+            pic.size[1]
+        );
+        assert!(
+            share >= if flat { 1.0 } else { 0.33 },
+            "{}: {:.0} % of the strike points seen",
+            bank.id,
+            100.0 * share
+        );
+        for &i in &seen {
+            // On the picture, or within 2 % of its size of it (a point on a curved surface can
+            // lie just outside the coarse drawing's silhouette).
+            let d = distance_to_picture(&pic, pic.points[i]);
+            assert!(d <= 0.02, "{}: seen strike point {i} is {d:.3} off the picture", bank.id);
+        }
+        if bank.id == "bar" || bank.id == "rect-plate" {
+            let d = &bank.reference.dimensions_m;
+            let e = f64::from(FLAT_ELEVATION).to_radians();
+            let want = ((d[1] * e.sin() + d[2] * e.cos()) / d[0]).max(f64::from(MIN_ASPECT));
+            let got = f64::from(pic.size[1] / pic.size[0]);
+            assert!((got / want - 1.0).abs() < 0.01, "{} picture aspect {got} vs {want}", bank.id);
+        }
+    }
+    // Screenshots of a few objects.
+    for id in ["fem-bowl", "fem-bell", "fem-marimba-bar", "fem-tube"] {
+        let Some(i) = lib.banks.iter().position(|b| b.id == id) else { continue };
+        let mut h = harness(&plugin);
+        ParamSetter::new(&*h.state().ctx).set_parameter(&plugin.struck_params().object, i as i32);
+        h.run_steps(2);
+        screenshot(&mut h, &format!("object-{id}"));
     }
 }

@@ -1,11 +1,13 @@
-//! Object view: the bank's strike points; click or drag to strike there. Below, the mode
-//! gains at the current strike position.
+//! Object view: the object drawn with its strike path (see `drawing`); click or drag to
+//! strike there. Below, the mode gains at the current strike position.
 
+use super::drawing;
 use super::logic::{self, F_MAX_HZ, F_MIN_HZ};
 use super::plot::{Axis, Plot};
 use super::ui::{set_param, EditorUi};
 use egui::{self, Color32, Pos2, Rect, Sense, Stroke, Vec2};
 use nice_plug::prelude::ParamSetter;
+use std::sync::Arc;
 
 impl EditorUi {
     pub(super) fn object_panel(&mut self, ui: &mut egui::Ui, setter: &ParamSetter) {
@@ -31,23 +33,35 @@ impl EditorUi {
             ui.add(egui::DragValue::new(&mut self.audition_key).range(0..=127).prefix("Key "));
         });
 
-        // The drawing: points in [0,1]², y up, in a square that fits the column.
-        let side = ui.available_width().clamp(120.0, 280.0);
-        let (rect, response) = ui.allocate_exact_size(Vec2::new(ui.available_width(), side), Sense::click_and_drag());
+        // The picture: the object's surface seen from a fixed camera, the strike path on it
+        // (see `drawing`); cached per bank.
+        if self.drawing.as_ref().is_none_or(|d| d.bank_id != bank.id || d.points.len() != bank.points.len()) {
+            self.drawing = Some(Arc::new(drawing::object_drawing(bank)));
+        }
+        let Some(pic) = self.drawing.clone() else { return };
+        let width = ui.available_width();
+        let aspect = pic.size[1] / pic.size[0].max(1e-3);
+        let height = ((width - 24.0) * aspect + 40.0).clamp(110.0, 280.0);
+        let (rect, response) = ui.allocate_exact_size(Vec2::new(width, height), Sense::click_and_drag());
         let response = response.accessible_name("Object view");
-        let area = Rect::from_center_size(rect.center(), Vec2::splat(side - 24.0));
-        let to_screen =
-            |xy: [f32; 2]| Pos2::new(area.left() + xy[0] * area.width(), area.bottom() - xy[1] * area.height());
-        let from_screen = |p: Pos2| [(p.x - area.left()) / area.width(), (area.bottom() - p.y) / area.height()];
-        let points: Vec<[f32; 2]> = bank.points.iter().map(|p| p.xy).collect();
+        let area = Rect::from_min_max(rect.min + Vec2::new(12.0, 22.0), rect.max - Vec2::new(12.0, 12.0));
+        let scale = (area.width() / pic.size[0].max(1e-3)).min(area.height() / pic.size[1].max(1e-3));
+        let centre = area.center();
+        let to_screen = |q: [f32; 2]| {
+            Pos2::new(centre.x + (q[0] - 0.5 * pic.size[0]) * scale, centre.y - (q[1] - 0.5 * pic.size[1]) * scale)
+        };
+        let from_screen =
+            |p: Pos2| [(p.x - centre.x) / scale + 0.5 * pic.size[0], (centre.y - p.y) / scale + 0.5 * pic.size[1]];
+        let points = &pic.points;
         let n = points.len();
 
         // Interaction: press (or drag onto) a point → one gesture on the strike position,
-        // released when the button is; each new point also strikes.
+        // released when the button is; each new point also strikes. Only points the camera
+        // sees are picked.
         let pointer = response.interact_pointer_pos().or_else(|| response.hover_pos());
         let down = response.is_pointer_button_down_on();
         if down {
-            if let Some(i) = pointer.and_then(|p| logic::nearest_point(&points, from_screen(p))) {
+            if let Some(i) = pointer.and_then(|p| drawing::nearest_seen(&pic, from_screen(p))) {
                 let pos = logic::position_of_point(i, n);
                 match self.object_gesture {
                     None => {
@@ -68,7 +82,7 @@ impl EditorUi {
             setter.end_set_parameter(&self.params.strike_position);
         } else if response.clicked() {
             // Press and release within one frame.
-            if let Some(i) = pointer.and_then(|p| logic::nearest_point(&points, from_screen(p))) {
+            if let Some(i) = pointer.and_then(|p| drawing::nearest_seen(&pic, from_screen(p))) {
                 let pos = logic::position_of_point(i, n);
                 set_param(setter, &self.params.strike_position, pos);
                 self.audition(pos);
@@ -78,18 +92,49 @@ impl EditorUi {
         let painter = ui.painter_at(rect);
         let visuals = ui.visuals();
         painter.rect_filled(rect, 4.0, visuals.extreme_bg_color);
+        let mut mesh = egui::Mesh::default();
+        for f in &pic.facets {
+            let g = |c: f32| (c * (0.15 + 0.85 * f.shade)).round().clamp(0.0, 255.0) as u8;
+            let color = Color32::from_rgb(g(150.0), g(165.0), g(185.0));
+            let base = mesh.vertices.len() as u32;
+            for &c in &f.corners {
+                mesh.colored_vertex(to_screen(c), color);
+            }
+            mesh.add_triangle(base, base + 1, base + 2);
+        }
+        if !mesh.is_empty() {
+            painter.add(egui::Shape::mesh(mesh));
+        }
         let path: Vec<Pos2> = points.iter().map(|&p| to_screen(p)).collect();
-        if path.len() > 1 {
-            painter.add(egui::Shape::line(path.clone(), Stroke::new(1.0, visuals.weak_text_color())));
+        let seen = |i: usize| pic.visible.get(i).copied().unwrap_or(true);
+        let hidden_color = visuals.weak_text_color().gamma_multiply(0.6);
+        for i in 1..path.len() {
+            let stroke = if seen(i - 1) && seen(i) {
+                Stroke::new(1.0, visuals.text_color().gamma_multiply(0.7))
+            } else {
+                Stroke::new(1.0, hidden_color)
+            };
+            painter.line_segment([path[i - 1], path[i]], stroke);
         }
         let position = self.params.strike_position.value();
-        let current = logic::nearest_point(&points, logic::point_at_position(&points, position).unwrap_or([0.0, 0.0]));
+        let current = logic::nearest_point(points, logic::point_at_position(points, position).unwrap_or([0.0, 0.0]));
         for (i, p) in path.iter().enumerate() {
-            let color = if Some(i) == current { Color32::from_rgb(255, 190, 60) } else { visuals.text_color() };
-            painter.circle_filled(*p, if Some(i) == current { 5.0 } else { 3.0 }, color);
+            let (color, radius) = if Some(i) == current {
+                (Color32::from_rgb(255, 190, 60), 5.0)
+            } else if seen(i) {
+                (visuals.strong_text_color(), 2.5)
+            } else {
+                (hidden_color, 1.5)
+            };
+            painter.circle_filled(*p, radius, color);
         }
-        if let Some(xy) = logic::point_at_position(&points, position) {
-            painter.circle_stroke(to_screen(xy), 9.0, Stroke::new(2.0, Color32::from_rgb(255, 150, 40)));
+        if let Some(xy) = logic::point_at_position(points, position) {
+            let alpha = if current.is_none_or(seen) { 1.0 } else { 0.4 };
+            painter.circle_stroke(
+                to_screen(xy),
+                9.0,
+                Stroke::new(2.0, Color32::from_rgb(255, 150, 40).gamma_multiply(alpha)),
+            );
         }
         let label = current.and_then(|i| bank.points.get(i)).map_or("", |p| p.label.as_str());
         painter.text(
@@ -100,7 +145,7 @@ impl EditorUi {
             visuals.text_color(),
         );
         if let Some(p) = response.hover_pos() {
-            if let Some(i) = logic::nearest_point(&points, from_screen(p)) {
+            if let Some(i) = drawing::nearest_seen(&pic, from_screen(p)) {
                 painter.circle_stroke(path[i], 6.0, Stroke::new(1.0, visuals.strong_text_color()));
             }
         }

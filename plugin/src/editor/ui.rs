@@ -33,6 +33,8 @@ pub struct EditorUi {
     pub(super) serial: u32,
     /// Strike point under the pointer while a click or drag on the object view lasts.
     pub(super) object_gesture: Option<usize>,
+    /// The object view's picture of the selected bank (rebuilt when the object changes).
+    pub(super) drawing: Option<Arc<super::drawing::ObjectDrawing>>,
     pub(super) material: MaterialUi,
     pub(super) capture: CaptureUi,
     /// Where user materials are read and saved; `None`: [`super::logic::user_material_dir`].
@@ -51,6 +53,7 @@ impl EditorUi {
             audition_key: 60,
             serial: 0,
             object_gesture: None,
+            drawing: None,
             material: MaterialUi::default(),
             capture: CaptureUi::default(),
             user_material_dir: None,
