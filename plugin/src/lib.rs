@@ -1,14 +1,11 @@
 //! Struck: a modal-synthesis instrument (CLAP and VST3) built with nice-plug.
 //!
 //! Glue only: parameters live in [`params`], the objects and materials in [`library`], the
-//! synthesis in the `dsp` crate; [`offline`] hosts this plugin for the command line and tests.
+//! synthesis in the `dsp` crate; [`offline`] hosts this plugin for the command line (crate
+//! `struck-cli`) and the tests.
 
-pub mod banks;
-pub mod capture;
-pub mod cli;
 pub mod editor;
 pub mod library;
-pub mod midi_file;
 pub mod offline;
 pub mod params;
 

@@ -200,8 +200,8 @@ fn choosing_a_material_from_the_list_sets_the_material_parameter() {
 
 fn render_taps(name: &str) -> PathBuf {
     let wav = tmp(name);
-    let opts = struck::cli::RenderOptions {
-        sound: struck::cli::SoundOptions {
+    let opts = struck_cli::cli::RenderOptions {
+        sound: struck_cli::cli::SoundOptions {
             object: "circular-plate".into(),
             material: "steel-sterling-rayleigh".into(),
             ..Default::default()
@@ -213,7 +213,7 @@ fn render_taps(name: &str) -> PathBuf {
         out: wav.clone(),
         normalize: None,
     };
-    struck::cli::render(&opts).expect("render the taps");
+    struck_cli::cli::render(&opts).expect("render the taps");
     wav
 }
 
@@ -349,8 +349,8 @@ fn ab_plays_the_recording_and_resyntheses_and_a_known_object_gives_gamma() {
     let plate = lib.bank_index("circular-plate").expect("circular plate");
     // Two taps of key 48: with "Keys tune the object" the plate's lowest mode sounds at C3.
     let wav = tmp("taps-ab.wav");
-    let opts = struck::cli::RenderOptions {
-        sound: struck::cli::SoundOptions {
+    let opts = struck_cli::cli::RenderOptions {
+        sound: struck_cli::cli::SoundOptions {
             object: "circular-plate".into(),
             material: "steel-sterling-rayleigh".into(),
             ..Default::default()
@@ -362,7 +362,7 @@ fn ab_plays_the_recording_and_resyntheses_and_a_known_object_gives_gamma() {
         out: wav.clone(),
         normalize: None,
     };
-    struck::cli::render(&opts).expect("render the taps");
+    struck_cli::cli::render(&opts).expect("render the taps");
     let mut h = harness_sized(&plugin, 1100.0);
     h.state_mut().ui.user_material_dir = Some(dir.clone());
     {

@@ -21,7 +21,6 @@ mod bank;
 mod damping;
 mod error;
 pub mod factory;
-pub mod fem;
 mod json;
 mod material;
 pub mod output;

@@ -2,7 +2,7 @@
 //! `process()` (see `struck::offline`) and measure the result.
 
 use std::f64::consts::PI;
-use struck::cli::{configured_host, note_events, NoteSpec, SoundOptions};
+use struck_cli::cli::{configured_host, note_events, NoteSpec, SoundOptions};
 use struck::offline::OfflineHost;
 
 /// A configured host (object, material, parameters) at `sample_rate`.

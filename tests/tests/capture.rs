@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 use struck::capture::{estimate, EstimateArgs};
-use struck::cli::{render, RenderOptions, SoundOptions};
+use struck_cli::cli::{render, RenderOptions, SoundOptions};
 
 fn tmp(name: &str) -> PathBuf {
     std::env::temp_dir().join(format!("struck-test-{}-{name}", std::process::id()))
@@ -64,21 +64,21 @@ fn broken_material_files_are_refused_with_the_field_named() {
     let bad = tmp("bad.json");
     std::fs::write(&bad, r#"{"schema_version":1,"id":"x","name":"x","provenance":"t","specific_modulus":null,"damping":{"model":"rayleigh","params":[-5.0, 1e-7]}}"#).unwrap();
     let opts = SoundOptions { material: bad.display().to_string(), ..SoundOptions::default() };
-    let err = struck::cli::configured_host(&opts, 64).err().expect("a negative damping must be refused");
+    let err = struck_cli::cli::configured_host(&opts, 64).err().expect("a negative damping must be refused");
     assert!(err.contains("damping"), "{err}");
     std::fs::write(&bad, "{ not json").unwrap();
-    let err = struck::cli::configured_host(&opts, 64).err().expect("broken JSON must be refused");
+    let err = struck_cli::cli::configured_host(&opts, 64).err().expect("broken JSON must be refused");
     assert!(err.to_lowercase().contains("json") || err.contains("line"), "{err}");
     let _ = std::fs::remove_file(bad);
 }
 
 #[test]
 fn bad_note_syntax_and_unknown_objects_are_clear_errors() {
-    assert!(struck::cli::parse_notes("60:100@0.3,61").unwrap_err().contains("'61'"));
-    assert!(struck::cli::parse_notes("60:0").unwrap_err().contains("velocity"));
-    assert!(struck::cli::parse_notes("60:100@1.5").unwrap_err().contains("position"));
-    let n = struck::cli::parse_notes("60:100@0.25,67:80@0.5+1.0").unwrap();
+    assert!(struck_cli::cli::parse_notes("60:100@0.3,61").unwrap_err().contains("'61'"));
+    assert!(struck_cli::cli::parse_notes("60:0").unwrap_err().contains("velocity"));
+    assert!(struck_cli::cli::parse_notes("60:100@1.5").unwrap_err().contains("position"));
+    let n = struck_cli::cli::parse_notes("60:100@0.25,67:80@0.5+1.0").unwrap();
     assert_eq!((n[1].key, n[1].velocity, n[1].position, n[1].start_s), (67, 80, Some(0.5), 1.0));
     let opts = SoundOptions { object: "teapot".into(), ..SoundOptions::default() };
-    assert!(struck::cli::configured_host(&opts, 64).err().unwrap().contains("unknown object 'teapot'"));
+    assert!(struck_cli::cli::configured_host(&opts, 64).err().unwrap().contains("unknown object 'teapot'"));
 }

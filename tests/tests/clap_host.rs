@@ -6,7 +6,7 @@
 //!   `org.struck.struck`, and the plugin instantiates, activates (48 kHz, blocks of ≤ 512) and
 //!   processes through the plain C ABI: 0 audio inputs, one stereo output port;
 //! - a CLAP note-on event (key 60, velocity 100/127) renders sample for sample (within 1e-5) the
-//!   same 1 s as `struck::cli::configured_host` with `SoundOptions::default()`, i.e. the CLAP
+//!   same 1 s as `struck_cli::cli::configured_host` with `SoundOptions::default()`, i.e. the CLAP
 //!   parameter defaults are the CLI's defaults (bar, glass-ren2013) and the wrapper's event
 //!   translation loses nothing;
 //! - a parameter changed through the CLAP params extension (`flush`) is carried by the CLAP state
@@ -31,7 +31,7 @@ use clack_extensions::state::PluginState;
 use clack_host::events::event_types::{NoteOffEvent, NoteOnEvent, ParamValueEvent};
 use clack_host::events::Match;
 use clack_host::prelude::*;
-use struck::cli::{configured_host, note_events, NoteSpec, SoundOptions};
+use struck_cli::cli::{configured_host, note_events, NoteSpec, SoundOptions};
 use struck::offline::{note_off, note_on, TimedEvent};
 
 const PLUGIN_ID: &CStr = c"org.struck.struck";

@@ -1,6 +1,6 @@
 //! The command line's renderer: MIDI files, note timing and WAV output.
 
-use struck::cli::{render, RenderOptions, SoundOptions};
+use struck_cli::cli::{render, RenderOptions, SoundOptions};
 
 /// A format-0 MIDI file (96 ppq, 120 bpm): a note-on after `delay_ticks`.
 fn midi_file(delay_ticks: u8, key: u8) -> Vec<u8> {

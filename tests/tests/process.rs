@@ -2,7 +2,7 @@
 //! on): frequencies, decays, block-size invariance, sample rates, velocity, nodal points,
 //! damping laws and a voice-stealing stress test.
 
-use struck::cli::{predicted_modes, NoteSpec, SoundOptions};
+use struck_cli::cli::{predicted_modes, NoteSpec, SoundOptions};
 use struck_tests::*;
 
 const SR: u32 = 48_000;
@@ -192,7 +192,7 @@ fn sixty_four_overlapping_notes_with_fast_retriggers_stay_finite_and_bounded() {
 #[test]
 fn silent_voices_end_and_tell_the_host() {
     let mut h = host("bar", "wood-ren2013", SR, &[]);
-    let events = struck::cli::note_events(&[note(72, 100, None)], f64::from(SR));
+    let events = struck_cli::cli::note_events(&[note(72, 100, None)], f64::from(SR));
     let (out, sent) = h.render(&events, 3 * SR as usize, 512);
     assert!(out[0].iter().all(|v| v.is_finite()));
     assert_eq!(h.plugin().engine().unwrap().active_voices(), 0);
@@ -215,7 +215,7 @@ fn release_and_pressure_add_their_decay_rate_to_every_mode() {
     assert_eq!(chosen.len(), 4);
     // Note-off at 0.1 s: from then on every mode decays at d + 30 s⁻¹.
     let mut h = host("bar", "steel-sterling-rayleigh", SR, &set);
-    let mut events = struck::cli::note_events(&[note(45, 100, None)], sr);
+    let mut events = struck_cli::cli::note_events(&[note(45, 100, None)], sr);
     events.push(TimedEvent { sample: 4800, event: note_off(45) });
     let (x, _) = h.render(&events, 48_000, 256);
     for &(f, d, _) in &chosen {
@@ -224,7 +224,7 @@ fn release_and_pressure_add_their_decay_rate_to_every_mode() {
     }
     // Half pressure from 0.1 s: d + 0.5·50 s⁻¹.
     let mut h = host("bar", "steel-sterling-rayleigh", SR, &set);
-    let mut events = struck::cli::note_events(&[note(45, 100, None)], sr);
+    let mut events = struck_cli::cli::note_events(&[note(45, 100, None)], sr);
     events.push(TimedEvent {
         sample: 4800,
         event: NoteEvent::PolyPressure {
@@ -267,7 +267,7 @@ fn poly_modulation_of_the_strike_position_moves_that_note_only() {
     // Note 0 at the parameter's position 0.3 with a +0.4 poly-mod offset, note 1 unmodulated.
     let notes =
         [note(50, 100, None), NoteSpec { key: 62, velocity: 100, position: None, start_s: 0.0, duration_s: None }];
-    let mut events = struck::cli::note_events(&notes, sr);
+    let mut events = struck_cli::cli::note_events(&notes, sr);
     events.push(TimedEvent {
         sample: 0,
         event: NoteEvent::PolyModulation {

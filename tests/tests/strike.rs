@@ -157,14 +157,14 @@ fn the_strongest_partial_sounds_at_the_key() {
         for key in [48u8, 60, 72] {
             // Decays ×0.05 so a 3 s window resolves the close neighbours of plates (2 Hz).
             let set = [("pitchref", 1.0f32), ("dscale", 0.05)];
-            let opts = struck::cli::SoundOptions {
+            let opts = struck_cli::cli::SoundOptions {
                 object: o.clone(),
                 material: "glass-ren2013".into(),
                 position: Some(0.3),
                 set: vec!["pitchref=1".into(), "dscale=0.05".into()],
-                ..struck::cli::SoundOptions::default()
+                ..struck_cli::cli::SoundOptions::default()
             };
-            let modes = struck::cli::predicted_modes(&opts, key, 100).expect("modes");
+            let modes = struck_cli::cli::predicted_modes(&opts, key, 100).expect("modes");
             let mut h = host(&o, "glass-ren2013", SR, &set);
             let x = render(&mut h, &[note(key, 100, Some(0.3))], 3.6, 4096);
             let f_key = 440.0 * 2f64.powf((f64::from(key) - 69.0) / 12.0);
@@ -210,7 +210,7 @@ fn the_strongest_partial_sounds_at_the_key() {
 #[test]
 fn variation_changes_each_strike_and_repeats_from_a_reset() {
     let notes: Vec<_> =
-        (0..4).map(|i| struck::cli::NoteSpec { start_s: 0.25 * f64::from(i), ..note(60, 100, None) }).collect();
+        (0..4).map(|i| struck_cli::cli::NoteSpec { start_s: 0.25 * f64::from(i), ..note(60, 100, None) }).collect();
     let seg = |x: &[f32], i: usize| x[i * 12_000..i * 12_000 + 2_000].to_vec();
     // Variation 0: each strike restarts the same way; its first 2,000 samples after the
     // previous strike's ring has died out (fast decay) are identical.

@@ -148,7 +148,7 @@ const CHIME_RATIOS: &str = "1,1.62500,2.36839,3.20870,4.12497,5.10457";
 /// Regenerates `presets/factory/banks/*.json` with the FEM bank builder.
 fn banks() -> Result<(), String> {
     nice_plug_xtask::chdir_workspace_root().map_err(|e| e.to_string())?;
-    cargo(&["build", "--quiet", "--release", "-p", "struck", "--bin", "struck"])?;
+    cargo(&["build", "--quiet", "--release", "-p", "struck-cli", "--bin", "struck"])?;
     std::fs::create_dir_all("presets/factory/banks").map_err(|e| e.to_string())?;
     let target = std::env::var("CARGO_TARGET_DIR").unwrap_or_else(|_| "target".into());
     let struck = std::path::Path::new(&target).join("release/struck");
@@ -351,7 +351,7 @@ fn run() -> Result<(), String> {
         Some("demo") => {
             bundle(true)?;
             let out = args.get(1).cloned().unwrap_or_else(|| "target/struck-demo.wav".into());
-            cargo(&["run", "--quiet", "--release", "-p", "struck", "--bin", "struck", "--", "render", "--out", &out])?;
+            cargo(&["run", "--quiet", "--release", "-p", "struck-cli", "--bin", "struck", "--", "render", "--out", &out])?;
             eprintln!("bundles: target/bundled/Struck.clap, target/bundled/Struck.vst3; demo: {out}");
             Ok(())
         }

@@ -20,7 +20,7 @@ pub const FACTORY_MAX_FREQ_HZ: f64 = 20_000.0;
 /// Ids of the analytic factory banks, first in the order of [`factory_banks`].
 pub const FACTORY_BANK_IDS: [&str; 3] = ["bar", "circular-plate", "rect-plate"];
 
-/// The factory FEM banks, built by `cargo xtask banks` (the FEM bank builder, `crate::fem`)
+/// The factory FEM banks, built by `cargo xtask banks` (the FEM bank builder, crate `struck-fem`)
 /// and embedded as JSON: id and text, in the order [`factory_banks`] lists them.
 pub const FACTORY_FEM_BANKS: &[(&str, &str)] = &[
     ("fem-bar", include_str!("../../factory/banks/fem-bar.json")),

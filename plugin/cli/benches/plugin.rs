@@ -1,9 +1,9 @@
 //! The whole plugin through its own `process()` (offline host), as a host would run it.
 //!
-//! `cargo bench -p struck --bench plugin`.
+//! `cargo bench -p struck-cli --bench plugin`.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use struck::cli::{configured_host, note_events, NoteSpec, SoundOptions};
+use struck_cli::cli::{configured_host, note_events, NoteSpec, SoundOptions};
 
 fn sixteen_voices(c: &mut Criterion) {
     let mut g = c.benchmark_group("plugin");

@@ -1,6 +1,6 @@
 //! Standard MIDI files to note events for the offline renderer (via the `midly` crate).
 
-use crate::offline::TimedEvent;
+use struck::offline::TimedEvent;
 use nice_plug::midi::{Channel, Key, VoiceID};
 use nice_plug::prelude::NoteEvent;
 

@@ -2,7 +2,7 @@
 //! §3–5). Progress goes to stderr; results are JSON.
 
 use crate::cli::{end_progress_line, outln, show_progress, warn};
-use crate::library::Library;
+use struck::library::Library;
 use presets::{output, DampingSpec, Material, SCHEMA_VERSION};
 use std::io::Write as _;
 use std::path::{Path, PathBuf};

@@ -2,7 +2,7 @@
 //!
 //! Meshes are coarse so the whole file runs in seconds in release mode.
 
-use presets::fem::{self, BuildOptions, Material, Modes, Shape};
+use fem::{self, BuildOptions, Material, Modes, Shape};
 
 const BAR: Shape = Shape::Bar { length: 0.5, width: 0.015, thickness: 0.005 };
 const BAR_RES: usize = 50;

@@ -18,7 +18,7 @@ use super::voxel::{auto_resolution, voxelise, VoxelOptions, DEFAULT_VERTEX_BUDGE
 use super::{
     analyse, finish_bank, strike, strike_gains, today, BuildOptions, BuildReport, FemError, Material, Modes, TetMesh,
 };
-use crate::{Bank, BankReference, StrikePoint};
+use presets::{Bank, BankReference, StrikePoint};
 use std::collections::HashMap;
 use std::path::Path;
 use std::time::Instant;
@@ -371,7 +371,7 @@ fn build(
     let (u, v) = (axes[0], axes[1]);
     let size = ext[u].max(1e-9);
     let bank = Bank {
-        schema_version: crate::SCHEMA_VERSION,
+        schema_version: presets::SCHEMA_VERSION,
         id: id.to_string(),
         name: name.to_string(),
         description: format!(
@@ -407,7 +407,7 @@ fn build(
             .collect(),
         gains: gains.iter().map(|r| r.iter().map(|&g| g as f32).collect()).collect(),
         mode_labels: modes.frequencies_hz().iter().map(|f| format!("{f:.1} Hz")).collect(),
-        surface: super::strike::Surface::new(mesh).drawing(mesh, crate::MAX_DRAW_TRIANGLES),
+        surface: super::strike::Surface::new(mesh).drawing(mesh, presets::MAX_DRAW_TRIANGLES),
     };
     finish_bank(bank, mesh, &modes, t0, progress)
 }
@@ -415,7 +415,7 @@ fn build(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fem::{mesh_shape, Shape};
+    use crate::{mesh_shape, Shape};
 
     #[test]
     fn a_meshed_bar_imported_as_a_mesh_gives_the_same_modes() {
@@ -427,7 +427,7 @@ mod tests {
             build_bank_from_mesh("imported-bar", "Imported bar", "test", &mesh, &mat, &opts, &|_, _| {}).unwrap();
         assert_eq!(bank.num_points(), 24);
         assert_eq!(report.rigid_eigenvalues.len(), 6);
-        let (direct, _) = crate::fem::build_bank("bar", "Bar", &shape, &mat, &opts, &|_, _| {}).unwrap();
+        let (direct, _) = crate::build_bank("bar", "Bar", &shape, &mat, &opts, &|_, _| {}).unwrap();
         for (a, b) in bank.lambdas.iter().zip(&direct.lambdas) {
             assert!((a / b - 1.0).abs() < 1e-9, "{a} vs {b}");
         }

@@ -417,7 +417,7 @@ fn a_long_render_streams_in_bounded_memory() {
 
 #[test]
 fn the_streamed_wav_equals_the_in_memory_render() {
-    use struck::cli::{configured_host, note_events, parse_notes, SoundOptions};
+    use struck_cli::cli::{configured_host, note_events, parse_notes, SoundOptions};
     let dir = scratch("identical");
     let out = dir.join("x.wav");
     let notes = "60:100@0.3,67:90@0.7+0.25,48:127+0.6";

@@ -5,7 +5,7 @@ use clap::error::ErrorKind;
 use clap::{CommandFactory, Parser, Subcommand};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use struck::cli::{self, RenderOptions, SoundOptions};
+use struck_cli::cli::{self, RenderOptions, SoundOptions};
 
 #[derive(Parser)]
 #[command(name = "struck", version, about = "Struck: modal synthesis of struck objects (offline tools)")]
@@ -294,10 +294,10 @@ fn run(cli: Cli) -> Result<(), String> {
         Command::Materials { json } => cli::print_materials(json),
         Command::Params { json } => cli::print_params(json),
         Command::Modes { sound, note, velocity, json } => cli::print_modes(&sound.options(), note, velocity, json),
-        Command::Bank { command } => struck::banks::run(command.into()),
-        Command::Features { files, channel, json } => struck::capture::features(&files, channel, json),
+        Command::Bank { command } => struck_cli::banks::run(command.into()),
+        Command::Features { files, channel, json } => struck_cli::capture::features(&files, channel, json),
         Command::Estimate { files, model, method, object, channel, out, report } => {
-            let summary = struck::capture::estimate(&struck::capture::EstimateArgs {
+            let summary = struck_cli::capture::estimate(&struck_cli::capture::EstimateArgs {
                 files,
                 model,
                 method,
@@ -326,9 +326,9 @@ fn run(cli: Cli) -> Result<(), String> {
     }
 }
 
-impl From<BankCommand> for struck::banks::BankCommand {
+impl From<BankCommand> for struck_cli::banks::BankCommand {
     fn from(c: BankCommand) -> Self {
-        use struck::banks::BankCommand as B;
+        use struck_cli::banks::BankCommand as B;
         match c {
             BankCommand::Build {
                 shape,

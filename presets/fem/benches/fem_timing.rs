@@ -1,6 +1,6 @@
 //! Times the FEM bank builder on each built-in shape, with the eigensolver's phases.
 //!
-//! `cargo bench -p struck-presets --bench fem_timing [-- SHAPE [RESOLUTION [MODES]]]`
+//! `cargo bench -p struck-fem --bench fem_timing [-- SHAPE [RESOLUTION [MODES]]]`
 //! SHAPE is a kind name (`bar`, `plate`, `circular-plate`, `tube`, `bowl`, `cup`, `bell`,
 //! `block`, `sphere-shell`) or `all` (default). (The factory banks are timed by
 //! `cargo xtask banks`, which prints each one's time and peak memory.)
@@ -10,7 +10,7 @@
 //! largest basis, worst residual and peak memory. Peak memory and CPU time are
 //! process-wide, so run one shape per process for exact per-shape figures.
 
-use presets::fem::{build_bank, eigen, BuildOptions, Material, Shape};
+use fem::{build_bank, eigen, BuildOptions, Material, Shape};
 
 fn shapes() -> Vec<(Shape, Material, usize)> {
     vec![

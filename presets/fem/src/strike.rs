@@ -88,7 +88,7 @@ impl Surface {
 
     /// The boundary's corner triangles as a drawing surface (outward winding, only the
     /// vertices they use), or `None` above `max_triangles`.
-    pub fn drawing(&self, mesh: &TetMesh, max_triangles: usize) -> Option<crate::DrawSurface> {
+    pub fn drawing(&self, mesh: &TetMesh, max_triangles: usize) -> Option<presets::DrawSurface> {
         if self.faces.len() > max_triangles {
             return None;
         }
@@ -110,7 +110,7 @@ impl Surface {
             }
             triangles.push(tri);
         }
-        Some(crate::DrawSurface { vertices, triangles })
+        Some(presets::DrawSurface { vertices, triangles })
     }
 
     /// Number of boundary faces.

@@ -1,4 +1,6 @@
-//! The bank builder: modal analysis of real geometry by the finite element method.
+//! Struck's bank builder (`struck-fem`): modal analysis of real geometry by the finite element
+//! method, into [`presets::Bank`]s. The only user of faer's sparse solvers; the plugin does not
+//! link it.
 //!
 //! Pipeline (SCIENCE.md §1): mesh a solid with quadratic (10-node) tetrahedra, assemble the
 //! stiffness K and consistent mass M of linear isotropic elasticity (E, ν, ρ), solve
@@ -6,7 +8,7 @@
 //! sparse LDLᵀ factorisations (faer) checked by Sturm counts, check and drop the six
 //! rigid-body modes, and evaluate the
 //! mass-normalised mode shapes in the surface-normal direction at strike points on the outer
-//! surface. The result is a [`crate::Bank`].
+//! surface. The result is a [`presets::Bank`].
 //!
 //! # Conventions
 //! - SI units: metres, pascals, kg/m³; λ = ω² in rad²/s²; frequencies in Hz only where a
@@ -35,7 +37,7 @@ pub mod voxel;
 
 use std::time::Instant;
 
-use crate::{Bank, BankReference, PresetError, StrikePoint, MAX_BANK_MODES, MAX_BANK_POINTS};
+use presets::{Bank, BankReference, PresetError, StrikePoint, MAX_BANK_MODES, MAX_BANK_POINTS};
 
 pub use assembly::{assemble, System};
 pub use gmsh::read_gmsh;
@@ -588,7 +590,7 @@ pub fn build_bank(
         today()
     );
     let bank = Bank {
-        schema_version: crate::SCHEMA_VERSION,
+        schema_version: presets::SCHEMA_VERSION,
         id: id.to_string(),
         name: name.to_string(),
         description,
@@ -622,7 +624,7 @@ pub const DRAW_TRIANGLES: usize = 6000;
 /// A coarse drawing of `shape` (the boundary of a coarser mesh of it, the finest of
 /// resolutions up to `resolution` and 16 whose boundary has at most [`DRAW_TRIANGLES`]
 /// triangles), or `None` when no mesh that coarse can be made.
-pub fn drawing_surface(shape: &Shape, resolution: usize) -> Option<crate::DrawSurface> {
+pub fn drawing_surface(shape: &Shape, resolution: usize) -> Option<presets::DrawSurface> {
     let mut r = resolution.min(16);
     while r >= 4 {
         if let Ok((mesh, _)) = mesh::mesh_with_geometry(shape, r) {

@@ -1,8 +1,8 @@
 //! `struck bank build | info | shapes`: the FEM bank builder on the command line.
 
 use crate::cli::{end_progress_line, outln, show_progress, warn};
-use presets::fem::import::{build_bank_from_import, import_mesh_file, ImportOptions};
-use presets::fem::{self, BuildOptions, Shape};
+use fem::import::{build_bank_from_import, import_mesh_file, ImportOptions};
+use fem::{BuildOptions, Shape};
 use presets::Bank;
 use std::path::{Path, PathBuf};
 

@@ -32,8 +32,8 @@ pub fn warn(message: &str) {
     eprintln!("warning: {message}");
 }
 
-use crate::library::Library;
-use crate::offline::{note_off, note_on, set_timing, OfflineHost, TimedEvent};
+use struck::library::Library;
+use struck::offline::{note_off, note_on, set_timing, OfflineHost, TimedEvent};
 use dsp::Damping;
 use nice_plug::midi::{Channel, Key, VoiceID};
 use nice_plug::prelude::{Enum, NoteEvent};
@@ -64,7 +64,7 @@ impl Default for SoundOptions {
     fn default() -> Self {
         SoundOptions {
             object: "bar".into(),
-            material: crate::library::DEFAULT_MATERIAL.into(),
+            material: struck::library::DEFAULT_MATERIAL.into(),
             size: None,
             position: None,
             sample_rate: 48_000,
@@ -179,8 +179,8 @@ pub fn configured_host(opts: &SoundOptions, max_block: usize) -> Result<OfflineH
     let file_bank = bank_file(&factory, &opts.object)?;
     let file_bank_id = file_bank.as_ref().map(|b| b.id.clone());
     let plugin = match file_bank {
-        Some(bank) => crate::Struck::with_library(std::sync::Arc::new(factory.with_bank(bank))),
-        None => crate::Struck::default(),
+        Some(bank) => struck::Struck::with_library(std::sync::Arc::new(factory.with_bank(bank))),
+        None => struck::Struck::default(),
     };
     let mut host = OfflineHost::with_plugin(plugin, opts.sample_rate as f32, max_block).map_err(|e| e.to_string())?;
     let lib = host.plugin().library().clone();
@@ -292,8 +292,8 @@ fn reference_pitch_hz(host: &mut OfflineHost) -> Result<f64, String> {
     let scale = p.modulus_ratio * strike.lambda_factor / (p.size * p.size);
     // The reference mode: the one tuned to the root (the chosen or strongest), else the lowest.
     let mode = match params.pitch_reference.value() {
-        crate::params::PitchReference::Chosen => (params.pitch_mode.value() - 1).max(0) as usize,
-        crate::params::PitchReference::Strongest if params.key_tuning.value() => {
+        struck::params::PitchReference::Chosen => (params.pitch_mode.value() - 1).max(0) as usize,
+        struck::params::PitchReference::Strongest if params.key_tuning.value() => {
             let w = 2.0 * std::f64::consts::PI * 440.0 * 2f64.powf((f64::from(root) - 69.0) / 12.0);
             (0..bank.lambdas.len())
                 .min_by(|&a, &b| {
@@ -496,7 +496,7 @@ pub fn render(opts: &RenderOptions) -> Result<String, String> {
     if opts.block_size == 0 || opts.block_size > 65_536 {
         return Err(format!("--block-size {} is outside 1..=65536", opts.block_size));
     }
-    crate::offline::check_sample_rate(opts.sound.sample_rate as f32).map_err(|e| e.to_string())?;
+    struck::offline::check_sample_rate(opts.sound.sample_rate as f32).map_err(|e| e.to_string())?;
     let sr = f64::from(opts.sound.sample_rate);
     let mut events = Vec::new();
     if let Some(text) = &opts.notes {
@@ -778,7 +778,7 @@ pub fn print_materials(json: bool) -> Result<(), String> {
 /// # Errors
 /// Never.
 pub fn print_params(json: bool) -> Result<(), String> {
-    let plugin = crate::Struck::default();
+    let plugin = struck::Struck::default();
     let params = nice_plug::prelude::Plugin::params(&plugin);
     let mut rows = Vec::new();
     for (id, ptr, _) in params.param_map() {

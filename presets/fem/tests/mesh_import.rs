@@ -1,8 +1,8 @@
 //! Mesh import: Gmsh 2.2/4.1 readers, OBJ/STL surfaces, their checks, voxelisation, and the
 //! modes of voxelised solids against the built-in mesher and beam theory.
 
-use presets::fem::import::{build_bank_from_import, import_mesh_file, import_surface, ImportOptions, MeshFileKind};
-use presets::fem::{self, BuildOptions, FemError, Material, Shape, TetMesh, TriSurface};
+use fem::import::{build_bank_from_import, import_mesh_file, import_surface, ImportOptions, MeshFileKind};
+use fem::{self, BuildOptions, FemError, Material, Shape, TetMesh, TriSurface};
 use std::f64::consts::PI;
 use std::fmt::Write as _;
 
@@ -511,7 +511,7 @@ fn voxelised_cylinder_bends_like_a_beam() {
 
 #[test]
 fn automatic_resolution_fits_the_vertex_budget() {
-    use presets::fem::voxel::{auto_resolution, DEFAULT_VERTEX_BUDGET};
+    use fem::voxel::{auto_resolution, DEFAULT_VERTEX_BUDGET};
     let cyl = obj(&cylinder_obj(0.3, 0.015, 48));
     let mut ball = TriSurface::default();
     sphere_tris(0.05, [0.0; 3], false, &mut ball);
