@@ -88,8 +88,14 @@ impl DrawSurface {
                 format!("{} triangles; a drawing has 1 to {MAX_DRAW_TRIANGLES}", self.triangles.len()),
             ));
         }
-        if let Some(i) = self.vertices.iter().position(|v| !v.iter().all(|x| x.is_finite())) {
-            return Err(PresetError::invalid(format!("surface.vertices[{i}]"), "must be finite metres"));
+        if self.vertices.len() > 3 * MAX_DRAW_TRIANGLES {
+            return Err(PresetError::invalid(
+                "surface.vertices",
+                format!("{} vertices; a drawing has at most {}", self.vertices.len(), 3 * MAX_DRAW_TRIANGLES),
+            ));
+        }
+        if let Some(i) = self.vertices.iter().position(|v| !v.iter().all(|x| x.is_finite() && x.abs() <= 1e3)) {
+            return Err(PresetError::invalid(format!("surface.vertices[{i}]"), "must be finite metres within ±1000 m"));
         }
         let n = self.vertices.len();
         if let Some(i) = self.triangles.iter().position(|t| t.iter().any(|&k| k as usize >= n)) {
@@ -284,7 +290,8 @@ impl Bank {
     /// [`MAX_BANK_POINTS`]; non-finite or out-of-[0, 1] `xy`; non-finite `position_m`; a
     /// gains matrix that is not points × modes; non-finite gains, |gain| > 1, or all gains
     /// zero; `mode_labels` neither empty nor one per mode; a `surface` with no or more than
-    /// [`MAX_DRAW_TRIANGLES`] triangles, non-finite vertices or indices out of range.
+    /// [`MAX_DRAW_TRIANGLES`] triangles, more than 3 × that many vertices, vertices not finite or
+    /// beyond ±1000 m, or indices out of range.
     pub fn validate(&self) -> Result<(), PresetError> {
         json::check_version(self.schema_version)?;
         json::check_id(&self.id)?;

@@ -2,8 +2,8 @@
 //! `process()` (see `struck::offline`) and measure the result.
 
 use std::f64::consts::PI;
-use struck_cli::cli::{configured_host, note_events, NoteSpec, SoundOptions};
 use struck::offline::OfflineHost;
+use struck_cli::cli::{configured_host, note_events, NoteSpec, SoundOptions};
 
 /// A configured host (object, material, parameters) at `sample_rate`.
 ///

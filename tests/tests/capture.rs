@@ -2,7 +2,7 @@
 //! WAV like a recording) is recovered by the estimator, and bad material files are refused.
 
 use std::path::PathBuf;
-use struck::capture::{estimate, EstimateArgs};
+use struck_cli::capture::{estimate, EstimateArgs};
 use struck_cli::cli::{render, RenderOptions, SoundOptions};
 
 fn tmp(name: &str) -> PathBuf {

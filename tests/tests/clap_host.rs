@@ -31,8 +31,8 @@ use clack_extensions::state::PluginState;
 use clack_host::events::event_types::{NoteOffEvent, NoteOnEvent, ParamValueEvent};
 use clack_host::events::Match;
 use clack_host::prelude::*;
-use struck_cli::cli::{configured_host, note_events, NoteSpec, SoundOptions};
 use struck::offline::{note_off, note_on, TimedEvent};
+use struck_cli::cli::{configured_host, note_events, NoteSpec, SoundOptions};
 
 const PLUGIN_ID: &CStr = c"org.struck.struck";
 const SAMPLE_RATE: u32 = 48_000;

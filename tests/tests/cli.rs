@@ -157,7 +157,7 @@ fn box_obj() -> String {
 
 #[test]
 fn bank_build_from_an_obj_surface_then_render_it() {
-    use struck::banks::{run, BankCommand};
+    use struck_cli::banks::{run, BankCommand};
     let dir = std::env::temp_dir();
     let pid = std::process::id();
     let obj = dir.join(format!("struck-cli-box-{pid}.obj"));

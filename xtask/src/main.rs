@@ -351,7 +351,19 @@ fn run() -> Result<(), String> {
         Some("demo") => {
             bundle(true)?;
             let out = args.get(1).cloned().unwrap_or_else(|| "target/struck-demo.wav".into());
-            cargo(&["run", "--quiet", "--release", "-p", "struck-cli", "--bin", "struck", "--", "render", "--out", &out])?;
+            cargo(&[
+                "run",
+                "--quiet",
+                "--release",
+                "-p",
+                "struck-cli",
+                "--bin",
+                "struck",
+                "--",
+                "render",
+                "--out",
+                &out,
+            ])?;
             eprintln!("bundles: target/bundled/Struck.clap, target/bundled/Struck.vst3; demo: {out}");
             Ok(())
         }

@@ -255,7 +255,7 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
             out,
         } => {
             if shape != "bar" && shape != "tube" {
-                return Err(format!("--shape {shape}: only a bar or a tube can be tuned"));
+                return Err(format!("--shape {shape}: only a bar can be tuned (an undercut, or --vary), or a tube"));
             }
             if shape == "tube" || vary.is_some() {
                 let vary = vary.unwrap_or_else(|| "outer_radius".into());

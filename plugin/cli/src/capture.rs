@@ -2,11 +2,11 @@
 //! §3–5). Progress goes to stderr; results are JSON.
 
 use crate::cli::{end_progress_line, outln, show_progress, warn};
-use struck::library::Library;
 use presets::{output, DampingSpec, Material, SCHEMA_VERSION};
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
+use struck::library::Library;
 
 /// Parses a lowercase serde name ("rayleigh", "emg", …) into an estimator enum.
 fn parse_name<T: serde::de::DeserializeOwned>(what: &str, s: &str, known: &str) -> Result<T, String> {

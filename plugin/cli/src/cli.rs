@@ -32,14 +32,14 @@ pub fn warn(message: &str) {
     eprintln!("warning: {message}");
 }
 
-use struck::library::Library;
-use struck::offline::{note_off, note_on, set_timing, OfflineHost, TimedEvent};
 use dsp::Damping;
 use nice_plug::midi::{Channel, Key, VoiceID};
 use nice_plug::prelude::{Enum, NoteEvent};
 use presets::Material;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
+use struck::library::Library;
+use struck::offline::{note_off, note_on, set_timing, OfflineHost, TimedEvent};
 
 /// Object, material and parameter choices shared by `modes` and `render`.
 #[derive(Clone, Debug)]

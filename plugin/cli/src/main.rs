@@ -202,7 +202,8 @@ enum BankCommand {
         /// The bending mode (1 = lowest) the ratios are of: 1,r2,… are modes K, K+1, ….
         #[arg(long, default_value_t = 1)]
         first_mode: usize,
-        /// With --vary: fail if a ratio stays further than this from its target, cents.
+        /// With --vary (or a tube): fail if a ratio stays further than this from its target,
+        /// cents.
         #[arg(long, default_value_t = 5.0)]
         tolerance: f64,
         /// Flatness of the undercut's bottom: thickness ∝ 1 − depth·(1 − |u|^exponent).

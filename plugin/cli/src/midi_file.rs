@@ -1,8 +1,8 @@
 //! Standard MIDI files to note events for the offline renderer (via the `midly` crate).
 
-use struck::offline::TimedEvent;
 use nice_plug::midi::{Channel, Key, VoiceID};
 use nice_plug::prelude::NoteEvent;
+use struck::offline::TimedEvent;
 
 /// Reads the note-ons, note-offs, channel pressure and CC 74 of every track of a MIDI file,
 /// honouring tempo changes, as events at absolute samples of `sample_rate`.

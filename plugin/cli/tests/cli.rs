@@ -685,6 +685,12 @@ fn bank_tune_refuses_bad_requests_in_one_line() {
         (vec!["--dims", "0.3,0.04", "--ratios", "1,4,10"], "--dims for bar takes 3"),
         (vec!["--shape", "plate", "--dims", "0.3,0.04,0.02", "--ratios", "1,4,10"], "only a bar can be tuned"),
         (vec!["--dims", "0.3,0.04,0.02", "--ratios", "1,4,10", "--exponent", "40"], "exponent"),
+        // Fitting dimensions (--vary, tubes).
+        (vec!["--dims", "0.3,0.04,0.02", "--ratios", "1,2.7", "--vary", "depth"], "'depth' is not a dimension of bar"),
+        (vec!["--shape", "tube", "--dims", "1,0.02,0.002", "--ratios", "1,0.5"], "--ratios must rise from 1"),
+        (vec!["--shape", "tube", "--dims", "1,0.02", "--ratios", "1,2.7"], "--dims for tube takes 3"),
+        (vec!["--shape", "tube", "--dims", "1,0.02,0.002", "--ratios", "1,2.7", "--first-mode", "0"], "--first-mode"),
+        (vec!["--shape", "tube", "--dims", "1,0.02,0.002", "--ratios", "1,2.7", "--tolerance", "-1"], "--tolerance"),
     ] {
         let mut a = vec!["bank", "tune", "--out", o];
         a.extend(args.iter().copied());

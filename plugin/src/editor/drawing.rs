@@ -164,9 +164,11 @@ pub fn object_drawing(bank: &Bank) -> ObjectDrawing {
     front.sort_by(|x, y| y.depth.total_cmp(&x.depth));
 
     // Strike points: seen unless a front face covering them lies nearer by more than a
-    // hundredth of the object's size.
-    let size_m = (hi[0] - lo[0]).max(hi[1] - lo[1]).max(hi[2] - lo[2]).max(1e-9);
-    let eps = 0.01 * size_m;
+    // hundredth of the object's smallest extent (a plate's thickness, a tube's diameter). A
+    // point on a curved front surface is never behind its own facet: the drawing's vertices
+    // lie on the surface, so its facets are chords inside it.
+    let thinnest = (hi[0] - lo[0]).min(hi[1] - lo[1]).min(hi[2] - lo[2]).max(1e-9);
+    let eps = 0.01 * thinnest;
     let point_proj: Vec<([f32; 2], f32)> = bank.points.iter().map(|p| camera.project(p.position_m)).collect();
     let visible: Vec<bool> = point_proj
         .iter()

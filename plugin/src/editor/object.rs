@@ -117,7 +117,12 @@ impl EditorUi {
             painter.line_segment([path[i - 1], path[i]], stroke);
         }
         let position = self.params.strike_position.value();
-        let current = logic::nearest_point(points, logic::point_at_position(points, position).unwrap_or([0.0, 0.0]));
+        // The strike point nearest along the path (on screen, points in front and behind can
+        // overlap).
+        let current = (n > 0).then(|| {
+            let p = if position.is_finite() { position.clamp(0.0, 1.0) } else { 0.0 };
+            ((p * (n - 1) as f32).round() as usize).min(n - 1)
+        });
         for (i, p) in path.iter().enumerate() {
             let (color, radius) = if Some(i) == current {
                 (Color32::from_rgb(255, 190, 60), 5.0)
