@@ -98,6 +98,44 @@ pub struct OfflineHost {
     left: Vec<f32>,
     right: Vec<f32>,
     buffer: Buffer<'static>,
+    stats: RenderStats,
+}
+
+/// Load figures of the `process()` calls an [`OfflineHost`] has made (`struck render
+/// --stats`): voices and sounding modes are read from the engine after each call.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RenderStats {
+    /// Samples rendered.
+    pub samples: u64,
+    /// Wall-clock time spent inside `process()`, s.
+    pub process_s: f64,
+    /// Most voices sounding after a call.
+    pub peak_voices: usize,
+    /// Σ voices × samples of each call (÷ `samples`: the mean).
+    pub voice_samples: u64,
+    /// Most sounding modes (all voices) after a call.
+    pub peak_modes: usize,
+    /// Σ sounding modes × samples of each call: the mode-samples the engine ran.
+    pub mode_samples: u64,
+}
+
+impl RenderStats {
+    /// Mean voices over the samples rendered.
+    pub fn mean_voices(&self) -> f64 {
+        self.voice_samples as f64 / self.samples.max(1) as f64
+    }
+    /// Mean sounding modes over the samples rendered.
+    pub fn mean_modes(&self) -> f64 {
+        self.mode_samples as f64 / self.samples.max(1) as f64
+    }
+    /// Share of one core that rendering in real time at `sample_rate` would take.
+    pub fn core_share(&self, sample_rate: f64) -> f64 {
+        self.process_s / (self.samples as f64 / sample_rate).max(1e-12)
+    }
+    /// Mode-samples per second of `process()` time.
+    pub fn mode_samples_per_s(&self) -> f64 {
+        self.mode_samples as f64 / self.process_s.max(1e-12)
+    }
 }
 
 // SAFETY: the raw parameter pointers point into `plugin`'s `Arc<StruckParams>`, which lives
@@ -158,6 +196,7 @@ impl OfflineHost {
             clock: 0,
             block_events: Vec::with_capacity(4096),
             sent: Vec::with_capacity(4096),
+            stats: RenderStats::default(),
             left: vec![0.0; max_block],
             right: vec![0.0; max_block],
             buffer: Buffer::default(),
@@ -196,6 +235,11 @@ impl OfflineHost {
     /// Sample rate in Hz.
     pub fn sample_rate(&self) -> f32 {
         self.sample_rate
+    }
+
+    /// Load figures of every `process()` call so far.
+    pub fn stats(&self) -> RenderStats {
+        self.stats
     }
 
     /// Sets a parameter by id to a plain value (clamped to its range), as a host would
@@ -339,12 +383,23 @@ impl OfflineHost {
         };
         let plugin = &mut self.plugin;
         let buffer = &mut self.buffer;
+        let t0 = std::time::Instant::now();
         run_guarded(|| {
             plugin.process(buffer, &mut aux, &mut ctx);
         });
+        self.stats.process_s += t0.elapsed().as_secs_f64();
         // SAFETY: drop the borrowed slices (no allocation: capacity is kept).
         unsafe { self.buffer.set_slices(0, |slices| slices.clear()) };
         self.clock += n as u64;
+        if let Some(engine) = self.plugin.engine() {
+            let (voices, modes) = (engine.active_voices(), engine.active_modes());
+            let st = &mut self.stats;
+            st.samples += n as u64;
+            st.peak_voices = st.peak_voices.max(voices);
+            st.peak_modes = st.peak_modes.max(modes);
+            st.voice_samples += (voices * n) as u64;
+            st.mode_samples += (modes * n) as u64;
+        }
     }
 }
 

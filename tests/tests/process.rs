@@ -290,3 +290,28 @@ fn poly_modulation_of_the_strike_position_moves_that_note_only() {
     let plain = render(&mut h, &notes, 0.5, 512);
     assert!(plain.iter().zip(&y).any(|(a, b)| (a - b).abs() > 1e-3));
 }
+
+/// Issue 13 part 1: `struck modes` (`predicted_modes`) lists exactly the modes the engine
+/// rings: on every factory object, in two materials, at keys 36, 60 and 96 and two strike
+/// positions, its count equals the engine's sounding modes right after the strike, played
+/// through `process()`; and `render --stats` counts the same modes (its peak).
+#[test]
+fn modes_lists_exactly_the_modes_the_engine_rings() {
+    for bank in presets::factory_banks() {
+        for material in ["glass-ren2013", "wood-ren2013"] {
+            for key in [36u8, 60, 96] {
+                for position in [0.2f32, 0.7] {
+                    let o = SoundOptions { position: Some(position), ..opts(&bank.id, material, &[]) };
+                    let listed = predicted_modes(&o, key, 100).unwrap().len();
+                    let mut h = host(&bank.id, material, SR, &[]);
+                    render(&mut h, &[note(key, 100, Some(position))], 64.0 / f64::from(SR), 64);
+                    let engine = h.plugin().engine().unwrap();
+                    let rung = engine.active_modes();
+                    assert_eq!(listed, rung, "{} {material} key {key} at {position}", bank.id);
+                    assert_eq!(h.stats().peak_modes, rung);
+                    assert_eq!(h.stats().peak_voices, 1);
+                }
+            }
+        }
+    }
+}

@@ -39,7 +39,7 @@ use presets::Material;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use struck::library::Library;
-use struck::offline::{note_off, note_on, set_timing, OfflineHost, TimedEvent};
+use struck::offline::{note_off, note_on, set_timing, OfflineHost, RenderStats, TimedEvent};
 
 /// Object, material and parameter choices shared by `modes` and `render`.
 #[derive(Clone, Debug)]
@@ -483,7 +483,8 @@ fn render_inputs(opts: &RenderOptions) -> Vec<PathBuf> {
     inputs
 }
 
-/// Renders per the options and writes the WAV; returns a one-line summary.
+/// Renders per the options and writes the WAV; returns a one-line summary and the load
+/// figures of the final pass's `process()` calls.
 ///
 /// The WAV is streamed to disk block by block (memory stays bounded whatever the length),
 /// into a temporary file in the output's folder that replaces `out` only once complete: a
@@ -492,7 +493,7 @@ fn render_inputs(opts: &RenderOptions) -> Vec<PathBuf> {
 /// # Errors
 /// Bad options, an unreadable, corrupt or empty MIDI file, a WAV over 4 GiB, an output that
 /// is one of the inputs or cannot be written.
-pub fn render(opts: &RenderOptions) -> Result<String, String> {
+pub fn render_with_stats(opts: &RenderOptions) -> Result<(String, RenderStats), String> {
     if opts.block_size == 0 || opts.block_size > 65_536 {
         return Err(format!("--block-size {} is outside 1..=65536", opts.block_size));
     }
@@ -590,6 +591,7 @@ pub fn render(opts: &RenderOptions) -> Result<String, String> {
         writer.write_sample(r)
     })
     .map_err(write_err)?;
+    let stats = host.stats();
     writer.finalize().map_err(write_err)?;
     file.commit().map_err(|e| e.to_string())?;
     if pass.peak > 1.0 {
@@ -609,14 +611,38 @@ pub fn render(opts: &RenderOptions) -> Result<String, String> {
     if gain != 1.0 {
         notes += &format!(", normalised by {:+.1} dB", 20.0 * gain.log10());
     }
-    Ok(format!(
+    let summary = format!(
         "wrote {} ({:.2} s, {} Hz, peak {:.1} dBFS{notes}): {} notes on {obj}, {mat}",
         opts.out.display(),
         pass.length as f64 / sr,
         opts.sound.sample_rate,
         20.0 * pass.peak.max(1e-12).log10(),
         events.iter().filter(|e| matches!(e.event, NoteEvent::NoteOn { .. })).count()
-    ))
+    );
+    Ok((summary, stats))
+}
+
+/// `render --stats`: the load of a render in one line.
+pub fn stats_line(stats: &RenderStats, sample_rate: f64) -> String {
+    format!(
+        "stats: voices peak {} mean {:.1}; sounding modes peak {} mean {:.0}; process() {:.3} s for {:.2} s of audio = {:.2} % of one core; {:.3e} mode-samples/s",
+        stats.peak_voices,
+        stats.mean_voices(),
+        stats.peak_modes,
+        stats.mean_modes(),
+        stats.process_s,
+        stats.samples as f64 / sample_rate,
+        100.0 * stats.core_share(sample_rate),
+        stats.mode_samples_per_s()
+    )
+}
+
+/// Renders `opts` to its WAV file (see [`render_with_stats`]); returns the summary line.
+///
+/// # Errors
+/// As [`render_with_stats`].
+pub fn render(opts: &RenderOptions) -> Result<String, String> {
+    render_with_stats(opts).map(|(summary, _)| summary)
 }
 
 /// Longest tail rendered after the last event when `render` has no `--seconds`, s.

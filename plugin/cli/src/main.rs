@@ -117,6 +117,10 @@ enum Command {
         /// Host block size in samples.
         #[arg(long, default_value_t = 512)]
         block_size: usize,
+        /// Print the render's load: peak and mean voices and sounding modes, the time spent in
+        /// process(), the share of one core it means in real time, and mode-samples per second.
+        #[arg(long)]
+        stats: bool,
         /// Output WAV (32-bit float, stereo).
         #[arg(long)]
         out: PathBuf,
@@ -310,7 +314,7 @@ fn run(cli: Cli) -> Result<(), String> {
             eprintln!("{summary}");
             Ok(())
         }
-        Command::Render { sound, notes, midi, seconds, normalize, block_size, out } => {
+        Command::Render { sound, notes, midi, seconds, normalize, block_size, stats, out } => {
             let opts = RenderOptions {
                 sound: sound.options(),
                 notes,
@@ -320,8 +324,11 @@ fn run(cli: Cli) -> Result<(), String> {
                 out,
                 normalize,
             };
-            let summary = cli::render(&opts)?;
+            let (summary, load) = cli::render_with_stats(&opts)?;
             eprintln!("{summary}");
+            if stats {
+                eprintln!("{}", cli::stats_line(&load, f64::from(opts.sound.sample_rate)));
+            }
             Ok(())
         }
     }

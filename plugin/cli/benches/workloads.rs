@@ -1,0 +1,57 @@
+//! Real workloads through the plugin's own `process()` (issue 13 part 2): 16 and 64 voices on
+//! every factory object, keys spread over three octaves (36–72) and each retriggered every
+//! second (staggered), default quality and material, 48 kHz, 512-sample blocks; and the idle
+//! plugin (no voices). Throughput is counted from the modes the engine actually runs (its
+//! sounding modes after each `process()` call × the call's samples).
+//!
+//! `cargo bench -p struck-cli --bench workloads` (a plain bench target: it prints a table).
+
+use struck_cli::cli::{configured_host, note_events, NoteSpec, SoundOptions};
+
+const SR: f64 = 48_000.0;
+const SECONDS: f64 = 6.0;
+const BLOCK: usize = 512;
+
+fn main() {
+    // `cargo bench` passes `--bench`; an optional object id filters.
+    let filter: Option<String> = std::env::args().skip(1).find(|a| !a.starts_with('-'));
+    let idle = {
+        let mut host = configured_host(&SoundOptions::default(), BLOCK).expect("host");
+        host.render(&[], (SECONDS * SR) as usize, BLOCK);
+        host.stats()
+    };
+    println!("idle (no voices): {:.4} % of one core", 100.0 * idle.core_share(SR));
+    println!("| object | voices | mean voices | mean sounding modes | share of one core | mode-samples/s |");
+    println!("| --- | --- | --- | --- | --- | --- |");
+    for bank in presets::factory_banks() {
+        if filter.as_ref().is_some_and(|f| !bank.id.contains(f.as_str())) {
+            continue;
+        }
+        for voices in [16usize, 64] {
+            let opts = SoundOptions { object: bank.id.clone(), ..SoundOptions::default() };
+            let mut host = configured_host(&opts, BLOCK).expect("host");
+            let notes: Vec<NoteSpec> = (0..SECONDS as usize)
+                .flat_map(|s| {
+                    (0..voices).map(move |v| NoteSpec {
+                        key: 36 + (v * 36 / voices) as u8,
+                        velocity: 100,
+                        position: Some(v as f32 / voices as f32),
+                        start_s: s as f64 + v as f64 / voices as f64,
+                        duration_s: None,
+                    })
+                })
+                .collect();
+            let events = note_events(&notes, SR);
+            host.render(&events, (SECONDS * SR) as usize, BLOCK);
+            let st = host.stats();
+            println!(
+                "| `{}` | {voices} | {:.1} | {:.0} | {:.2} % | {:.2e} |",
+                bank.id,
+                st.mean_voices(),
+                st.mean_modes(),
+                100.0 * st.core_share(SR),
+                st.mode_samples_per_s()
+            );
+        }
+    }
+}
