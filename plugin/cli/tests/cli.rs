@@ -699,3 +699,40 @@ fn bank_tune_refuses_bad_requests_in_one_line() {
     }
     assert!(!out.exists());
 }
+
+/// Issue 13 part 1: `render --stats` prints the load in one line: three notes struck
+/// together peak at three voices, and the peak sounding modes are the sum of what `modes`
+/// lists for each of the three notes.
+#[test]
+fn render_stats_counts_the_voices_and_the_modes_that_ring() {
+    let dir = scratch("stats");
+    let out = dir.join("s.wav");
+    let o = struck(
+        &dir,
+        &[
+            "render",
+            "--object",
+            "bar",
+            "--notes",
+            "48:100@0.3,55:100@0.3,60:100@0.3",
+            "--seconds",
+            "0.5",
+            "--stats",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    let line = err.lines().find(|l| l.starts_with("stats: ")).unwrap_or_else(|| panic!("no stats line: {err}"));
+    assert!(line.contains("voices peak 3 "), "{line}");
+    let mut listed = 0;
+    for key in ["48", "55", "60"] {
+        let m = struck(&dir, &["modes", "--object", "bar", "--note", key, "--position", "0.3", "--json"]);
+        assert!(m.status.success(), "{}", stderr(&m));
+        let v: serde_json::Value = serde_json::from_slice(&m.stdout).unwrap();
+        listed += v["modes"].as_array().map_or_else(|| v.as_array().map_or(0, Vec::len), Vec::len);
+    }
+    assert!(line.contains(&format!("sounding modes peak {listed} ")), "{line}; modes lists {listed}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
