@@ -102,30 +102,28 @@ fn unreachable_pattern() -> usize {
 }
 
 /// y = A x for a symmetric matrix in [`System`] storage with values `val`, applied to `b`
-/// vectors stored row-major (`x[r * b + k]`). Parallel over columns on up to `threads`.
+/// vectors stored row-major (`x[r * b + k]`). Parallel over columns on rayon's pool (the
+/// threads faer's factorisations use; none is spawned per product).
 pub fn sym_matvec_rows(sys: &System, val: &[f64], x: &[f64], y: &mut [f64], b: usize) {
-    let threads = std::thread::available_parallelism().map(|t| t.get()).unwrap_or(1).clamp(1, 8);
+    use rayon::prelude::*;
+    let threads = rayon::current_num_threads().clamp(1, 8);
     let chunk = sys.n.div_ceil(threads).max(1);
-    std::thread::scope(|s| {
-        for (ci, yc) in y.chunks_mut(chunk * b).enumerate() {
-            s.spawn(move || {
-                let c0 = ci * chunk;
-                let mut acc = vec![0.0; b];
-                for (lc, out) in yc.chunks_mut(b).enumerate() {
-                    let c = c0 + lc;
-                    acc.fill(0.0);
-                    // Symmetric: row c of A·x = column c dotted with x.
-                    for p in sys.col_ptr[c]..sys.col_ptr[c + 1] {
-                        let v = val[p];
-                        let r = sys.row_idx[p];
-                        let xr = &x[r * b..r * b + b];
-                        for kk in 0..b {
-                            acc[kk] += v * xr[kk];
-                        }
-                    }
-                    out.copy_from_slice(&acc);
+    y.par_chunks_mut(chunk * b).enumerate().for_each(|(ci, yc)| {
+        let c0 = ci * chunk;
+        let mut acc = vec![0.0; b];
+        for (lc, out) in yc.chunks_mut(b).enumerate() {
+            let c = c0 + lc;
+            acc.fill(0.0);
+            // Symmetric: row c of A·x = column c dotted with x.
+            for p in sys.col_ptr[c]..sys.col_ptr[c + 1] {
+                let v = val[p];
+                let r = sys.row_idx[p];
+                let xr = &x[r * b..r * b + b];
+                for kk in 0..b {
+                    acc[kk] += v * xr[kk];
                 }
-            });
+            }
+            out.copy_from_slice(&acc);
         }
     });
 }
