@@ -27,6 +27,7 @@
 pub mod assembly;
 pub mod eigen;
 pub mod element;
+pub mod geom;
 pub mod gmsh;
 pub mod import;
 pub mod mesh;

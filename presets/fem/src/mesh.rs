@@ -12,6 +12,7 @@ use std::collections::HashMap;
 use std::f64::consts::PI;
 
 use super::element::EDGES;
+use super::geom::{mid, signed_volume};
 use super::{FemError, Shape};
 
 /// A mesh of 10-node tetrahedra. Positions in metres.
@@ -35,12 +36,12 @@ impl TetMesh {
     /// [`FemError::Mesh`] for an index out of range or a degenerate (zero-volume) element.
     pub fn from_linear(corners: Vec<[f64; 3]>, tets: &[[u32; 4]]) -> Result<TetMesh, FemError> {
         let params: Vec<[f64; 3]> = corners.clone();
-        promote(params, tets, &|q| q, &|a, b| mid3(a, b))
+        promote(params, tets, &|q| q, &|a, b| mid(a, b))
     }
 
     /// Total volume (m³) from the corner tetrahedra (exact for straight-sided elements).
     pub fn volume(&self) -> f64 {
-        self.tets.iter().map(|t| signed_volume(&self.nodes, [t[0], t[1], t[2], t[3]])).sum()
+        self.tets.iter().map(|t| signed_volume(&self.nodes, &[t[0], t[1], t[2], t[3]])).sum()
     }
 
     /// Axis-aligned bounding box (min, max), m.
@@ -55,19 +56,6 @@ impl TetMesh {
         }
         (lo, hi)
     }
-}
-
-fn mid3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2])]
-}
-
-fn signed_volume(x: &[[f64; 3]], t: [u32; 4]) -> f64 {
-    let p = |i: usize| x[t[i] as usize];
-    let (a, b, c, d) = (p(0), p(1), p(2), p(3));
-    let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-    let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-    let w = [d[0] - a[0], d[1] - a[1], d[2] - a[2]];
-    (u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) + u[2] * (v[0] * w[1] - v[1] * w[0])) / 6.0
 }
 
 /// Promotes 4-node tetrahedra over parameter-space nodes `params` to 10-node tetrahedra:
@@ -97,7 +85,7 @@ pub(crate) fn promote(
             return Err(FemError::Mesh(format!("element {e} refers to a node that does not exist")));
         }
         let mut t = *t;
-        let v = signed_volume(&nodes, t);
+        let v = signed_volume(&nodes, &t);
         if !(v.abs() > 1e-14 * scale * scale * scale) {
             return Err(FemError::Mesh(format!(
                 "element {e} has (nearly) zero volume ({v:.3e} m^3); the mesh is degenerate"
@@ -378,7 +366,7 @@ pub(crate) fn mesh_with_geometry(shape: &Shape, resolution: usize) -> Result<(Te
         let h = lx.max(ly).max(lz) / res;
         let (base, tris) = rect_base(lx, ly, divisions(lx, h), divisions(ly, h));
         let lay = Layered { base, tris, layers: divisions(lz, h) };
-        let mesh = lay.build(&|q| [q[0], q[1], q[2] * lz], &mid3)?;
+        let mesh = lay.build(&|q| [q[0], q[1], q[2] * lz], &mid)?;
         Ok((mesh, Geometry::Box { lx, ly, lz, line }))
     };
     match *shape {
@@ -396,7 +384,7 @@ pub(crate) fn mesh_with_geometry(shape: &Shape, resolution: usize) -> Result<(Te
                     let zb = bottom(q[0]);
                     [q[0], q[1], zb + q[2] * (thickness - zb)]
                 },
-                &mid3,
+                &mid,
             )?;
             Ok((mesh, Geometry::Box { lx: length, ly: width, lz: thickness, line: true }))
         }

@@ -4,6 +4,7 @@ use std::collections::HashMap;
 use std::f64::consts::PI;
 
 use super::element::EDGES;
+use super::geom::{cross, dot, sub};
 use super::mesh::{Geometry, TetMesh};
 
 /// A strike location before evaluation: position (m), drawing coordinates, label.
@@ -24,16 +25,6 @@ struct Face {
 /// The boundary of a tetrahedral mesh (faces that belong to one element only).
 pub struct Surface {
     faces: Vec<Face>,
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 }
 
 fn edge_local(i: usize, j: usize) -> usize {

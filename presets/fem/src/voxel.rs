@@ -24,9 +24,10 @@
 
 use std::collections::HashSet;
 
+use super::geom::{cross, dot, signed_volume, sub};
 use super::import::MAX_IMPORT_VERTICES;
 use super::mesh::TetMesh;
-use super::surface::{cross, dot, ray_hit, sub, RayHit, TriGrid, TriSurface};
+use super::surface::{ray_hit, RayHit, TriGrid, TriSurface};
 use super::FemError;
 
 /// Corner vertices aimed at by [`auto_resolution`]: about 60 000 DOFs, a build of the order
@@ -125,11 +126,6 @@ const ODD_TETS: [[usize; 4]; 5] = [
     [corner(1, 0, 1), corner(1, 0, 0), corner(0, 0, 1), corner(1, 1, 1)],
     [corner(0, 1, 1), corner(0, 1, 0), corner(0, 0, 1), corner(1, 1, 1)],
 ];
-
-fn signed_volume(p: &[[f64; 3]], t: &[u32; 4]) -> f64 {
-    let a = p[t[0] as usize];
-    dot(sub(p[t[1] as usize], a), cross(sub(p[t[2] as usize], a), sub(p[t[3] as usize], a))) / 6.0
-}
 
 /// Voxelises the closed, outward-oriented surface `s` (as left by
 /// [`super::surface::check_surface`]) into a 10-node tetrahedral mesh; see the module docs.
