@@ -73,13 +73,52 @@ impl Damping {
         }
     }
 
+    /// Which law this is.
+    pub fn model(&self) -> DampingModel {
+        match self {
+            Damping::Rayleigh { .. } => DampingModel::Rayleigh,
+            Damping::Caughey { .. } => DampingModel::Caughey,
+            Damping::Power { .. } => DampingModel::Power,
+            Damping::Hybrid { .. } => DampingModel::Hybrid,
+        }
+    }
+
     /// Short lowercase name of the model ("rayleigh", "caughey", "power", "hybrid").
     pub fn model_name(&self) -> &'static str {
+        self.model().name()
+    }
+}
+
+/// Which damping law, without its coefficients: the one list of laws the presets (JSON
+/// `"model"`), the estimator (the family it fits) and the engine share. Serialised in
+/// lowercase with the `serde` feature.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
+pub enum DampingModel {
+    /// c = α₁ + α₂ λ.
+    #[default]
+    Rayleigh,
+    /// c = Σⱼ αⱼ λʲ (Caughey series).
+    Caughey,
+    /// c = α₁ λ^α₂ (power law).
+    Power,
+    /// c = α₁ + α₂ λ^α₃ (hybrid).
+    Hybrid,
+}
+
+impl DampingModel {
+    /// Every law.
+    pub const ALL: [DampingModel; 4] =
+        [DampingModel::Rayleigh, DampingModel::Caughey, DampingModel::Power, DampingModel::Hybrid];
+
+    /// Lowercase name, as in JSON.
+    pub fn name(self) -> &'static str {
         match self {
-            Damping::Rayleigh { .. } => "rayleigh",
-            Damping::Caughey { .. } => "caughey",
-            Damping::Power { .. } => "power",
-            Damping::Hybrid { .. } => "hybrid",
+            DampingModel::Rayleigh => "rayleigh",
+            DampingModel::Caughey => "caughey",
+            DampingModel::Power => "power",
+            DampingModel::Hybrid => "hybrid",
         }
     }
 }

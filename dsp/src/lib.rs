@@ -15,5 +15,5 @@ pub mod ftz;
 pub mod resonator;
 pub mod safety;
 
-pub use damping::Damping;
+pub use damping::{Damping, DampingModel};
 pub use engine::{Engine, NoteId, ObjectModes, SoundParams, Strike, Terminated};

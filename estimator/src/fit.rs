@@ -37,36 +37,21 @@ pub const ETA_MAX: f64 = 1e4;
 /// Grid points (log-spaced, 20 Hz–24 kHz) where the Caughey fits enforce c(λ) ≥ 0.
 const CAUGHEY_GRID: usize = 48;
 
-/// Damping model family.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
-#[serde(rename_all = "lowercase")]
-pub enum ModelKind {
-    /// c = α₁ + α₂ λ.
-    #[default]
-    Rayleigh,
-    /// c = α₁ + α₂ λ^α₃.
-    Hybrid,
-    /// c = α₁ λ^α₂.
-    Power,
-    /// c = α₀ + α₁ λ + α₂ λ² (order 3).
-    Caughey,
+/// Damping model family: the engine's [`dsp::DampingModel`] (Caughey is fitted as the
+/// third-order series c = α₀ + α₁ λ + α₂ λ²).
+pub use dsp::DampingModel as ModelKind;
+
+/// Number of curve parameters the estimator fits for a family.
+pub trait FitParams {
+    /// 2 for Rayleigh and power law, 3 for hybrid and (third-order) Caughey.
+    fn n_params(self) -> usize;
 }
 
-impl ModelKind {
-    /// Number of curve parameters.
-    pub fn n_params(self) -> usize {
+impl FitParams for ModelKind {
+    fn n_params(self) -> usize {
         match self {
             ModelKind::Rayleigh | ModelKind::Power => 2,
             ModelKind::Hybrid | ModelKind::Caughey => 3,
-        }
-    }
-    /// Lowercase name, as in `dsp::Damping::model_name`.
-    pub fn name(self) -> &'static str {
-        match self {
-            ModelKind::Rayleigh => "rayleigh",
-            ModelKind::Hybrid => "hybrid",
-            ModelKind::Power => "power",
-            ModelKind::Caughey => "caughey",
         }
     }
 }

@@ -39,7 +39,7 @@ use serde::{Deserialize, Serialize};
 
 pub use error::EstimateError;
 pub use features::{ExtractOptions, Feature, ImpactFit};
-pub use fit::{fit_damping, fit_damping_weighted, FitResult, Method, ModelKind};
+pub use fit::{fit_damping, fit_damping_weighted, FitParams, FitResult, Method, ModelKind};
 pub use object::ObjectMatch;
 pub use segment::SegmentOptions;
 pub use wav::Recording;

@@ -19,31 +19,11 @@ pub const MAX_EXPONENT: f64 = 2.0;
 
 const TWO_PI: f64 = 2.0 * std::f64::consts::PI;
 
-/// Which damping law a [`DampingSpec`] uses. Serialised in lowercase.
-#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
-#[serde(rename_all = "lowercase")]
-pub enum DampingModel {
-    /// c = α₁ + α₂ λ. Params `[α1 (s⁻¹), α2 (s)]`; Ren 2013's α, β.
-    Rayleigh,
-    /// c = Σⱼ αⱼ λʲ, j = 0..n. Params `[α0, α1, …]`, 1 to 4 terms, αⱼ in s^(2j−1).
-    Caughey,
-    /// c = α₁ λ^α₂. Params `[α1, α2]`, α₂ in (0, 2] (thesis eq. 3.4).
-    Power,
-    /// c = α₁ + α₂ λ^α₃. Params `[α1, α2, α3]`, α₃ in (0, 2] (thesis eq. 4.1).
-    Hybrid,
-}
-
-impl DampingModel {
-    /// Lowercase name, as in JSON.
-    pub fn name(self) -> &'static str {
-        match self {
-            DampingModel::Rayleigh => "rayleigh",
-            DampingModel::Caughey => "caughey",
-            DampingModel::Power => "power",
-            DampingModel::Hybrid => "hybrid",
-        }
-    }
-}
+/// Which damping law a [`DampingSpec`] uses (the engine's list, serialised in lowercase):
+/// `rayleigh` params `[α1 (s⁻¹), α2 (s)]` (Ren 2013's α, β); `caughey` `[α0, α1, …]`, 1 to 4
+/// terms, αⱼ in s^(2j−1); `power` `[α1, α2]`, α₂ in (0, 2] (thesis eq. 3.4); `hybrid`
+/// `[α1, α2, α3]`, α₃ in (0, 2] (thesis eq. 4.1).
+pub use dsp::DampingModel;
 
 /// A damping law as stored in JSON: `{"model": "rayleigh", "params": [alpha1, alpha2]}`.
 ///
