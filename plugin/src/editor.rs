@@ -2,8 +2,9 @@
 //! material while seeing its T60 curve, and capture a material from recordings with the
 //! estimator running on a background thread.
 //!
-//! Threads: the GUI talks to the audio thread only through [`EditorShared`] (a bounded
-//! lock-free queue of auditions, atomics for the meters). Parameters change only through
+//! Threads: the GUI talks to the audio thread only through [`EditorShared`] (in
+//! [`crate::shared`], which the audio path imports instead of this module: a bounded
+//! lock-free queue of auditions, atomics for the meters, clip playback). Parameters change only through
 //! nice-plug's `ParamSetter` (host gestures). The estimator runs on its own `std::thread`;
 //! progress and cancel are atomics, the result is picked up by the GUI with a `try_lock`.
 //!
@@ -20,223 +21,27 @@ mod plot;
 pub mod testing;
 mod ui;
 
+pub use crate::shared::{
+    is_audition, Audition, Clip, ClipPlayer, EditorShared, AUDITION_QUEUE, CLIP_QUEUE, CLIP_RETURN,
+};
 pub use capture::CaptureRecord;
 pub use ui::{EditorUi, Tab};
 
 use crate::library::Library;
 use crate::params::StruckParams;
-use crossbeam_queue::ArrayQueue;
-use dsp::engine::NoteId;
 use nice_plug::context::gui::GuiContext;
 use nice_plug::editor::{HostMethods, SpawnedEditor};
 use nice_plug::prelude::*;
 use nice_plug_egui::{
     create_egui_editor, EguiEditorHandle, EguiEditorState, EguiNiceSettings, NiceEguiApp, RepaintNotifier,
 };
-use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex, PoisonError};
 
 /// Window size the editor first opens at, logical points `[width, height]`.
 pub const DEFAULT_SIZE: [u32; 2] = [1040, 720];
 /// Smallest window size the host may resize the editor to.
 pub const MIN_SIZE: [u32; 2] = [720, 480];
-/// Capacity of the audition queue (clicks faster than the audio thread drains are dropped).
-pub const AUDITION_QUEUE: usize = 64;
-/// Number of distinct voice ids auditions cycle through, so quick clicks overlap.
-const AUDITION_VOICES: i32 = 16;
-/// Clips waiting to be played (GUI → audio). A new clip replaces the one playing.
-pub const CLIP_QUEUE: usize = 2;
-/// Clips handed back for freeing (audio → GUI). The audio thread takes a new clip only while
-/// this queue has room, so it never has to drop (free) one itself.
-pub const CLIP_RETURN: usize = 4;
-
-/// A mono clip the editor plays through the plugin's output: the A/B comparison of a
-/// recording and its resynthesis. Built and freed on the GUI side; the audio thread only
-/// reads it.
-#[derive(Debug)]
-pub struct Clip {
-    samples: Vec<f32>,
-    pos: usize,
-}
-
-impl Clip {
-    /// A clip of these samples (at the plugin's sample rate, full scale ±1).
-    pub fn new(samples: Vec<f32>) -> Box<Clip> {
-        Box::new(Clip { samples, pos: 0 })
-    }
-
-    /// The samples.
-    pub fn samples(&self) -> &[f32] {
-        &self.samples
-    }
-
-    fn finished(&self) -> bool {
-        self.pos >= self.samples.len()
-    }
-}
-
-/// The audio thread's side of clip playback (owned by the plugin).
-#[derive(Debug, Default)]
-pub struct ClipPlayer {
-    current: Option<Box<Clip>>,
-}
-
-impl ClipPlayer {
-    /// Picks up a new clip or a stop request, then adds the clip's next `out.len()` samples
-    /// to `out`.
-    ///
-    /// # Realtime safety
-    /// Lock-free queue operations and a copy; a clip is never freed here: finished or replaced
-    /// clips go back to the GUI through [`EditorShared::clips_done`], and a new clip is taken
-    /// only while that queue has room.
-    pub fn mix(&mut self, shared: &EditorShared, out: &mut [f32]) {
-        if shared.stop_clip.swap(false, Ordering::Relaxed) {
-            if let Some(c) = self.current.as_mut() {
-                c.pos = c.samples.len();
-            }
-        }
-        if !shared.clips_done.is_full() {
-            if let Some(new) = shared.clips.pop() {
-                if let Some(old) = self.current.replace(new) {
-                    // Room was checked above and only this thread pushes.
-                    if let Err(old) = shared.clips_done.push(old) {
-                        std::mem::forget(old); // unreachable: never free on the audio thread
-                    }
-                }
-            }
-        }
-        if let Some(c) = self.current.as_mut() {
-            let n = out.len().min(c.samples.len() - c.pos.min(c.samples.len()));
-            for (o, s) in out[..n].iter_mut().zip(&c.samples[c.pos..c.pos + n]) {
-                *o += *s;
-            }
-            c.pos += n;
-        }
-        if self.current.as_ref().is_some_and(|c| c.finished()) {
-            if let Some(c) = self.current.take() {
-                // Full return queue: keep the (silent) clip and hand it back next block.
-                if let Err(c) = shared.clips_done.push(c) {
-                    self.current = Some(c);
-                }
-            }
-        }
-        shared.clip_playing.store(self.current.as_ref().is_some_and(|c| !c.finished()), Ordering::Relaxed);
-    }
-}
-
-/// A strike requested by the editor, played at the start of the next audio block.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Audition {
-    /// Key whose tuning the strike uses (as a MIDI note-on of this key would).
-    pub key: u8,
-    /// Velocity 0..=1.
-    pub velocity: f32,
-    /// Strike position 0..=1 along the bank's strike points.
-    pub position: f32,
-    /// Sequence number (the editor counts clicks); picks the audition voice id.
-    pub serial: u32,
-}
-
-impl Audition {
-    /// The engine note id: negative voice ids (which hosts never use) mark auditions.
-    pub fn note(&self) -> NoteId {
-        let slot = (self.serial % AUDITION_VOICES as u32) as i32;
-        NoteId { voice_id: Some(-1 - slot), channel: 0, key: self.key }
-    }
-}
-
-/// Whether `note` is one of the editor's auditions (not to be reported to the host).
-pub fn is_audition(note: &NoteId) -> bool {
-    note.voice_id.is_some_and(|v| v < 0)
-}
-
-/// State shared between the plugin's audio thread and the editor.
-pub struct EditorShared {
-    /// GUI → audio: strikes to play. `push`/`pop` are lock-free and do not allocate.
-    pub audition: ArrayQueue<Audition>,
-    /// Audio → GUI: sounding voices at the end of the last block.
-    pub active_voices: AtomicU32,
-    /// Audio → GUI: modes rendered over all voices at the end of the last block.
-    pub active_modes: AtomicU32,
-    /// GUI → audio: clips to play (see [`ClipPlayer`]).
-    pub clips: ArrayQueue<Box<Clip>>,
-    /// Audio → GUI: clips finished or replaced, to be freed by the GUI.
-    pub clips_done: ArrayQueue<Box<Clip>>,
-    /// GUI → audio: stop the clip playing.
-    pub stop_clip: AtomicBool,
-    /// Audio → GUI: a clip is sounding.
-    pub clip_playing: AtomicBool,
-    /// Audio → GUI: the sample rate of the last activation, Hz (`f32` bits; 0 before).
-    pub sample_rate: AtomicU32,
-}
-
-impl Default for EditorShared {
-    fn default() -> Self {
-        EditorShared {
-            audition: ArrayQueue::new(AUDITION_QUEUE),
-            active_voices: AtomicU32::new(0),
-            active_modes: AtomicU32::new(0),
-            clips: ArrayQueue::new(CLIP_QUEUE),
-            clips_done: ArrayQueue::new(CLIP_RETURN),
-            stop_clip: AtomicBool::new(false),
-            clip_playing: AtomicBool::new(false),
-            sample_rate: AtomicU32::new(0),
-        }
-    }
-}
-
-impl EditorShared {
-    /// Stores the meters.
-    ///
-    /// # Realtime safety
-    /// Two relaxed atomic stores.
-    pub fn store_meters(&self, voices: usize, modes: usize) {
-        self.active_voices.store(voices.min(u32::MAX as usize) as u32, Ordering::Relaxed);
-        self.active_modes.store(modes.min(u32::MAX as usize) as u32, Ordering::Relaxed);
-    }
-
-    /// `(active voices, active modes)` as last stored.
-    pub fn meters(&self) -> (u32, u32) {
-        (self.active_voices.load(Ordering::Relaxed), self.active_modes.load(Ordering::Relaxed))
-    }
-
-    /// Queues a strike; `false` if the queue is full (the strike is dropped).
-    pub fn audition(&self, a: Audition) -> bool {
-        self.audition.push(a).is_ok()
-    }
-
-    /// Frees the clips the audio thread handed back (GUI side); returns how many.
-    pub fn reclaim_clips(&self) -> usize {
-        let mut n = 0;
-        while self.clips_done.pop().is_some() {
-            n += 1;
-        }
-        n
-    }
-
-    /// Queues a clip to play from the next audio block on, replacing the one playing (GUI
-    /// side). `Err` gives the clip back if the queue is full.
-    pub fn play_clip(&self, clip: Box<Clip>) -> Result<(), Box<Clip>> {
-        self.reclaim_clips();
-        self.clips.push(clip)
-    }
-
-    /// Asks the audio thread to stop the clip playing.
-    pub fn stop_clip(&self) {
-        self.stop_clip.store(true, Ordering::Relaxed);
-    }
-
-    /// The sample rate the plugin was last activated at (48 kHz before any activation).
-    pub fn sample_rate(&self) -> f32 {
-        let sr = f32::from_bits(self.sample_rate.load(Ordering::Relaxed));
-        if sr.is_finite() && sr > 0.0 {
-            sr
-        } else {
-            48_000.0
-        }
-    }
-}
-
 /// The plugin's editor: builds a fresh egui window at each open, at the persisted size, with
 /// the UI state ([`EditorUi`]) kept across opens.
 pub struct StruckEditor {

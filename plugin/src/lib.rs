@@ -8,6 +8,7 @@ pub mod editor;
 pub mod library;
 pub mod offline;
 pub mod params;
+pub mod shared;
 
 use dsp::engine::{Engine, NoteId, SoundParams, Strike};
 use dsp::ftz::DenormalGuard;
@@ -32,9 +33,9 @@ pub struct Struck {
     mono: Vec<f32>,
     sample_rate: f32,
     /// State shared with the editor: audition queue (GUI → audio) and meters (audio → GUI).
-    editor_shared: Arc<editor::EditorShared>,
+    editor_shared: Arc<shared::EditorShared>,
     /// The editor's A/B clip playing, if any.
-    clip_player: editor::ClipPlayer,
+    clip_player: shared::ClipPlayer,
     /// The last MIDI CC 74 (MPE timbre) of each channel, 0..=1: the strike position of that
     /// channel's next notes (MPE sends a note's initial timbre just before its note-on).
     channel_timbre: [Option<f32>; 16],
@@ -55,8 +56,8 @@ impl Struck {
             engine: None,
             mono: Vec::new(),
             sample_rate: 48_000.0,
-            editor_shared: Arc::new(editor::EditorShared::default()),
-            clip_player: editor::ClipPlayer::default(),
+            editor_shared: Arc::new(shared::EditorShared::default()),
+            clip_player: shared::ClipPlayer::default(),
             channel_timbre: [None; 16],
         }
     }
@@ -74,7 +75,7 @@ impl Struck {
     }
 
     /// State shared with the editor (audition queue, meters).
-    pub fn editor_shared(&self) -> &Arc<editor::EditorShared> {
+    pub fn editor_shared(&self) -> &Arc<shared::EditorShared> {
         &self.editor_shared
     }
 
@@ -365,7 +366,7 @@ impl Plugin for Struck {
                         e.render(&mut self.mono[pos..until]);
                         e.drain_terminated(|t| {
                             // The host never saw the editor's audition notes.
-                            if editor::is_audition(&t.note) {
+                            if shared::is_audition(&t.note) {
                                 return;
                             }
                             let _ = context.try_send_event(NoteEvent::VoiceTerminated {
