@@ -4,6 +4,7 @@
 //! synthesis in the `dsp` crate; [`offline`] hosts this plugin for the command line (crate
 //! `struck-cli`) and the tests.
 
+#![warn(missing_docs)]
 pub mod editor;
 pub mod library;
 pub mod offline;

@@ -17,6 +17,7 @@
 //! Banks: analytic beam and plate solutions (Blevins 1979, Leissa 1969); see each bank's
 //! `provenance`.
 
+#![warn(missing_docs)]
 mod bank;
 mod damping;
 mod error;

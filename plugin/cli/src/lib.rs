@@ -3,6 +3,7 @@
 //! ([`capture`]), the FEM bank builder's commands ([`banks`]) and a strict MIDI reader
 //! ([`midi_file`]). The plugin itself links none of this (nor clap, midly or the FEM).
 
+#![warn(missing_docs)]
 pub mod banks;
 pub mod capture;
 pub mod cli;

@@ -12,7 +12,9 @@ pub const EDGES: [(usize, usize); 6] = [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), 
 /// A quadrature rule on the reference tetrahedron (volume 1/6): barycentric points
 /// (L₁, L₂, L₃; L₀ = 1 − ΣLₐ) and weights summing to 1/6.
 pub struct Rule {
+    /// Barycentric (L₁, L₂, L₃) of each point.
     pub points: Vec<[f64; 3]>,
+    /// Weight of each point.
     pub weights: Vec<f64>,
 }
 
@@ -90,6 +92,7 @@ pub struct ElementKit {
 }
 
 impl ElementKit {
+    /// The shape-function values and derivatives at the quadrature points of both rules.
     pub fn new() -> Self {
         let rs = rule_degree2();
         let rm = rule_mass();

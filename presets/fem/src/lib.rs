@@ -24,6 +24,7 @@
 //! (1979) Table 8-1 (free–free beam); Leissa, *Vibration of Plates* NASA SP-160 (1969)
 //! §2.2 (free circular plate).
 
+#![warn(missing_docs)]
 pub mod assembly;
 pub mod eigen;
 pub mod element;
@@ -52,31 +53,101 @@ pub use voxel::{voxelise, VoxelOptions, VoxelReport};
 pub enum Shape {
     /// Rectangular bar [0, length] × [0, width] × [0, thickness]; struck on the top face
     /// along its centre line.
-    Bar { length: f64, width: f64, thickness: f64 },
+    Bar {
+        /// Length, m.
+        length: f64,
+        /// Width, m.
+        width: f64,
+        /// Thickness, m.
+        thickness: f64,
+    },
     /// A bar with an arch cut from its underside, as on marimba, xylophone and vibraphone
     /// bars: at x the thickness is `thickness`·(1 − `depth`·(1 − |u|^`exponent`)) with
     /// u = (x − length/2)/(`cut`·length/2) over the cut (|u| < 1), the full thickness outside.
     /// `depth` and `cut` are fractions (of the thickness and the length); the top face is
     /// flat and struck along its centre line, like [`Shape::Bar`]. See [`tune`].
-    UndercutBar { length: f64, width: f64, thickness: f64, depth: f64, cut: f64, exponent: f64 },
+    UndercutBar {
+        /// Length, m.
+        length: f64,
+        /// Width, m.
+        width: f64,
+        /// Thickness, m.
+        thickness: f64,
+        /// Undercut depth, a fraction of the thickness.
+        depth: f64,
+        /// Undercut length, a fraction of the length.
+        cut: f64,
+        /// Flatness of the undercut's bottom (1–16).
+        exponent: f64,
+    },
     /// Rectangular plate [0, length] × [0, width] × [0, thickness]; struck over the top face.
-    Plate { length: f64, width: f64, thickness: f64 },
+    Plate {
+        /// Length, m.
+        length: f64,
+        /// Width, m.
+        width: f64,
+        /// Thickness, m.
+        thickness: f64,
+    },
     /// Block / tile [0, length] × [0, width] × [0, height]; struck over the top face.
-    Block { length: f64, width: f64, height: f64 },
+    Block {
+        /// Length, m.
+        length: f64,
+        /// Width, m.
+        width: f64,
+        /// Height, m.
+        height: f64,
+    },
     /// Circular plate of `radius`, centred on the z axis, z ∈ [0, thickness]; struck on the
     /// top face along a spiral.
-    CircularPlate { radius: f64, thickness: f64 },
+    CircularPlate {
+        /// Radius, m.
+        radius: f64,
+        /// Thickness, m.
+        thickness: f64,
+    },
     /// Open tube (chime) along z ∈ [0, length]; struck on the outside along a helix.
-    Tube { length: f64, outer_radius: f64, wall: f64 },
+    Tube {
+        /// Length, m.
+        length: f64,
+        /// Outer radius, m.
+        outer_radius: f64,
+        /// Wall thickness, m.
+        wall: f64,
+    },
     /// Hemispherical bowl, outer radius `radius`, pole at the origin, opening up (+z).
-    Bowl { radius: f64, wall: f64 },
+    Bowl {
+        /// Radius, m.
+        radius: f64,
+        /// Wall thickness, m.
+        wall: f64,
+    },
     /// Cup: flat bottom at z = 0, rounded corner, straight wall up to `height`; outer radius.
-    Cup { radius: f64, height: f64, wall: f64 },
+    Cup {
+        /// Radius, m.
+        radius: f64,
+        /// Height, m.
+        height: f64,
+        /// Wall thickness, m.
+        wall: f64,
+    },
     /// Simplified bell: elliptic crown, flaring body to the lip radius `radius` at z = 0,
     /// crown at z = `height`; constant wall (inner surface of the profile + `wall`).
-    Bell { radius: f64, height: f64, wall: f64 },
+    Bell {
+        /// Radius, m.
+        radius: f64,
+        /// Height, m.
+        height: f64,
+        /// Wall thickness, m.
+        wall: f64,
+    },
     /// Closed spherical shell, outer radius `radius`.
-    SphereShell { radius: f64, wall: f64 },
+    SphereShell {
+        /// Radius, m.
+        radius: f64,
+        /// Wall thickness, m.
+        wall: f64,
+    },
 }
 
 impl Shape {
@@ -378,9 +449,11 @@ pub struct Modes {
     pub basis: usize,
     /// First shift σ of the spectrum slicing, rad²/s².
     pub sigma: f64,
-    /// Seconds: assembly, factorisation, total.
+    /// Seconds spent assembling K and M.
     pub assembly_seconds: f64,
+    /// Seconds spent in the sparse factorisations.
     pub factor_seconds: f64,
+    /// Seconds in all.
     pub seconds: f64,
 }
 
@@ -415,8 +488,9 @@ pub struct BuildReport {
     pub iterations: usize,
     /// Lanczos basis size.
     pub basis: usize,
-    /// Wall-clock seconds: total, of which factorisation.
+    /// Wall-clock seconds in all.
     pub seconds: f64,
+    /// Of which in the factorisations.
     pub factor_seconds: f64,
     /// Peak resident memory of the process so far (Linux VmHWM), bytes, if known.
     pub peak_memory_bytes: Option<u64>,

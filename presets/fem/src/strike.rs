@@ -10,8 +10,11 @@ use super::mesh::{Geometry, TetMesh};
 /// A strike location before evaluation: position (m), drawing coordinates, label.
 #[derive(Clone, Debug)]
 pub struct PathPoint {
+    /// Position on the object, m.
     pub position: [f64; 3],
+    /// Drawing coordinates in [0, 1]².
     pub xy: [f64; 2],
+    /// Display label.
     pub label: String,
 }
 
@@ -33,6 +36,7 @@ fn edge_local(i: usize, j: usize) -> usize {
 }
 
 impl Surface {
+    /// The boundary faces of `mesh` (faces of one element only), with outward normals.
     pub fn new(mesh: &TetMesh) -> Surface {
         let mut count: HashMap<[u32; 3], (usize, usize)> = HashMap::with_capacity(mesh.tets.len() * 2);
         for (e, t) in mesh.tets.iter().enumerate() {

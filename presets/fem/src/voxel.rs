@@ -95,10 +95,13 @@ pub struct VoxelReport {
     /// Boundary vertices moved onto the surface: fully, part of the way (a half or a
     /// quarter, to keep the elements' shape), and not at all.
     pub snapped: usize,
+    /// … part of the way.
     pub snap_partial: usize,
+    /// … not at all.
     pub snap_undone: usize,
-    /// Volume enclosed by the input surface and of the tetrahedral mesh, m³.
+    /// Volume enclosed by the input surface, m³.
     pub surface_volume: f64,
+    /// Volume of the tetrahedral mesh, m³.
     pub mesh_volume: f64,
     /// Human-readable warnings.
     pub warnings: Vec<String>,
