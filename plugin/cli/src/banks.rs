@@ -270,14 +270,9 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
             let Shape::Bar { length, width, thickness } = parse_shape("bar", &dims)? else {
                 return Err("--dims: length,width,thickness".into());
             };
-            let r: Vec<f64> = ratios
-                .split(',')
-                .map(|x| x.trim().parse::<f64>().map_err(|_| format!("--ratios: '{x}' is not a number")))
-                .collect::<Result<_, _>>()?;
-            let targets = match r.as_slice() {
-                [one, a, b] if (*one - 1.0).abs() < 1e-12 => [*a, *b],
-                [a, b] => [*a, *b],
-                _ => return Err("--ratios takes 1,r2,r3 (e.g. 1,4,10)".into()),
+            let targets = match parse_ratios(&ratios)?.as_slice() {
+                &[a, b] => [a, b],
+                _ => return Err("--ratios takes 1,r2,r3 for an undercut (e.g. 1,4,10)".into()),
             };
             if !(1..=presets::MAX_BANK_MODES).contains(&modes) || !(1..=presets::MAX_BANK_POINTS).contains(&points) {
                 return Err("--modes or --points out of range".into());
