@@ -17,6 +17,7 @@ pub mod drawing;
 pub mod logic;
 mod material;
 mod object;
+mod panel;
 mod plot;
 pub mod testing;
 mod ui;
@@ -24,7 +25,7 @@ mod ui;
 pub use crate::shared::{
     is_audition, Audition, Clip, ClipPlayer, EditorShared, AUDITION_QUEUE, CLIP_QUEUE, CLIP_RETURN,
 };
-pub use capture::CaptureRecord;
+pub use crate::shared::{CaptureRecord, CapturedObject};
 pub use ui::{EditorUi, Tab};
 
 use crate::library::Library;
@@ -38,8 +39,7 @@ use nice_plug_egui::{
 use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex, PoisonError};
 
-/// Window size the editor first opens at, logical points `[width, height]`.
-pub const DEFAULT_SIZE: [u32; 2] = [1040, 720];
+pub use crate::params::DEFAULT_EDITOR_SIZE as DEFAULT_SIZE;
 /// Smallest window size the host may resize the editor to.
 pub const MIN_SIZE: [u32; 2] = [720, 480];
 /// The plugin's editor: builds a fresh egui window at each open, at the persisted size, with

@@ -117,6 +117,9 @@ pub enum PitchReference {
 /// Most modes *Pitch mode* can choose from.
 pub const MAX_PITCH_MODE: i32 = 256;
 
+/// Window size the editor first opens at, logical points `[width, height]`.
+pub const DEFAULT_EDITOR_SIZE: [u32; 2] = [1040, 720];
+
 /// Largest support damping the plugin plays (mean extra c, s⁻¹): the range of *Custom
 /// support* and *Support amount*; a library material's recorded value is clamped to it.
 pub const MAX_SUPPORT_PER_S: f64 = 2000.0;
@@ -228,7 +231,7 @@ pub struct StruckParams {
     pub editor_size: Mutex<[u32; 2]>,
     /// The editor's last capture (features and fits, no audio), so reopening shows it.
     #[persist = "capture"]
-    pub capture: Mutex<Option<crate::editor::CaptureRecord>>,
+    pub capture: Mutex<Option<crate::shared::CaptureRecord>>,
 }
 
 /// Values of the *Custom* material knobs (plain units) that reproduce a damping law.
@@ -505,7 +508,7 @@ impl StruckParams {
                 .with_unit(" dB")
                 .with_value_to_string(formatters::v2s_f32_rounded(1))
                 .with_string_to_value(s2v_number()),
-            editor_size: Mutex::new(crate::editor::DEFAULT_SIZE),
+            editor_size: Mutex::new(DEFAULT_EDITOR_SIZE),
             capture: Mutex::new(None),
         }
     }

@@ -1,10 +1,12 @@
 //! What the audio thread and the editor share, in one module both sides import (the audio
 //! path does not import the editor): the audition queue (GUI → audio strikes), the meters
 //! (audio → GUI), and clip playback for the A/B comparison (clips built and freed on the GUI
-//! side, only read on the audio thread).
+//! side, only read on the audio thread), and the last capture's record the parameters persist.
 
 use crossbeam_queue::ArrayQueue;
 use dsp::engine::NoteId;
+use estimator::EstimateReport;
+use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 /// Capacity of the audition queue (clicks faster than the audio thread drains are dropped).
@@ -200,6 +202,41 @@ impl EditorShared {
             sr
         } else {
             48_000.0
+        }
+    }
+}
+
+/// The last capture, persisted with the plugin state: the files' names and the estimator's
+/// report (features and fits, no audio).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CaptureRecord {
+    /// The recordings analysed.
+    pub files: Vec<String>,
+    /// What the estimator found.
+    pub report: EstimateReport,
+    /// The object the recordings were matched to (its bank id and reference specific
+    /// modulus γ₀), when "Recordings are of the current object" was on.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub object: Option<CapturedObject>,
+}
+
+/// The known object of a capture.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CapturedObject {
+    /// Bank id.
+    pub id: String,
+    /// The bank's reference specific modulus γ₀ (m²/s²).
+    pub specific_modulus: f64,
+}
+
+impl CaptureRecord {
+    /// γ = (γ/γ₀)·γ₀ from the object match, if there was one and it is usable.
+    pub fn specific_modulus(&self) -> Option<f64> {
+        match (&self.object, &self.report.object) {
+            (Some(o), Some(m)) if m.gamma_ratio.is_finite() && m.gamma_ratio > 0.0 && o.specific_modulus > 0.0 => {
+                Some(m.gamma_ratio * o.specific_modulus)
+            }
+            _ => None,
         }
     }
 }

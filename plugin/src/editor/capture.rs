@@ -2,53 +2,16 @@
 //! on a background thread, the fit shown as in Sterling's thesis Fig. 4.5, and the actions.
 
 use super::logic;
-use super::material::apply_damping;
+use super::panel::{apply_damping, PanelCtx};
 use super::plot::{series_color, Axis, Plot};
-use super::ui::EditorUi;
 use crate::params::StruckParams;
+use crate::shared::{CaptureRecord, CapturedObject, Clip, EditorShared};
 use egui::{self, Color32, RichText, Stroke};
 use estimator::{EstimateReport, Method, ModelKind};
-use nice_plug::prelude::ParamSetter;
 use presets::{DampingSpec, Material, SCHEMA_VERSION};
-use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
-
-/// The last capture, persisted with the plugin state: the files' names and the estimator's
-/// report (features and fits, no audio).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct CaptureRecord {
-    /// The recordings analysed.
-    pub files: Vec<String>,
-    /// What the estimator found.
-    pub report: EstimateReport,
-    /// The object the recordings were matched to (its bank id and reference specific
-    /// modulus γ₀), when "Recordings are of the current object" was on.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub object: Option<CapturedObject>,
-}
-
-/// The known object of a capture.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct CapturedObject {
-    /// Bank id.
-    pub id: String,
-    /// The bank's reference specific modulus γ₀ (m²/s²).
-    pub specific_modulus: f64,
-}
-
-impl CaptureRecord {
-    /// γ = (γ/γ₀)·γ₀ from the object match, if there was one and it is usable.
-    pub fn specific_modulus(&self) -> Option<f64> {
-        match (&self.object, &self.report.object) {
-            (Some(o), Some(m)) if m.gamma_ratio.is_finite() && m.gamma_ratio > 0.0 && o.specific_modulus > 0.0 => {
-                Some(m.gamma_ratio * o.specific_modulus)
-            }
-            _ => None,
-        }
-    }
-}
 
 /// One entry of the built-in file browser.
 #[derive(Clone, Debug, PartialEq)]
@@ -77,7 +40,7 @@ pub(super) struct AbJob {
 }
 
 /// Capture panel state.
-pub(super) struct CaptureUi {
+pub(super) struct CapturePanel {
     pub files: Vec<PathBuf>,
     pub path_text: String,
     pub browse_dir: PathBuf,
@@ -96,13 +59,13 @@ pub(super) struct CaptureUi {
     pub ab_last: Option<(super::ab::Side, usize)>,
 }
 
-impl Default for CaptureUi {
+impl Default for CapturePanel {
     fn default() -> Self {
         let browse_dir = std::env::var_os("HOME")
             .map(PathBuf::from)
             .or_else(|| std::env::current_dir().ok())
             .unwrap_or_else(|| PathBuf::from("/"));
-        CaptureUi {
+        CapturePanel {
             files: Vec::new(),
             path_text: String::new(),
             browse_dir,
@@ -143,7 +106,7 @@ pub(super) fn list_dir(dir: &Path) -> Vec<Entry> {
     out
 }
 
-impl CaptureUi {
+impl CapturePanel {
     /// Adds a recording (no duplicates). `Err` says why not.
     pub fn add_file(&mut self, path: PathBuf) -> Result<(), String> {
         if !path.is_file() {
@@ -273,37 +236,10 @@ pub(super) fn captured_material(name: &str, rec: &CaptureRecord, fit: &estimator
     }
 }
 
-impl EditorUi {
-    /// Adds a recording to the capture list (what the path field, the browser and a drop do).
-    ///
-    /// # Errors
-    /// If `path` is not an existing `.wav` file.
-    pub fn add_capture_file(&mut self, path: PathBuf) -> Result<(), String> {
-        self.capture.add_file(path)
-    }
-
-    /// The recordings the next analysis will use.
-    pub fn capture_files(&self) -> &[PathBuf] {
-        &self.capture.files
-    }
-
-    /// Whether an analysis is running.
-    pub fn capture_running(&self) -> bool {
-        self.capture.is_running()
-    }
-
-    /// Blocks until a running analysis ends and stores its result (for tests).
-    pub fn wait_for_capture(&mut self) {
-        let p = self.params.clone();
-        self.capture.wait(&p);
-    }
-
-    /// The last capture error or note shown in the panel.
-    pub fn capture_message(&self) -> Option<&str> {
-        self.capture.message.as_deref()
-    }
-
-    pub(super) fn capture_panel(&mut self, ui: &mut egui::Ui, setter: &ParamSetter) {
+impl CapturePanel {
+    /// Draws the panel: recordings, analysis options, results. Returns whether a user material
+    /// was saved (the material panel then lists its folder again).
+    pub fn show(&mut self, ui: &mut egui::Ui, cx: &PanelCtx) -> bool {
         ui.heading("Capture a material from recordings");
         let hovering = ui.ctx().input(|i| !i.raw.hovered_files.is_empty());
         if hovering {
@@ -311,14 +247,14 @@ impl EditorUi {
         }
         ui.columns(2, |cols| {
             self.capture_inputs(&mut cols[0]);
-            self.capture_run(&mut cols[1]);
+            self.capture_run(&mut cols[1], cx);
         });
         ui.separator();
-        self.capture_results(ui, setter);
+        self.capture_results(ui, cx)
     }
 
     fn capture_inputs(&mut self, ui: &mut egui::Ui) {
-        let c = &mut self.capture;
+        let c = self;
         ui.label(RichText::new("Recordings").strong());
         let mut remove = None;
         for (i, f) in c.files.iter().enumerate() {
@@ -395,10 +331,10 @@ impl EditorUi {
         });
     }
 
-    fn capture_run(&mut self, ui: &mut egui::Ui) {
-        let lib = self.library.clone();
-        let object = logic::object_index(&self.params, &lib);
-        let c = &mut self.capture;
+    fn capture_run(&mut self, ui: &mut egui::Ui, cx: &PanelCtx) {
+        let lib = cx.library;
+        let object = logic::object_index(cx.params, lib);
+        let c = self;
         ui.label(RichText::new("Analysis").strong());
         egui::Grid::new("capture-options").num_columns(2).show(ui, |ui| {
             ui.label("Damping model");
@@ -444,13 +380,16 @@ impl EditorUi {
         }
     }
 
-    fn capture_results(&mut self, ui: &mut egui::Ui, setter: &ParamSetter) {
-        let params = self.params.clone();
+    /// The last capture's report, its fits, A/B, Apply and Save; returns whether a material was
+    /// saved.
+    fn capture_results(&mut self, ui: &mut egui::Ui, cx: &PanelCtx) -> bool {
+        let params = cx.params.clone();
+        let mut saved = false;
         // GUI thread only (and the host's state save, on this same thread): never the audio.
         let guard = params.capture.lock().unwrap_or_else(PoisonError::into_inner);
         let Some(rec) = guard.as_ref() else {
             ui.label(RichText::new("No capture yet.").weak());
-            return;
+            return false;
         };
         let r = &rec.report;
         ui.label(RichText::new("Results").strong());
@@ -543,10 +482,10 @@ impl EditorUi {
             ui.label("BIC");
             ui.end_row();
             for f in &r.fits {
-                let sel = self.capture.apply_method.unwrap_or(r.method) == f.method;
+                let sel = self.apply_method.unwrap_or(r.method) == f.method;
                 if ui.selectable_label(sel, f.method.name()).on_hover_text("Use this fit for Apply and Save").clicked()
                 {
-                    self.capture.apply_method = Some(f.method);
+                    self.apply_method = Some(f.method);
                 }
                 let ps: Vec<String> = f
                     .params
@@ -564,56 +503,56 @@ impl EditorUi {
             }
         });
 
-        let method = self.capture.apply_method.unwrap_or(r.method);
+        let method = self.apply_method.unwrap_or(r.method);
         let fit = r.fits.iter().find(|f| f.method == method).unwrap_or(&r.chosen).clone();
         let rec = rec.clone();
         drop(guard);
-        self.ab_row(ui, &rec, &fit);
+        self.ab_row(ui, cx, &rec, &fit);
         ui.horizontal(|ui| {
             if ui
                 .button("Apply")
                 .on_hover_text("Set the Custom material to this fit (one host gesture per parameter)")
                 .clicked()
             {
-                let custom = self.library.custom_material_index();
+                let custom = cx.library.custom_material_index();
                 let support = rec.report.support_for(&fit).unwrap_or(0.0);
-                match apply_damping(&params, custom, setter, &fit.damping(), support) {
+                match apply_damping(&params, custom, cx.setter, &fit.damping(), support) {
                     Ok(()) => {
-                        self.capture.message =
-                            Some(format!("applied the {} fit to the Custom material", fit.method.name()))
+                        self.message = Some(format!("applied the {} fit to the Custom material", fit.method.name()))
                     }
-                    Err(e) => self.capture.message = Some(e),
+                    Err(e) => self.message = Some(e),
                 }
             }
-            ui.add(egui::TextEdit::singleline(&mut self.capture.save_name).desired_width(160.0));
-            let dir = self.material_dir();
+            ui.add(egui::TextEdit::singleline(&mut self.save_name).desired_width(160.0));
+            let dir = cx.material_dir.to_path_buf();
             if ui.button("Save material").on_hover_text(format!("Write a user material to {}", dir.display())).clicked()
             {
-                let m = captured_material(&self.capture.save_name, &rec, &fit);
+                let m = captured_material(&self.save_name, &rec, &fit);
                 let path = dir.join(format!("{}.json", m.id));
                 let out = std::fs::create_dir_all(&dir)
                     .map_err(|e| format!("cannot create {}: {e}", dir.display()))
                     .and_then(|()| m.save(&path).map_err(|e| e.to_string()));
-                self.capture.message = Some(match out {
+                self.message = Some(match out {
                     Ok(()) => format!("saved {}", path.display()),
                     Err(e) => e,
                 });
-                self.material.user = None;
+                saved = true;
             }
             if ui.button("Clear").on_hover_text("Forget this capture").clicked() {
                 *params.capture.lock().unwrap_or_else(PoisonError::into_inner) = None;
             }
         });
+        saved
     }
 
     /// A/B: pick an impact, play the recording or a resynthesis of it (built on a worker
     /// thread, played by the audio thread's clip player).
-    fn ab_row(&mut self, ui: &mut egui::Ui, rec: &CaptureRecord, fit: &estimator::FitResult) {
+    fn ab_row(&mut self, ui: &mut egui::Ui, cx: &PanelCtx, rec: &CaptureRecord, fit: &estimator::FitResult) {
         let impacts = &rec.report.impacts;
         if impacts.is_empty() {
             return;
         }
-        let c = &mut self.capture;
+        let c = self;
         c.ab_impact = c.ab_impact.min(impacts.len() - 1);
         let name = |i: usize| {
             let imp = &impacts[i];
@@ -640,23 +579,23 @@ impl EditorUi {
                 }
             }
             if ui.button("Stop").clicked() {
-                self.shared.stop_clip();
+                cx.shared.stop_clip();
             }
-            if self.shared.clip_playing.load(Ordering::Relaxed) {
+            if cx.shared.clip_playing.load(Ordering::Relaxed) {
                 ui.label(RichText::new("playing").weak());
             }
         });
         let Some(side) = clicked else { return };
         let imp = &impacts[c.ab_impact];
-        let lib = &self.library;
-        let Some(o) = logic::object_index(&self.params, lib) else { return };
+        let lib = cx.library;
+        let Some(o) = logic::object_index(cx.params, lib) else { return };
         let bank = &lib.banks[o];
         // The recorded object's γ/γ₀ plays it at the recording's pitch only on that object.
         let gamma_ratio = match (&rec.object, &rec.report.object) {
             (Some(ob), Some(m)) if ob.id == bank.id => Some(m.gamma_ratio),
             _ => None,
         };
-        let p = &self.params;
+        let p = cx.params;
         let req = super::ab::AbRequest {
             side,
             file: PathBuf::from(&imp.file),
@@ -674,7 +613,7 @@ impl EditorUi {
             },
             position: p.strike_position.value(),
             gamma_ratio,
-            rate: self.shared.sample_rate(),
+            rate: cx.shared.sample_rate(),
         };
         let result = Arc::new(Mutex::new(None));
         let r = result.clone();
@@ -693,44 +632,38 @@ impl EditorUi {
 
     /// Hands a finished A/B clip to the audio thread and frees the clips it returned
     /// (never blocks: `try_lock`).
-    pub(super) fn poll_ab(&mut self) {
-        self.shared.reclaim_clips();
-        let Some(job) = &self.capture.ab_job else { return };
+    pub fn poll_ab(&mut self, shared: &EditorShared) {
+        shared.reclaim_clips();
+        let Some(job) = &self.ab_job else { return };
         let done = match job.result.try_lock() {
             Ok(mut g) => g.take(),
             Err(_) => None,
         };
         let Some(out) = done else { return };
         let side = job.side;
-        self.capture.ab_job = None;
+        self.ab_job = None;
         match out {
             Ok(samples) => {
-                if self.shared.play_clip(super::Clip::new(samples)).is_err() {
-                    self.capture.message =
-                        Some("the audio thread is not taking clips (is the plugin processing?)".into());
-                } else if self.capture.message.as_deref().is_some_and(|m| m.starts_with("A/B")) {
-                    self.capture.message = None;
+                if shared.play_clip(Clip::new(samples)).is_err() {
+                    self.message = Some("the audio thread is not taking clips (is the plugin processing?)".into());
+                } else if self.message.as_deref().is_some_and(|m| m.starts_with("A/B")) {
+                    self.message = None;
                 }
             }
-            Err(e) => self.capture.message = Some(format!("A/B {}: {e}", side.label())),
+            Err(e) => self.message = Some(format!("A/B {}: {e}", side.label())),
         }
     }
 
     /// Whether an A/B clip is being built.
     pub fn ab_busy(&self) -> bool {
-        self.capture.ab_job.is_some()
+        self.ab_job.is_some()
     }
 
     /// Waits for the A/B clip being built and queues it (for tests).
-    pub fn wait_for_ab(&mut self) {
-        while self.capture.ab_job.is_some() {
+    pub fn wait_for_ab(&mut self, shared: &EditorShared) {
+        while self.ab_job.is_some() {
             std::thread::sleep(std::time::Duration::from_millis(5));
-            self.poll_ab();
+            self.poll_ab(shared);
         }
-    }
-
-    /// The last A/B button pressed and the impact it played.
-    pub fn ab_last(&self) -> Option<(super::ab::Side, usize)> {
-        self.capture.ab_last
     }
 }

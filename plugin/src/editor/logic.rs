@@ -88,6 +88,7 @@ pub fn point_at_position(points: &[[f32; 2]], position: f32) -> Option<[f32; 2]>
     Some([a[0] + (b[0] - a[0]) * frac, a[1] + (b[1] - a[1]) * frac])
 }
 
+pub use crate::library::user_material_dir;
 pub use crate::params::key_lambda_factor;
 
 /// Total λ scale of a note of `key` on the selected object: (γ/γ₀)·(material's γ when
@@ -137,29 +138,6 @@ pub fn kebab_id(prefix: &str, text: &str) -> String {
     }
     let id = if id.is_empty() { prefix.to_string() } else { format!("{prefix}-{id}") };
     id.chars().take(64).collect::<String>().trim_end_matches('-').to_string()
-}
-
-/// The folder user materials are saved to and listed from: `$STRUCK_USER_DIR`, else
-/// `$XDG_DATA_HOME/struck/materials`, `~/.local/share/struck/materials` (Linux),
-/// `~/Library/Application Support/Struck/materials` (macOS), `%APPDATA%\Struck\materials`.
-pub fn user_material_dir() -> std::path::PathBuf {
-    use std::path::PathBuf;
-    if let Some(d) = std::env::var_os("STRUCK_USER_DIR") {
-        return PathBuf::from(d);
-    }
-    if cfg!(target_os = "windows") {
-        if let Some(a) = std::env::var_os("APPDATA") {
-            return PathBuf::from(a).join("Struck").join("materials");
-        }
-    }
-    let home = std::env::var_os("HOME").map(PathBuf::from).unwrap_or_else(std::env::temp_dir);
-    if cfg!(target_os = "macos") {
-        return home.join("Library/Application Support/Struck/materials");
-    }
-    match std::env::var_os("XDG_DATA_HOME") {
-        Some(x) if !x.is_empty() => PathBuf::from(x).join("struck/materials"),
-        _ => home.join(".local/share/struck/materials"),
-    }
 }
 
 #[cfg(test)]

@@ -2,11 +2,9 @@
 //! and the T60 curve of the law the audio plays.
 
 use super::logic::{self, F_MAX_HZ, F_MIN_HZ};
+use super::panel::{apply_damping, param_row, set_param, PanelCtx};
 use super::plot::{Axis, Plot};
-use super::ui::{param_row, set_param, EditorUi};
-use crate::params::StruckParams;
 use egui::{self, Color32, Stroke};
-use nice_plug::prelude::ParamSetter;
 use presets::Material;
 use std::path::PathBuf;
 
@@ -18,7 +16,7 @@ pub(super) struct UserMaterial {
 
 /// Material panel state.
 #[derive(Default)]
-pub(super) struct MaterialUi {
+pub(super) struct MaterialPanel {
     /// User materials, listed on first show and on *Rescan*.
     pub user: Option<Vec<UserMaterial>>,
     /// Name of the user material last loaded into the Custom knobs.
@@ -42,43 +40,33 @@ pub(super) fn scan_user_materials(dir: &std::path::Path) -> Vec<UserMaterial> {
     out
 }
 
-/// Sets the *Custom* material to reproduce `d` and its recorded support damping `support_c`
-/// (s⁻¹): one gesture per parameter.
-///
-/// # Errors
-/// As [`StruckParams::custom_knobs_for`] (nothing is changed).
-pub(super) fn apply_damping(
-    params: &StruckParams,
-    custom_index: usize,
-    setter: &ParamSetter,
-    d: &dsp::Damping,
-    support_c: f64,
-) -> Result<(), String> {
-    let k = params.custom_knobs_for(d)?;
-    set_param(setter, &params.custom_support_per_s, support_c.clamp(0.0, 2000.0) as f32);
-    set_param(setter, &params.material, custom_index as i32);
-    set_param(setter, &params.damping_model, k.model);
-    set_param(setter, &params.alpha1_per_s, k.alpha1_per_s);
-    set_param(setter, &params.damping_1k_per_s, k.damping_1k_per_s);
-    set_param(setter, &params.exponent, k.exponent);
-    set_param(setter, &params.caughey_10k_per_s, k.caughey_10k_per_s);
-    Ok(())
-}
-
 /// Height of the T60 plot, logical points.
 const T60_PLOT_HEIGHT: f32 = 170.0;
 
-impl EditorUi {
-    pub(super) fn material_panel(&mut self, ui: &mut egui::Ui, setter: &ParamSetter) {
+impl MaterialPanel {
+    /// Lists the user folder again the next time the panel is drawn (after a save).
+    pub fn rescan(&mut self) {
+        self.user = None;
+    }
+
+    /// Draws the panel: the material choice, the T60 curve, the knob groups.
+    pub fn show(&mut self, ui: &mut egui::Ui, cx: &PanelCtx) {
         ui.heading("Material");
-        let lib = self.library.clone();
-        let p = self.params.clone();
+        self.chooser(ui, cx);
+        t60_plot(ui, cx);
+        knob_groups(ui, cx);
+    }
+
+    /// Factory, Custom and user materials in one list; a user material loads into the Custom
+    /// knobs.
+    fn chooser(&mut self, ui: &mut egui::Ui, cx: &PanelCtx) {
+        let (lib, p, setter) = (cx.library, cx.params, cx.setter);
         let selected = p.material.value().max(0) as usize;
         let custom = lib.custom_material_index();
-        if self.material.user.is_none() {
-            self.material.user = Some(scan_user_materials(&self.material_dir()));
+        if self.user.is_none() {
+            self.user = Some(scan_user_materials(cx.material_dir));
         }
-        let shown = match (lib.materials.get(selected), &self.material.loaded_user) {
+        let shown = match (lib.materials.get(selected), &self.loaded_user) {
             (Some(m), _) => m.name.clone(),
             (None, Some(u)) => format!("Custom: {u}"),
             (None, None) => "Custom (knobs)".into(),
@@ -93,15 +81,15 @@ impl EditorUi {
                         .on_hover_text(format!("{}\n\n{}", m.provenance, m.notes));
                     if r.clicked() && i != selected {
                         set_param(setter, &p.material, i as i32);
-                        self.material.loaded_user = None;
+                        self.loaded_user = None;
                     }
                 }
                 if ui.selectable_label(selected >= custom, "Custom (the knobs below)").clicked() && selected < custom {
                     set_param(setter, &p.material, custom as i32);
                 }
                 ui.separator();
-                ui.label(egui::RichText::new(format!("User ({})", self.material_dir().display())).weak());
-                for u in self.material.user.iter().flatten() {
+                ui.label(egui::RichText::new(format!("User ({})", cx.material_dir.display())).weak());
+                for u in self.user.iter().flatten() {
                     let name = u.path.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
                     match &u.material {
                         Ok(m) => {
@@ -112,7 +100,7 @@ impl EditorUi {
                             {
                                 match m.to_damping() {
                                     Ok(d) => chosen_user = Some((m.name.clone(), d, m.support_c())),
-                                    Err(e) => self.material.message = Some(e.to_string()),
+                                    Err(e) => self.message = Some(e.to_string()),
                                 }
                             }
                         }
@@ -124,106 +112,116 @@ impl EditorUi {
                 }
             });
             if ui.small_button("Rescan").on_hover_text("List the user materials folder again").clicked() {
-                self.material.user = None;
+                self.user = None;
             }
         });
         if let Some((name, d, support)) = chosen_user {
-            match apply_damping(&p, custom, setter, &d, support) {
-                Ok(()) => self.material.loaded_user = Some(name),
-                Err(e) => self.material.message = Some(e),
+            match apply_damping(p, custom, setter, &d, support) {
+                Ok(()) => self.loaded_user = Some(name),
+                Err(e) => self.message = Some(e),
             }
         }
-        if let Some(m) = &self.material.message {
+        if let Some(m) = &self.message {
             ui.colored_label(Color32::from_rgb(255, 170, 60), m.as_str());
         }
+    }
+}
 
-        // The T60 curve first, so it is whole on screen at the default window size (issue 11
-        // part 6); the knobs follow in groups.
-        ui.add_space(4.0);
-        ui.label("Decay time T60 = ln(1000)/d, d = c(λ)/2, λ = (2πf)² (dots: last capture)");
-        let d = logic::current_damping(&p, &lib);
-        let scale = f64::from(p.decay_scale.value());
-        let curve = logic::t60_curve(&d, scale, F_MIN_HZ, F_MAX_HZ, 200);
-        let (plot, _, painter) = Plot::show(
-            ui,
-            T60_PLOT_HEIGHT,
-            Axis::log(F_MIN_HZ, F_MAX_HZ),
-            Axis::log(1e-3, 100.0),
-            "frequency (Hz)",
-            "T60 (s)",
-            "T60 curve",
-        );
-        if let Ok(c) = p.capture.try_lock() {
-            if let Some(rec) = c.as_ref() {
-                for f in rec.report.impacts.iter().flat_map(|i| &i.features) {
-                    if f.decay_per_s > 0.0 {
-                        plot.dot(&painter, f.freq_hz, logic::LN_1000 / f.decay_per_s, 2.0, Color32::from_gray(150));
-                    }
+/// The T60 curve of the law the audio plays, with the last capture's features as dots. Drawn
+/// before the knobs, so it is whole on screen at the default window size (issue 11 part 6).
+fn t60_plot(ui: &mut egui::Ui, cx: &PanelCtx) {
+    let (lib, p) = (cx.library, cx.params);
+    ui.add_space(4.0);
+    ui.label("Decay time T60 = ln(1000)/d, d = c(λ)/2, λ = (2πf)² (dots: last capture)");
+    let d = logic::current_damping(p, lib);
+    let scale = f64::from(p.decay_scale.value());
+    let curve = logic::t60_curve(&d, scale, F_MIN_HZ, F_MAX_HZ, 200);
+    let (plot, _, painter) = Plot::show(
+        ui,
+        T60_PLOT_HEIGHT,
+        Axis::log(F_MIN_HZ, F_MAX_HZ),
+        Axis::log(1e-3, 100.0),
+        "frequency (Hz)",
+        "T60 (s)",
+        "T60 curve",
+    );
+    if let Ok(c) = p.capture.try_lock() {
+        if let Some(rec) = c.as_ref() {
+            for f in rec.report.impacts.iter().flat_map(|i| &i.features) {
+                if f.decay_per_s > 0.0 {
+                    plot.dot(&painter, f.freq_hz, logic::LN_1000 / f.decay_per_s, 2.0, Color32::from_gray(150));
                 }
             }
         }
-        plot.line(&painter, &curve, Stroke::new(2.0, Color32::from_rgb(255, 190, 60)));
-        ui.add_space(4.0);
-
-        egui::CollapsingHeader::new("Custom damping law").default_open(selected >= custom).show(ui, |ui| {
-            if selected < custom {
-                ui.label(egui::RichText::new("These knobs play when Material is Custom.").weak());
-            }
-            egui::Grid::new("damping-knobs").num_columns(2).show(ui, |ui| {
-                param_row(ui, setter, &p.damping_model);
-                param_row(ui, setter, &p.alpha1_per_s);
-                param_row(ui, setter, &p.damping_1k_per_s);
-                param_row(ui, setter, &p.exponent);
-                param_row(ui, setter, &p.caughey_10k_per_s);
-                param_row(ui, setter, &p.custom_support_per_s);
-            });
-        });
-        egui::CollapsingHeader::new("Mallet").default_open(true).show(ui, |ui| {
-            egui::Grid::new("mallet-knobs").num_columns(2).show(ui, |ui| {
-                param_row(ui, setter, &p.mallet);
-                param_row(ui, setter, &p.hardness);
-                param_row(ui, setter, &p.velocity_sensitivity);
-                param_row(ui, setter, &p.variation);
-                param_row(ui, setter, &p.noise);
-            });
-        });
-        egui::CollapsingHeader::new("Material and object").default_open(true).show(ui, |ui| {
-            egui::Grid::new("material-knobs").num_columns(2).show(ui, |ui| {
-                param_row(ui, setter, &p.decay_scale);
-                param_row(ui, setter, &p.support_mode);
-                param_row(ui, setter, &p.support_amount_per_s);
-                param_row(ui, setter, &p.modulus_ratio);
-                param_row(ui, setter, &p.material_pitch);
-                param_row(ui, setter, &p.size);
-            });
-        });
-        egui::CollapsingHeader::new("Keys and pitch").default_open(true).show(ui, |ui| {
-            egui::Grid::new("key-knobs").num_columns(2).show(ui, |ui| {
-                param_row(ui, setter, &p.key_mode);
-                param_row(ui, setter, &p.root_note);
-                param_row(ui, setter, &p.key_tuning);
-                param_row(ui, setter, &p.pitch_reference);
-                param_row(ui, setter, &p.pitch_mode);
-                // The chosen mode's label, when the bank names its modes.
-                if let Some(label) = logic::object_index(&p, &lib)
-                    .and_then(|i| lib.banks.get(i))
-                    .and_then(|b| b.mode_labels.get((p.pitch_mode.value() - 1).max(0) as usize))
-                {
-                    ui.label("");
-                    ui.label(egui::RichText::new(format!("mode {}: {label}", p.pitch_mode.value())).weak());
-                    ui.end_row();
-                }
-            });
-        });
-        egui::CollapsingHeader::new("Notes and output").default_open(true).show(ui, |ui| {
-            egui::Grid::new("output-knobs").num_columns(2).show(ui, |ui| {
-                param_row(ui, setter, &p.release_damping_per_s);
-                param_row(ui, setter, &p.pressure_damping_per_s);
-                param_row(ui, setter, &p.quality_db);
-                param_row(ui, setter, &p.gain_db);
-                param_row(ui, setter, &p.normalize_level);
-                param_row(ui, setter, &p.output_safety);
-            });
-        });
     }
+    plot.line(&painter, &curve, Stroke::new(2.0, Color32::from_rgb(255, 190, 60)));
+    ui.add_space(4.0);
+}
+
+/// The sound controls in groups: custom law, mallet, material and object, keys, output.
+fn knob_groups(ui: &mut egui::Ui, cx: &PanelCtx) {
+    let (lib, p, setter) = (cx.library, cx.params, cx.setter);
+    let selected = p.material.value().max(0) as usize;
+    let custom = lib.custom_material_index();
+
+    egui::CollapsingHeader::new("Custom damping law").default_open(selected >= custom).show(ui, |ui| {
+        if selected < custom {
+            ui.label(egui::RichText::new("These knobs play when Material is Custom.").weak());
+        }
+        egui::Grid::new("damping-knobs").num_columns(2).show(ui, |ui| {
+            param_row(ui, setter, &p.damping_model);
+            param_row(ui, setter, &p.alpha1_per_s);
+            param_row(ui, setter, &p.damping_1k_per_s);
+            param_row(ui, setter, &p.exponent);
+            param_row(ui, setter, &p.caughey_10k_per_s);
+            param_row(ui, setter, &p.custom_support_per_s);
+        });
+    });
+    egui::CollapsingHeader::new("Mallet").default_open(true).show(ui, |ui| {
+        egui::Grid::new("mallet-knobs").num_columns(2).show(ui, |ui| {
+            param_row(ui, setter, &p.mallet);
+            param_row(ui, setter, &p.hardness);
+            param_row(ui, setter, &p.velocity_sensitivity);
+            param_row(ui, setter, &p.variation);
+            param_row(ui, setter, &p.noise);
+        });
+    });
+    egui::CollapsingHeader::new("Material and object").default_open(true).show(ui, |ui| {
+        egui::Grid::new("material-knobs").num_columns(2).show(ui, |ui| {
+            param_row(ui, setter, &p.decay_scale);
+            param_row(ui, setter, &p.support_mode);
+            param_row(ui, setter, &p.support_amount_per_s);
+            param_row(ui, setter, &p.modulus_ratio);
+            param_row(ui, setter, &p.material_pitch);
+            param_row(ui, setter, &p.size);
+        });
+    });
+    egui::CollapsingHeader::new("Keys and pitch").default_open(true).show(ui, |ui| {
+        egui::Grid::new("key-knobs").num_columns(2).show(ui, |ui| {
+            param_row(ui, setter, &p.key_mode);
+            param_row(ui, setter, &p.root_note);
+            param_row(ui, setter, &p.key_tuning);
+            param_row(ui, setter, &p.pitch_reference);
+            param_row(ui, setter, &p.pitch_mode);
+            // The chosen mode's label, when the bank names its modes.
+            if let Some(label) = logic::object_index(p, lib)
+                .and_then(|i| lib.banks.get(i))
+                .and_then(|b| b.mode_labels.get((p.pitch_mode.value() - 1).max(0) as usize))
+            {
+                ui.label("");
+                ui.label(egui::RichText::new(format!("mode {}: {label}", p.pitch_mode.value())).weak());
+                ui.end_row();
+            }
+        });
+    });
+    egui::CollapsingHeader::new("Notes and output").default_open(true).show(ui, |ui| {
+        egui::Grid::new("output-knobs").num_columns(2).show(ui, |ui| {
+            param_row(ui, setter, &p.release_damping_per_s);
+            param_row(ui, setter, &p.pressure_damping_per_s);
+            param_row(ui, setter, &p.quality_db);
+            param_row(ui, setter, &p.gain_db);
+            param_row(ui, setter, &p.normalize_level);
+            param_row(ui, setter, &p.output_safety);
+        });
+    });
 }

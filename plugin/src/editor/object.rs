@@ -3,17 +3,53 @@
 
 use super::drawing;
 use super::logic::{self, F_MAX_HZ, F_MIN_HZ};
+use super::panel::{set_param, PanelCtx};
 use super::plot::{Axis, Plot};
-use super::ui::{set_param, EditorUi};
+use crate::shared::{Audition, EditorShared};
 use egui::{self, Color32, Pos2, Rect, Sense, Stroke, Vec2};
-use nice_plug::prelude::ParamSetter;
 use std::sync::Arc;
 
-impl EditorUi {
-    pub(super) fn object_panel(&mut self, ui: &mut egui::Ui, setter: &ParamSetter) {
+/// Object view state: the velocity and key of its strikes, the click or drag in progress and
+/// the cached picture of the object.
+pub(super) struct ObjectPanel {
+    /// Velocity of strikes from the object view, 0..=1.
+    pub velocity: f32,
+    /// Key whose tuning object-view strikes use.
+    pub key: u8,
+    /// Serial number of the last audition sent.
+    serial: u32,
+    /// Strike point under the pointer while a click or drag on the view lasts.
+    gesture: Option<usize>,
+    /// The picture of the selected bank (rebuilt when the object changes).
+    drawing: Option<Arc<drawing::ObjectDrawing>>,
+}
+
+impl Default for ObjectPanel {
+    fn default() -> Self {
+        ObjectPanel { velocity: 0.8, key: 60, serial: 0, gesture: None, drawing: None }
+    }
+}
+
+impl ObjectPanel {
+    /// Whether a click or drag on the view is in progress (the editor repaints every frame then).
+    pub fn is_active(&self) -> bool {
+        self.gesture.is_some()
+    }
+
+    /// Queues a strike at `position` for the audio thread.
+    fn audition(&mut self, shared: &EditorShared, position: f32) {
+        self.serial = self.serial.wrapping_add(1);
+        let a =
+            Audition { key: self.key.min(127), velocity: self.velocity.clamp(0.0, 1.0), position, serial: self.serial };
+        let _ = shared.audition(a);
+    }
+
+    /// Draws the panel: object choice, audition controls, the object view, the mode gains.
+    pub fn show(&mut self, ui: &mut egui::Ui, cx: &PanelCtx) {
+        let setter = cx.setter;
         ui.heading("Object");
-        let lib = self.library.clone();
-        let Some(obj) = logic::object_index(&self.params, &lib) else {
+        let lib = cx.library.clone();
+        let Some(obj) = logic::object_index(cx.params, &lib) else {
             ui.label("No objects in the library.");
             return;
         };
@@ -24,13 +60,13 @@ impl EditorUi {
                     .selectable_label(i == obj, b.name.as_str())
                     .on_hover_text(format!("{}\n\n{}", b.description, b.provenance));
                 if r.clicked() && i != obj {
-                    set_param(setter, &self.params.object, i as i32);
+                    set_param(setter, &cx.params.object, i as i32);
                 }
             }
         });
         ui.horizontal(|ui| {
-            ui.add(egui::Slider::new(&mut self.audition_velocity, 0.05..=1.0).text("Velocity"));
-            ui.add(egui::DragValue::new(&mut self.audition_key).range(0..=127).prefix("Key "));
+            ui.add(egui::Slider::new(&mut self.velocity, 0.05..=1.0).text("Velocity"));
+            ui.add(egui::DragValue::new(&mut self.key).range(0..=127).prefix("Key "));
         });
 
         // The picture: the object's surface seen from a fixed camera, the strike path on it
@@ -63,29 +99,29 @@ impl EditorUi {
         if down {
             if let Some(i) = pointer.and_then(|p| drawing::nearest_seen(&pic, from_screen(p))) {
                 let pos = logic::position_of_point(i, n);
-                match self.object_gesture {
+                match self.gesture {
                     None => {
-                        setter.begin_set_parameter(&self.params.strike_position);
-                        setter.set_parameter(&self.params.strike_position, pos);
-                        self.object_gesture = Some(i);
-                        self.audition(pos);
+                        setter.begin_set_parameter(&cx.params.strike_position);
+                        setter.set_parameter(&cx.params.strike_position, pos);
+                        self.gesture = Some(i);
+                        self.audition(cx.shared, pos);
                     }
                     Some(j) if j != i => {
-                        setter.set_parameter(&self.params.strike_position, pos);
-                        self.object_gesture = Some(i);
-                        self.audition(pos);
+                        setter.set_parameter(&cx.params.strike_position, pos);
+                        self.gesture = Some(i);
+                        self.audition(cx.shared, pos);
                     }
                     Some(_) => {}
                 }
             }
-        } else if self.object_gesture.take().is_some() {
-            setter.end_set_parameter(&self.params.strike_position);
+        } else if self.gesture.take().is_some() {
+            setter.end_set_parameter(&cx.params.strike_position);
         } else if response.clicked() {
             // Press and release within one frame.
             if let Some(i) = pointer.and_then(|p| drawing::nearest_seen(&pic, from_screen(p))) {
                 let pos = logic::position_of_point(i, n);
-                set_param(setter, &self.params.strike_position, pos);
-                self.audition(pos);
+                set_param(setter, &cx.params.strike_position, pos);
+                self.audition(cx.shared, pos);
             }
         }
 
@@ -116,7 +152,7 @@ impl EditorUi {
             };
             painter.line_segment([path[i - 1], path[i]], stroke);
         }
-        let position = self.params.strike_position.value();
+        let position = cx.params.strike_position.value();
         // The strike point nearest along the path (on screen, points in front and behind can
         // overlap).
         let current = (n > 0).then(|| {
@@ -145,7 +181,7 @@ impl EditorUi {
         painter.text(
             rect.left_top() + Vec2::new(6.0, 4.0),
             egui::Align2::LEFT_TOP,
-            format!("{} · {label}", self.params.strike_position),
+            format!("{} · {label}", cx.params.strike_position),
             egui::FontId::proportional(11.0),
             visuals.text_color(),
         );
@@ -157,10 +193,10 @@ impl EditorUi {
 
         ui.add_space(6.0);
         ui.label("Mode gains at the strike position (mode shapes at key's pitch, before the mallet)");
-        let scale = logic::lambda_scale(&self.params, &lib, self.audition_key);
+        let scale = logic::lambda_scale(&cx.params, &lib, self.key);
         let bars = logic::mode_bars(bank, position, scale);
         let peak = bars.iter().fold(0.0f32, |m, b| m.max(b.gain.abs())).max(1e-6);
-        let threshold = peak * 10f32.powf(-self.params.quality_db.value() / 20.0);
+        let threshold = peak * 10f32.powf(-cx.params.quality_db.value() / 20.0);
         let (plot, _, painter) = Plot::show(
             ui,
             170.0,

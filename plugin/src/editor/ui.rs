@@ -1,12 +1,16 @@
-//! The editor's state and top-level layout; the panels are in `object`, `material` and
-//! `capture`.
+//! The editor's state and top-level layout. The panels are their own types (`object`,
+//! `material`, `capture`), each with its own state; this module owns them and gives each the
+//! [`PanelCtx`] it draws in.
 
-use super::capture::CaptureUi;
-use super::material::MaterialUi;
-use super::EditorShared;
+use super::capture::CapturePanel;
+use super::material::MaterialPanel;
+use super::object::ObjectPanel;
+use super::panel::PanelCtx;
 use crate::library::Library;
 use crate::params::StruckParams;
-use nice_plug::prelude::{Param, ParamSetter};
+use crate::shared::EditorShared;
+use nice_plug::prelude::ParamSetter;
+use std::path::PathBuf;
 use std::sync::Arc;
 
 /// Which view the editor shows.
@@ -21,24 +25,16 @@ pub enum Tab {
 /// Everything the editor shows and remembers between frames (and between openings of the
 /// window). Draw it with [`EditorUi::ui`].
 pub struct EditorUi {
-    pub(super) params: Arc<StruckParams>,
-    pub(super) library: Arc<Library>,
-    pub(super) shared: Arc<EditorShared>,
+    params: Arc<StruckParams>,
+    library: Arc<Library>,
+    shared: Arc<EditorShared>,
     /// The visible tab.
     pub tab: Tab,
-    /// Velocity of strikes from the object view, 0..=1.
-    pub audition_velocity: f32,
-    /// Key whose tuning object-view strikes use.
-    pub audition_key: u8,
-    pub(super) serial: u32,
-    /// Strike point under the pointer while a click or drag on the object view lasts.
-    pub(super) object_gesture: Option<usize>,
-    /// The object view's picture of the selected bank (rebuilt when the object changes).
-    pub(super) drawing: Option<Arc<super::drawing::ObjectDrawing>>,
-    pub(super) material: MaterialUi,
-    pub(super) capture: CaptureUi,
+    object: ObjectPanel,
+    material: MaterialPanel,
+    capture: CapturePanel,
     /// Where user materials are read and saved; `None`: [`super::logic::user_material_dir`].
-    pub user_material_dir: Option<std::path::PathBuf>,
+    pub user_material_dir: Option<PathBuf>,
 }
 
 impl EditorUi {
@@ -49,19 +45,15 @@ impl EditorUi {
             library,
             shared,
             tab: Tab::Play,
-            audition_velocity: 0.8,
-            audition_key: 60,
-            serial: 0,
-            object_gesture: None,
-            drawing: None,
-            material: MaterialUi::default(),
-            capture: CaptureUi::default(),
+            object: ObjectPanel::default(),
+            material: MaterialPanel::default(),
+            capture: CapturePanel::default(),
             user_material_dir: None,
         }
     }
 
     /// The user materials folder this editor reads and saves to.
-    pub fn material_dir(&self) -> std::path::PathBuf {
+    pub fn material_dir(&self) -> PathBuf {
         self.user_material_dir.clone().unwrap_or_else(super::logic::user_material_dir)
     }
 
@@ -73,8 +65,16 @@ impl EditorUi {
     /// Draws the whole editor into `ui`; parameter changes go through `setter` (host gestures).
     pub fn ui(&mut self, ui: &mut egui::Ui, setter: &ParamSetter) {
         self.capture.poll(&self.params);
-        self.poll_ab();
+        self.capture.poll_ab(&self.shared);
         self.capture.take_dropped_files(ui.ctx());
+        let material_dir = self.material_dir();
+        let cx = PanelCtx {
+            params: &self.params,
+            library: &self.library,
+            shared: &self.shared,
+            setter,
+            material_dir: &material_dir,
+        };
         // The status line (voices, sounding modes) is a bottom panel, so it is always whole
         // on screen; the views scroll above it.
         egui::Panel::bottom("struck-status").show(ui, |ui| self.status_line(ui));
@@ -89,14 +89,18 @@ impl EditorUi {
             egui::ScrollArea::vertical().auto_shrink([false, false]).show(ui, |ui| match self.tab {
                 Tab::Play => {
                     ui.columns(2, |cols| {
-                        self.object_panel(&mut cols[0], setter);
-                        self.material_panel(&mut cols[1], setter);
+                        self.object.show(&mut cols[0], &cx);
+                        self.material.show(&mut cols[1], &cx);
                     });
                 }
-                Tab::Capture => self.capture_panel(ui, setter),
+                Tab::Capture => {
+                    if self.capture.show(ui, &cx) {
+                        self.material.rescan();
+                    }
+                }
             });
         });
-        if self.capture.is_running() || self.object_gesture.is_some() || self.ab_busy() {
+        if self.capture.is_running() || self.object.is_active() || self.capture.ab_busy() {
             ui.ctx().request_repaint();
         } else {
             // Meters move while notes ring: poll them a few times a second.
@@ -119,33 +123,48 @@ impl EditorUi {
         });
     }
 
-    /// Queues a strike at `position` for the audio thread.
-    pub(super) fn audition(&mut self, position: f32) {
-        self.serial = self.serial.wrapping_add(1);
-        let a = super::Audition {
-            key: self.audition_key.min(127),
-            velocity: self.audition_velocity.clamp(0.0, 1.0),
-            position,
-            serial: self.serial,
-        };
-        let _ = self.shared.audition(a);
+    /// Adds a recording to the capture list (what the path field, the browser and a drop do).
+    ///
+    /// # Errors
+    /// If `path` is not an existing `.wav` file.
+    pub fn add_capture_file(&mut self, path: PathBuf) -> Result<(), String> {
+        self.capture.add_file(path)
     }
-}
 
-/// One complete host gesture: begin, set, end.
-pub(super) fn set_param<P: Param>(setter: &ParamSetter, param: &P, value: P::Plain) {
-    setter.begin_set_parameter(param);
-    setter.set_parameter(param, value);
-    setter.end_set_parameter(param);
-}
+    /// The recordings the next analysis will use.
+    pub fn capture_files(&self) -> &[PathBuf] {
+        &self.capture.files
+    }
 
-/// A label and a `ParamSlider` in a grid row.
-pub(super) fn param_row<P: Param>(ui: &mut egui::Ui, setter: &ParamSetter, param: &P) {
-    ui.label(param.name());
-    // Named for screen readers (and the UI tests): ParamSlider sets no accessibility info.
-    ui.add(nice_plug_egui::widgets::ParamSlider::for_param(param, setter).with_width(170.0))
-        .accessible_name(format!("{} slider", param.name()));
-    ui.end_row();
+    /// Whether an analysis is running.
+    pub fn capture_running(&self) -> bool {
+        self.capture.is_running()
+    }
+
+    /// Blocks until a running analysis ends and stores its result (for tests).
+    pub fn wait_for_capture(&mut self) {
+        self.capture.wait(&self.params);
+    }
+
+    /// The last capture error or note shown in the panel.
+    pub fn capture_message(&self) -> Option<&str> {
+        self.capture.message.as_deref()
+    }
+
+    /// Whether an A/B clip is being built.
+    pub fn ab_busy(&self) -> bool {
+        self.capture.ab_busy()
+    }
+
+    /// Waits for the A/B clip being built and queues it (for tests).
+    pub fn wait_for_ab(&mut self) {
+        self.capture.wait_for_ab(&self.shared);
+    }
+
+    /// The last A/B button pressed and the impact it played.
+    pub fn ab_last(&self) -> Option<(super::ab::Side, usize)> {
+        self.capture.ab_last
+    }
 }
 
 /// The editor's look (slightly larger text than egui's default for plugin windows).
