@@ -193,7 +193,7 @@ impl ObjectPanel {
 
         ui.add_space(6.0);
         ui.label("Mode gains at the strike position (mode shapes at key's pitch, before the mallet)");
-        let scale = logic::lambda_scale(&cx.params, &lib, self.key);
+        let scale = logic::lambda_scale(cx.params, &lib, self.key);
         let bars = logic::mode_bars(bank, position, scale);
         let peak = bars.iter().fold(0.0f32, |m, b| m.max(b.gain.abs())).max(1e-6);
         let threshold = peak * 10f32.powf(-cx.params.quality_db.value() / 20.0);
