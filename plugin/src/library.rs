@@ -128,6 +128,29 @@ impl Library {
     }
 }
 
+/// The folder user materials are saved to and listed from: `$STRUCK_USER_DIR`, else
+/// `$XDG_DATA_HOME/struck/materials`, `~/.local/share/struck/materials` (Linux),
+/// `~/Library/Application Support/Struck/materials` (macOS), `%APPDATA%\Struck\materials`.
+pub fn user_material_dir() -> std::path::PathBuf {
+    use std::path::PathBuf;
+    if let Some(d) = std::env::var_os("STRUCK_USER_DIR") {
+        return PathBuf::from(d);
+    }
+    if cfg!(target_os = "windows") {
+        if let Some(a) = std::env::var_os("APPDATA") {
+            return PathBuf::from(a).join("Struck").join("materials");
+        }
+    }
+    let home = std::env::var_os("HOME").map(PathBuf::from).unwrap_or_else(std::env::temp_dir);
+    if cfg!(target_os = "macos") {
+        return home.join("Library/Application Support/Struck/materials");
+    }
+    match std::env::var_os("XDG_DATA_HOME") {
+        Some(x) if !x.is_empty() => PathBuf::from(x).join("struck/materials"),
+        _ => home.join(".local/share/struck/materials"),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -151,28 +174,5 @@ mod tests {
         assert!(lib.load_errors[0].contains("b-broken.json"));
         assert!(lib.load_errors[1].contains("already listed"));
         std::fs::remove_dir_all(&dir).unwrap();
-    }
-}
-
-/// The folder user materials are saved to and listed from: `$STRUCK_USER_DIR`, else
-/// `$XDG_DATA_HOME/struck/materials`, `~/.local/share/struck/materials` (Linux),
-/// `~/Library/Application Support/Struck/materials` (macOS), `%APPDATA%\Struck\materials`.
-pub fn user_material_dir() -> std::path::PathBuf {
-    use std::path::PathBuf;
-    if let Some(d) = std::env::var_os("STRUCK_USER_DIR") {
-        return PathBuf::from(d);
-    }
-    if cfg!(target_os = "windows") {
-        if let Some(a) = std::env::var_os("APPDATA") {
-            return PathBuf::from(a).join("Struck").join("materials");
-        }
-    }
-    let home = std::env::var_os("HOME").map(PathBuf::from).unwrap_or_else(std::env::temp_dir);
-    if cfg!(target_os = "macos") {
-        return home.join("Library/Application Support/Struck/materials");
-    }
-    match std::env::var_os("XDG_DATA_HOME") {
-        Some(x) if !x.is_empty() => PathBuf::from(x).join("struck/materials"),
-        _ => home.join(".local/share/struck/materials"),
     }
 }
