@@ -515,15 +515,546 @@ fn lm_fit_multi(
     ((0..km).map(|m| (p[4 * m], p[4 * m + 1].exp(), C64::new(p[4 * m + 2], p[4 * m + 3]))).collect(), cost)
 }
 
-/// Single-mode [`lm_fit_multi`].
-fn lm_fit(ev: &ModelEval, target: &[C64], k0: usize, omega0: f64, d0: f64, b0: C64) -> (f64, f64, C64, f64) {
-    let (m, c) = lm_fit_multi(ev, target, k0, &[(omega0, d0, b0)], 200, 1e-13);
-    (m[0].0, m[0].1, m[0].2, c)
+/// One fitted mode and the cost of the fit over its band.
+#[derive(Clone, Copy, Debug)]
+struct PeakFit {
+    /// Angular damped frequency, rad/s.
+    omega: f64,
+    /// Decay rate, s⁻¹.
+    d: f64,
+    /// Complex amplitude.
+    b: C64,
+    /// Squared error of the band's spectrum after the fit.
+    cost: f64,
+}
+
+/// Single-mode [`lm_fit_multi`] from `start`.
+fn lm_fit(ev: &ModelEval, target: &[C64], k0: usize, start: PeakFit) -> PeakFit {
+    let (m, cost) = lm_fit_multi(ev, target, k0, &[(start.omega, start.d, start.b)], 200, 1e-13);
+    PeakFit { omega: m[0].0, d: m[0].1, b: m[0].2, cost }
+}
+
+/// A local maximum of a level's spectrum above the noise (Ren §4 global search).
+#[derive(Clone, Copy, Debug)]
+struct Candidate {
+    /// Peak power over the level's noise power per bin.
+    snr: f64,
+    /// Level index.
+    level: usize,
+    /// Bin.
+    bin: usize,
+}
+
+/// A peak chosen for fitting in this round: where it was detected and the span (Hz) its fit
+/// would cover.
+#[derive(Clone, Copy, Debug)]
+struct Detection {
+    level: usize,
+    bin: usize,
+    freq_hz: f64,
+    span_hz: f64,
+}
+
+/// A frequency interval (Hz) of one level whose peak was rejected: not picked again.
+#[derive(Clone, Copy, Debug)]
+struct Exclusion {
+    level: usize,
+    lo_hz: f64,
+    hi_hz: f64,
+}
+
+/// The bins `k0..=k1` of level `level` a peak is fitted over, and the peak's shape there.
+#[derive(Clone, Copy, Debug)]
+struct Band {
+    level: usize,
+    k0: usize,
+    k1: usize,
+    bin_hz: f64,
+    /// Interpolated peak position, bins.
+    peak_bin: f64,
+    /// Half-power half-width, bins.
+    half_width_bins: f64,
+}
+
+/// Indices of the (at most three) modes nearest `omega` among those strictly inside
+/// (`lo`, `hi`) rad/s, `skip` excepted, nearest first.
+fn nearest_in_band(modes: &[Mode], omega: f64, lo: f64, hi: f64, skip: Option<usize>) -> Vec<usize> {
+    let mut near: Vec<usize> =
+        (0..modes.len()).filter(|&j| Some(j) != skip && modes[j].omega > lo && modes[j].omega < hi).collect();
+    near.sort_by(|&a, &b| (modes[a].omega - omega).abs().total_cmp(&(modes[b].omega - omega).abs()));
+    near.truncate(3);
+    near
+}
+
+/// Coarse start for the LM fit of one peak by variable projection (Ren §4): a log grid of d
+/// between the window's resolution and twice the peak's width, and also of ω for a peak wider
+/// than its frequency (a heavily damped low mode, or a peak at DC: the maximum of |X| is no
+/// longer at ω_d).
+fn coarse_search(ev: &ModelEval, target: &[C64], band: &Band, w: usize, fs: f64) -> PeakFit {
+    let (k0, hw_bins, bin_hz) = (band.k0, band.half_width_bins, band.bin_hz);
+    let omega0 = std::f64::consts::TAU * band.peak_bin * bin_hz;
+    let d_hi = (std::f64::consts::TAU * hw_bins * bin_hz * 2.0).max(1.0);
+    let d_lo = (0.05 * fs / w as f64).min(d_hi / 4.0).max(1e-3);
+    let hw_rad = std::f64::consts::TAU * hw_bins * bin_hz;
+    let omegas: Vec<f64> = if hw_rad > 0.3 * omega0 {
+        let lo = std::f64::consts::TAU * 2.0;
+        let hi = omega0 + 3.0 * hw_rad;
+        (0..=16).map(|i| lo * (hi / lo).powf(i as f64 / 16.0)).collect()
+    } else {
+        vec![omega0]
+    };
+    let mut best = PeakFit { omega: omega0, d: d_lo, b: C64::new(0.0, 0.0), cost: f64::INFINITY };
+    let steps = if omegas.len() > 1 { 12 } else { 10 };
+    for &om in &omegas {
+        for s in 0..=steps {
+            let d = d_lo * (d_hi / d_lo).powf(s as f64 / steps as f64);
+            let (b, cost) = project_amplitude(ev, target, k0, om, d);
+            if cost < best.cost {
+                best = PeakFit { omega: om, d, b, cost };
+            }
+        }
+    }
+    best
+}
+
+/// The state of one impact's extraction (Ren §4): the time-domain residual and its
+/// multi-level spectra, the modes found so far and the peaks rejected.
+struct Search<'a> {
+    opts: &'a ExtractOptions,
+    fs: f64,
+    /// Residual: the impact minus the modes found.
+    r: Vec<f64>,
+    /// Energy of the impact.
+    total: f64,
+    /// Energy of the residual.
+    residual: f64,
+    /// Noise power per sample used for the detection threshold.
+    sigma2: f64,
+    spectra: Spectra,
+    modes: Vec<Mode>,
+    excluded: Vec<Exclusion>,
+    rejected: usize,
+}
+
+impl<'a> Search<'a> {
+    /// `None` for an impact too short (< 32 samples) or silent to analyse.
+    fn new(x: &[f32], fs: f64, noise_var: f64, opts: &'a ExtractOptions) -> Option<Self> {
+        let n = x.len();
+        if n < 32 {
+            return None;
+        }
+        let r: Vec<f64> = x.iter().map(|&v| f64::from(v)).collect();
+        let total: f64 = r.iter().map(|v| v * v).sum();
+        if total <= 0.0 {
+            return None;
+        }
+        let peak = r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let sigma2 = noise_var.max(peak * peak * 1e-13);
+        Some(Search {
+            opts,
+            fs,
+            r,
+            total,
+            residual: total,
+            sigma2,
+            spectra: Spectra::new(n),
+            modes: Vec::new(),
+            excluded: Vec::new(),
+            rejected: 0,
+        })
+    }
+
+    /// Greedy search: each round recomputes the spectra of the residual, fits a batch of the
+    /// strongest peaks and subtracts them, until enough modes or enough power are explained.
+    fn find_modes(&mut self, cancel: &AtomicBool) -> Result<(), EstimateError> {
+        let max_iter = self.opts.max_features * 3 + 10;
+        for _ in 0..max_iter {
+            if cancel.load(Ordering::Relaxed) {
+                return Err(EstimateError::Cancelled);
+            }
+            if self.modes.len() >= self.opts.max_features
+                || 1.0 - self.residual / self.total >= self.opts.target_explained
+            {
+                break;
+            }
+            for l in 0..self.spectra.levels.len() {
+                self.spectra.compute(l, &self.r);
+            }
+            let cands = self.candidates();
+            if cands.is_empty() {
+                break;
+            }
+            for det in self.batch(&cands) {
+                if self.modes.len() >= self.opts.max_features {
+                    break;
+                }
+                self.add_peak(det);
+            }
+        }
+        Ok(())
+    }
+
+    /// Ren §4 global search: local maxima along frequency over all levels, by power over the
+    /// level's noise power, strongest first; excluded bands skipped.
+    fn candidates(&self) -> Vec<Candidate> {
+        let mut cands = Vec::new();
+        for (l, lev) in self.spectra.levels.iter().enumerate() {
+            let noise = self.sigma2 * lev.sw2;
+            let sp = &lev.spec;
+            for k in 0..sp.len() {
+                let p = sp[k].norm_sqr();
+                let left = if k > 0 { sp[k - 1].norm_sqr() } else { 0.0 };
+                let right = if k + 1 < sp.len() { sp[k + 1].norm_sqr() } else { 0.0 };
+                if p < left || p < right || p < self.opts.peak_snr_min * noise {
+                    continue;
+                }
+                let f = k as f64 * self.fs / lev.m as f64;
+                if self.excluded.iter().any(|e| e.level == l && f >= e.lo_hz && f <= e.hi_hz) {
+                    continue;
+                }
+                cands.push(Candidate { snr: p / noise, level: l, bin: k });
+            }
+        }
+        cands.sort_by(|a, b| b.snr.total_cmp(&a.snr));
+        cands
+    }
+
+    /// The peaks fitted in one round: up to `BATCH` candidates within 10 dB of the strongest
+    /// whose bands are far apart (a speed-up of the one-peak greedy loop: the FFTs of all
+    /// levels dominate the cost).
+    fn batch(&self, cands: &[Candidate]) -> Vec<Detection> {
+        const BATCH: usize = 8;
+        let top = cands[0].snr;
+        let mut batch: Vec<Detection> = Vec::new();
+        for c in cands {
+            if batch.len() >= BATCH || c.snr < top * 0.1 {
+                break;
+            }
+            let lev = &self.spectra.levels[c.level];
+            let bin_hz = self.fs / lev.m as f64;
+            let (_, hw) = peak_shape(&lev.spec, c.bin);
+            let freq_hz = c.bin as f64 * bin_hz;
+            let span_hz = (3.0 * hw).max(8.0) * bin_hz;
+            if batch.iter().all(|b| (freq_hz - b.freq_hz).abs() > 2.0 * (span_hz + b.span_hz)) {
+                batch.push(Detection { level: c.level, bin: c.bin, freq_hz, span_hz });
+            }
+        }
+        batch
+    }
+
+    /// Fits one detected peak and adds it as a mode (refitted jointly with the modes whose
+    /// peaks overlap its band), or excludes its band if the fit is poor or makes the residual
+    /// grow.
+    fn add_peak(&mut self, det: Detection) {
+        let (l, k) = self.finest_level(det.level, det.bin);
+        let (band, fit) = self.fit_peak(l, k);
+        let Some(fit) = fit else {
+            self.reject(&band, det);
+            return;
+        };
+        let mode = Mode { omega: fit.omega, d: fit.d, b: fit.b, level: l };
+        let before = self.residual;
+        self.residual = subtract(&mut self.r, &mode, self.fs, -1.0);
+        if self.residual >= before {
+            // Fitting made things worse (should not happen); undo and exclude the peak.
+            self.residual = subtract(&mut self.r, &mode, self.fs, 1.0);
+            self.reject(&band, det);
+            return;
+        }
+        self.refit_with_neighbours(mode, &band);
+    }
+
+    /// The longest level where the peak at bin `k` of level `l` is still narrow (≤ 12 bins
+    /// half-width), and the peak's bin there: detection picks the level matched to the decay
+    /// (best SNR), but the fit wants the finest frequency resolution to separate close modes.
+    fn finest_level(&self, l: usize, k: usize) -> (usize, usize) {
+        let fs = self.fs;
+        let lev = &self.spectra.levels[l];
+        let (kf, hw) = peak_shape(&lev.spec, k);
+        let bin = fs / lev.m as f64;
+        let (f_est, hw_hz) = (kf * bin, hw * bin);
+        let lf = (0..=l).find(|&j| hw_hz * self.spectra.levels[j].m as f64 / fs <= 12.0).unwrap_or(l);
+        if lf == l {
+            return (l, k);
+        }
+        let sp = &self.spectra.levels[lf].spec;
+        let kc = ((f_est * self.spectra.levels[lf].m as f64 / fs).round() as usize).min(sp.len() - 1);
+        let a = kc.saturating_sub(3);
+        let b = (kc + 3).min(sp.len() - 1);
+        let kb = (a..=b).max_by(|&x, &y| sp[x].norm_sqr().total_cmp(&sp[y].norm_sqr())).unwrap_or(kc);
+        (lf, kb)
+    }
+
+    /// Fits one mode to the band around bin `k` of level `l`: coarse search by variable
+    /// projection, then LM (Ren's continuous optimiser). The fit is `None` when it explains
+    /// too little of the band (beyond `max_fit_error` and 3× the band's noise) or lies above
+    /// Nyquist.
+    fn fit_peak(&self, l: usize, k: usize) -> (Band, Option<PeakFit>) {
+        let fs = self.fs;
+        let lev = &self.spectra.levels[l];
+        let ev = ModelEval::new(lev, fs);
+        let sp = &lev.spec;
+        let (kf, hw_bins) = peak_shape(sp, k);
+        let bin_hz = fs / lev.m as f64;
+        let half = (3.0 * hw_bins).ceil().clamp(8.0, 1500.0) as usize;
+        let k0 = k.saturating_sub(half);
+        let k1 = (k + half).min(sp.len() - 1);
+        let band = Band { level: l, k0, k1, bin_hz, peak_bin: kf, half_width_bins: hw_bins };
+        let target: Vec<C64> = sp[k0..=k1].to_vec();
+        let fit = lm_fit(&ev, &target, k0, coarse_search(&ev, &target, &band, lev.w, fs));
+        let band_power: f64 = target.iter().map(|t| t.norm_sqr()).sum();
+        let band_noise = self.sigma2 * lev.sw2 * target.len() as f64 * (2.0 * lev.w as f64 / lev.m as f64).min(1.0);
+        let ok = fit.omega.is_finite()
+            && fit.d.is_finite()
+            && (fit.cost < self.opts.max_fit_error * band_power || fit.cost < 3.0 * band_noise);
+        let below_nyquist = fit.omega / std::f64::consts::TAU <= 0.5 * fs;
+        (band, (ok && below_nyquist).then_some(fit))
+    }
+
+    /// Counts a rejected peak and excludes its band (at least the detection peak's span, so
+    /// the same peak is not picked again from its detection level).
+    fn reject(&mut self, band: &Band, det: Detection) {
+        let excl_hw = det.span_hz / 3.0;
+        self.rejected += 1;
+        let f0 = band.peak_bin * band.bin_hz;
+        let hw_hz = (band.half_width_bins * band.bin_hz).max(excl_hw);
+        self.excluded.push(Exclusion {
+            level: det.level,
+            lo_hz: (f0 - hw_hz).min(det.freq_hz - excl_hw),
+            hi_hz: (f0 + hw_hz).max(det.freq_hz + excl_hw),
+        });
+    }
+
+    /// Joint refit of the new `mode` (already subtracted) with the modes found before whose
+    /// spectra overlap its band (Ren §4: the trial mode is added to all modes collected so far
+    /// before comparing); kept only if the residual does not grow, else the mode alone is
+    /// added.
+    fn refit_with_neighbours(&mut self, mode: Mode, band: &Band) {
+        let fs = self.fs;
+        let (l, k0, k1, bin_hz) = (band.level, band.k0, band.k1, band.bin_hz);
+        let band_lo = (k0 as f64 * bin_hz - 0.0) * std::f64::consts::TAU;
+        let band_hi = (k1 as f64 * bin_hz) * std::f64::consts::TAU;
+        let near = nearest_in_band(&self.modes, mode.omega, band_lo, band_hi, None);
+        if near.is_empty() {
+            self.modes.push(mode);
+            return;
+        }
+        let before = self.residual;
+        for &j in &near {
+            subtract(&mut self.r, &self.modes[j], fs, 1.0);
+        }
+        subtract(&mut self.r, &mode, fs, 1.0);
+        self.spectra.compute(l, &self.r);
+        let lev = &self.spectra.levels[l];
+        let ev = ModelEval::new(lev, fs);
+        let modes = &self.modes;
+        let kmin = near
+            .iter()
+            .map(|&j| (modes[j].omega / std::f64::consts::TAU / bin_hz) as usize)
+            .min()
+            .unwrap_or(k0)
+            .min(k0);
+        let kmax = near
+            .iter()
+            .map(|&j| (modes[j].omega / std::f64::consts::TAU / bin_hz).ceil() as usize)
+            .max()
+            .unwrap_or(k1)
+            .max(k1);
+        let a0 = kmin.saturating_sub(8).max(k0.saturating_sub(8));
+        let a1 = (kmax + 8).min(k1 + 8).min(lev.spec.len() - 1);
+        let target: Vec<C64> = lev.spec[a0..=a1].to_vec();
+        let mut init = vec![(mode.omega, mode.d, mode.b)];
+        init.extend(near.iter().map(|&j| (modes[j].omega, modes[j].d, modes[j].b)));
+        let (fitted, _) = lm_fit_multi(&ev, &target, a0, &init, 60, 1e-13);
+        let new: Vec<Mode> = fitted.iter().map(|&(omega, d, b)| Mode { omega, d, b, level: l }).collect();
+        for m in &new {
+            self.residual = subtract(&mut self.r, m, fs, -1.0);
+        }
+        if self.residual <= before {
+            self.modes.push(new[0]);
+            for (i, &j) in near.iter().enumerate() {
+                self.modes[j] = Mode { level: self.modes[j].level, ..new[i + 1] };
+            }
+        } else {
+            for m in &new {
+                subtract(&mut self.r, m, fs, 1.0);
+            }
+            for &j in &near {
+                subtract(&mut self.r, &self.modes[j], fs, -1.0);
+            }
+            self.residual = subtract(&mut self.r, &mode, fs, -1.0);
+            self.modes.push(mode);
+        }
+    }
+
+    /// Back-fitting: `backfit_passes` sweeps of [`Search::backfit_sweep`].
+    fn backfit(&mut self, cancel: &AtomicBool) -> Result<(), EstimateError> {
+        for _ in 0..self.opts.backfit_passes {
+            if self.modes.is_empty() {
+                break;
+            }
+            self.backfit_sweep(cancel)?;
+        }
+        Ok(())
+    }
+
+    /// One sweep: refit each mode, jointly with the modes whose peaks lie in its band,
+    /// against residual + themselves (block Gauss–Seidel on the joint least-squares fit).
+    /// The level spectra are computed once per sweep; changes made during the sweep are
+    /// applied to them in closed form (exact, and much cheaper than an FFT per mode), and
+    /// the time-domain residual is updated mode by mode.
+    fn backfit_sweep(&mut self, cancel: &AtomicBool) -> Result<(), EstimateError> {
+        let mut used = vec![false; self.spectra.levels.len()];
+        self.modes.iter().for_each(|m| used[m.level] = true);
+        for (l, &u) in used.iter().enumerate() {
+            if u {
+                self.spectra.compute(l, &self.r);
+            }
+        }
+        let base = self.modes.clone();
+        let mut changed = vec![false; self.modes.len()];
+        for i in 0..self.modes.len() {
+            if cancel.load(Ordering::Relaxed) {
+                return Err(EstimateError::Cancelled);
+            }
+            self.backfit_mode(i, &base, &mut changed);
+        }
+        Ok(())
+    }
+
+    /// Refits mode `i` with its neighbours in band; `base` are the modes at the sweep's start
+    /// (what the spectra hold), `changed` marks modes changed since.
+    fn backfit_mode(&mut self, i: usize, base: &[Mode], changed: &mut [bool]) {
+        let fs = self.fs;
+        let modes = &self.modes;
+        let m = modes[i];
+        let l = m.level;
+        let lev = &self.spectra.levels[l];
+        let ev = ModelEval::new(lev, fs);
+        let bin_hz = fs / lev.m as f64;
+        let kc = (m.omega / std::f64::consts::TAU / bin_hz).round() as usize;
+        let hw_bins = (m.d / std::f64::consts::TAU / bin_hz).max(1.0) + lev.m as f64 / lev.w as f64;
+        let half = (3.0 * hw_bins).ceil().clamp(8.0, 1500.0) as usize;
+        let (lo_w, hi_w) = (
+            kc.saturating_sub(half) as f64 * bin_hz * std::f64::consts::TAU,
+            (kc + half) as f64 * bin_hz * std::f64::consts::TAU,
+        );
+        let near = nearest_in_band(modes, m.omega, lo_w, hi_w, Some(i));
+        let mut group = vec![i];
+        group.extend(&near);
+        let kj = |j: usize| (modes[j].omega / std::f64::consts::TAU / bin_hz).round() as usize;
+        let kmin = group.iter().map(|&j| kj(j)).min().unwrap_or(kc);
+        let kmax = group.iter().map(|&j| kj(j)).max().unwrap_or(kc);
+        let k0 = kc.saturating_sub(half).min(kmin.saturating_sub(8)).min(lev.spec.len() - 1);
+        let k1 = (kmax + 8).max(kc + half).min(lev.spec.len() - 1);
+        // Target: residual spectrum at sweep start, corrected for this sweep's changes,
+        // plus the group's own current models.
+        let mut target: Vec<C64> = lev.spec[k0..=k1].to_vec();
+        for j in 0..modes.len() {
+            let in_group = group.contains(&j);
+            if !changed[j] && !in_group {
+                continue;
+            }
+            let zc = zpow(&ev, modes[j].omega, modes[j].d);
+            let zb = zpow(&ev, base[j].omega, base[j].d);
+            for (t, k) in target.iter_mut().zip(k0..) {
+                if changed[j] {
+                    *t += mode_value(&ev, &zb, base[j].b, k) - mode_value(&ev, &zc, modes[j].b, k);
+                }
+                if in_group {
+                    *t += mode_value(&ev, &zc, modes[j].b, k);
+                }
+            }
+        }
+        let init: Vec<(f64, f64, C64)> = group.iter().map(|&j| (modes[j].omega, modes[j].d, modes[j].b)).collect();
+        let (fitted, _) = lm_fit_multi(&ev, &target, k0, &init, 15, 1e-9);
+        let fitted: Vec<Mode> =
+            fitted.iter().zip(&group).map(|(&(omega, d, b), &j)| Mode { omega, d, b, level: modes[j].level }).collect();
+        // Accept only if the time-domain residual does not grow (a fit can trade a
+        // smaller band error for broadband junk outside the band).
+        let before = self.residual;
+        for &j in &group {
+            subtract(&mut self.r, &self.modes[j], fs, 1.0);
+        }
+        let mut after = before;
+        for f in &fitted {
+            after = subtract(&mut self.r, f, fs, -1.0);
+        }
+        if after.is_finite() && after <= before * (1.0 + 1e-12) {
+            for (f, &j) in fitted.iter().zip(&group) {
+                self.modes[j] = *f;
+                changed[j] = true;
+            }
+            self.residual = after;
+        } else {
+            for f in &fitted {
+                subtract(&mut self.r, f, fs, 1.0);
+            }
+            for &j in &group {
+                self.residual = subtract(&mut self.r, &self.modes[j], fs, -1.0);
+            }
+        }
+    }
+
+    /// The features of the modes found: Cramér–Rao uncertainties at the residual's local
+    /// noise, the option filters (band, decay range, SNR, relative level), grouped into
+    /// partials ([`group_partials`]), strongest first.
+    fn into_fit(self, noise_var: f64) -> ImpactFit {
+        let (opts, fs, n) = (self.opts, self.fs, self.r.len());
+        let local_noise = LocalNoise::new(&self.r, fs);
+        let duration = n as f64 / fs;
+        let mut features: Vec<Feature> = self
+            .modes
+            .iter()
+            .map(|m| {
+                let (freq_hz, amplitude) = (m.omega / std::f64::consts::TAU, 2.0 * m.b.norm());
+                let var = local_noise.around(freq_hz, m.d).max(noise_var);
+                let sd = crb_std(amplitude, m.d, var, fs, duration);
+                Feature {
+                    freq_hz,
+                    decay_per_s: m.d,
+                    amplitude,
+                    sigma_freq_hz: sd / std::f64::consts::TAU,
+                    sigma_decay_per_s: sd,
+                    single_exponential: 1.0,
+                    early_decay_per_s: m.d,
+                }
+            })
+            .filter(|f| {
+                f.freq_hz >= opts.min_freq_hz
+                    && f.freq_hz < 0.49 * fs
+                    && f.decay_per_s >= opts.min_decay_per_s
+                    && f.decay_per_s <= opts.max_decay_per_s
+                    && (noise_var <= 0.0
+                        || f.amplitude * f.amplitude * fs / (4.0 * f.decay_per_s * noise_var)
+                            >= 10f64.powf(opts.min_feature_snr_db / 10.0))
+            })
+            .collect();
+        let amax = features.iter().fold(0.0f64, |m, f| m.max(f.amplitude));
+        let amin = amax * 10f64.powf(opts.min_rel_amplitude_db / 20.0);
+        features.retain(|f| f.amplitude >= amin);
+        let (mut features, mut components) = group_partials(features, duration);
+        features.sort_by(|a, b| b.amplitude.total_cmp(&a.amplitude));
+        components.sort_by(|a, b| b.amplitude.total_cmp(&a.amplitude));
+        ImpactFit {
+            features,
+            components,
+            explained_power: (1.0 - self.residual / self.total).clamp(0.0, 1.0),
+            residual_to_noise: self.residual / n as f64 / noise_var.max(1e-300),
+            fitted_modes: self.modes.len(),
+            rejected_peaks: self.rejected,
+        }
+    }
 }
 
 /// Extracts the features of one impact `x` (starting at its onset) sampled at `fs` Hz.
 /// `noise_var` is the noise power per sample (0 if unknown: a floor 130 dB under the peak
 /// is used).
+///
+/// Steps (Ren §4): a greedy search that fits the strongest spectral peaks of the residual
+/// one batch at a time ([`Search::find_modes`]), back-fitting sweeps that refit each mode
+/// with its neighbours ([`Search::backfit`]), then the features with their uncertainties,
+/// grouped into partials ([`Search::into_fit`]).
 ///
 /// # Errors
 /// [`EstimateError::Cancelled`] if `cancel` is set while working.
@@ -534,359 +1065,12 @@ pub fn extract_impact(
     opts: &ExtractOptions,
     cancel: &AtomicBool,
 ) -> Result<ImpactFit, EstimateError> {
-    let n = x.len();
-    if n < 32 {
+    let Some(mut search) = Search::new(x, fs, noise_var, opts) else {
         return Ok(ImpactFit::default());
-    }
-    let mut r: Vec<f64> = x.iter().map(|&v| f64::from(v)).collect();
-    let total: f64 = r.iter().map(|v| v * v).sum();
-    if total <= 0.0 {
-        return Ok(ImpactFit::default());
-    }
-    let peak = r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let sigma2 = noise_var.max(peak * peak * 1e-13);
-    let mut spectra = Spectra::new(n);
-    let nlev = spectra.levels.len();
-    let mut modes: Vec<Mode> = Vec::new();
-    // Frequency intervals (Hz) whose peaks were rejected.
-    let mut excluded: Vec<(usize, f64, f64)> = Vec::new();
-    let mut rejected = 0usize;
-    let mut residual: f64 = total;
-    let max_iter = opts.max_features * 3 + 10;
-    for _ in 0..max_iter {
-        if cancel.load(Ordering::Relaxed) {
-            return Err(EstimateError::Cancelled);
-        }
-        if modes.len() >= opts.max_features || 1.0 - residual / total >= opts.target_explained {
-            break;
-        }
-        for l in 0..nlev {
-            spectra.compute(l, &r);
-        }
-        // Ren §4 global search: local maxima along frequency over all levels, by power over
-        // the level's noise power.
-        let mut cands: Vec<(f64, usize, usize)> = Vec::new();
-        for (l, lev) in spectra.levels.iter().enumerate() {
-            let noise = sigma2 * lev.sw2;
-            let sp = &lev.spec;
-            for k in 0..sp.len() {
-                let p = sp[k].norm_sqr();
-                let left = if k > 0 { sp[k - 1].norm_sqr() } else { 0.0 };
-                let right = if k + 1 < sp.len() { sp[k + 1].norm_sqr() } else { 0.0 };
-                if p < left || p < right || p < opts.peak_snr_min * noise {
-                    continue;
-                }
-                let f = k as f64 * fs / lev.m as f64;
-                if excluded.iter().any(|&(el, a, b)| el == l && f >= a && f <= b) {
-                    continue;
-                }
-                cands.push((p / noise, l, k));
-            }
-        }
-        if cands.is_empty() {
-            break;
-        }
-        cands.sort_by(|a, b| b.0.total_cmp(&a.0));
-        // Batch: fit up to BATCH peaks per spectrum update when their bands are far apart
-        // and they are within 10 dB of the strongest (a speed-up of the one-peak greedy loop:
-        // the FFTs of all levels dominate the cost).
-        const BATCH: usize = 8;
-        let top = cands[0].0;
-        let mut batch: Vec<(usize, usize, f64, f64)> = Vec::new();
-        for &(snr, l, k) in &cands {
-            if batch.len() >= BATCH || snr < top * 0.1 {
-                break;
-            }
-            let lev = &spectra.levels[l];
-            let bin_hz = fs / lev.m as f64;
-            let (_, hw) = peak_shape(&lev.spec, k);
-            let f = k as f64 * bin_hz;
-            let span = (3.0 * hw).max(8.0) * bin_hz;
-            if batch.iter().all(|&(_, _, f2, s2)| (f - f2).abs() > 2.0 * (span + s2)) {
-                batch.push((l, k, f, span));
-            }
-        }
-        for &(l, k, f_det, span_det) in &batch {
-            // Rejected peaks are excluded over at least the detection peak's span (in Hz), so the
-            // same peak is not picked again from its detection level.
-            let excl_hw = span_det / 3.0;
-            let l_det = l;
-            if modes.len() >= opts.max_features {
-                break;
-            }
-            // Fit on the longest level where the peak is still narrow (≤ 12 bins half-width):
-            // detection picks the level matched to the decay (best SNR), but the fit wants the
-            // finest frequency resolution to separate close modes.
-            let (l, k) = {
-                let lev = &spectra.levels[l];
-                let (kf, hw) = peak_shape(&lev.spec, k);
-                let bin = fs / lev.m as f64;
-                let (f_est, hw_hz) = (kf * bin, hw * bin);
-                let lf = (0..=l).find(|&j| hw_hz * spectra.levels[j].m as f64 / fs <= 12.0).unwrap_or(l);
-                if lf == l {
-                    (l, k)
-                } else {
-                    let sp = &spectra.levels[lf].spec;
-                    let kc = ((f_est * spectra.levels[lf].m as f64 / fs).round() as usize).min(sp.len() - 1);
-                    let a = kc.saturating_sub(3);
-                    let b = (kc + 3).min(sp.len() - 1);
-                    let kb = (a..=b).max_by(|&x, &y| sp[x].norm_sqr().total_cmp(&sp[y].norm_sqr())).unwrap_or(kc);
-                    (lf, kb)
-                }
-            };
-            let lev = &spectra.levels[l];
-            let ev = ModelEval::new(lev, fs);
-            let sp = &lev.spec;
-            let (kf, hw_bins) = peak_shape(sp, k);
-            let bin_hz = fs / lev.m as f64;
-            let half = (3.0 * hw_bins).ceil().clamp(8.0, 1500.0) as usize;
-            let k0 = k.saturating_sub(half);
-            let k1 = (k + half).min(sp.len() - 1);
-            let target: Vec<C64> = sp[k0..=k1].to_vec();
-            let omega0 = std::f64::consts::TAU * kf * bin_hz;
-            // Coarse search of d by variable projection, then LM (Ren's continuous optimiser).
-            let d_hi = (std::f64::consts::TAU * hw_bins * bin_hz * 2.0).max(1.0);
-            let d_lo = (0.05 * fs / lev.w as f64).min(d_hi / 4.0).max(1e-3);
-            // A peak wider than its frequency (heavily damped low mode, or its peak at DC): the
-            // maximum of |X| is no longer at ω_d, so search ω too.
-            let hw_rad = std::f64::consts::TAU * hw_bins * bin_hz;
-            let omegas: Vec<f64> = if hw_rad > 0.3 * omega0 {
-                let lo = std::f64::consts::TAU * 2.0;
-                let hi = omega0 + 3.0 * hw_rad;
-                (0..=16).map(|i| lo * (hi / lo).powf(i as f64 / 16.0)).collect()
-            } else {
-                vec![omega0]
-            };
-            let mut best_d = (omega0, d_lo, C64::new(0.0, 0.0), f64::INFINITY);
-            let steps = if omegas.len() > 1 { 12 } else { 10 };
-            for &om in &omegas {
-                for s in 0..=steps {
-                    let d = d_lo * (d_hi / d_lo).powf(s as f64 / steps as f64);
-                    let (b, c) = project_amplitude(&ev, &target, k0, om, d);
-                    if c < best_d.3 {
-                        best_d = (om, d, b, c);
-                    }
-                }
-            }
-            let (omega, d, b, cost) = lm_fit(&ev, &target, k0, best_d.0, best_d.1, best_d.2);
-            let band: f64 = target.iter().map(|t| t.norm_sqr()).sum();
-            let band_noise = sigma2 * lev.sw2 * target.len() as f64 * (2.0 * lev.w as f64 / lev.m as f64).min(1.0);
-            let ok =
-                omega.is_finite() && d.is_finite() && (cost < opts.max_fit_error * band || cost < 3.0 * band_noise);
-            let dist_hz = omega / std::f64::consts::TAU;
-            if !ok || dist_hz > 0.5 * fs {
-                rejected += 1;
-                let f0 = kf * bin_hz;
-                let hw_hz = (hw_bins * bin_hz).max(excl_hw);
-                excluded.push((l_det, (f0 - hw_hz).min(f_det - excl_hw), (f0 + hw_hz).max(f_det + excl_hw)));
-                continue;
-            }
-            let mode = Mode { omega, d, b, level: l };
-            let before = residual;
-            residual = subtract(&mut r, &mode, fs, -1.0);
-            if residual >= before {
-                // Fitting made things worse (should not happen); undo and exclude the peak.
-                residual = subtract(&mut r, &mode, fs, 1.0);
-                rejected += 1;
-                let f0 = kf * bin_hz;
-                let hw_hz = (hw_bins * bin_hz).max(excl_hw);
-                excluded.push((l_det, (f0 - hw_hz).min(f_det - excl_hw), (f0 + hw_hz).max(f_det + excl_hw)));
-                continue;
-            }
-            // Joint refit with already-found modes whose spectra overlap this band (Ren §4:
-            // the trial mode is added to all modes collected so far before comparing).
-            let band_lo = (k0 as f64 * bin_hz - 0.0) * std::f64::consts::TAU;
-            let band_hi = (k1 as f64 * bin_hz) * std::f64::consts::TAU;
-            let mut near: Vec<usize> =
-                (0..modes.len()).filter(|&j| modes[j].omega > band_lo && modes[j].omega < band_hi).collect();
-            near.sort_by(|&a, &b| (modes[a].omega - omega).abs().total_cmp(&(modes[b].omega - omega).abs()));
-            near.truncate(3);
-            if !near.is_empty() {
-                let before = residual;
-                for &j in &near {
-                    subtract(&mut r, &modes[j], fs, 1.0);
-                }
-                subtract(&mut r, &mode, fs, 1.0);
-                spectra.compute(l, &r);
-                let lev = &spectra.levels[l];
-                let ev = ModelEval::new(lev, fs);
-                let kmin = near
-                    .iter()
-                    .map(|&j| (modes[j].omega / std::f64::consts::TAU / bin_hz) as usize)
-                    .min()
-                    .unwrap_or(k0)
-                    .min(k0);
-                let kmax = near
-                    .iter()
-                    .map(|&j| (modes[j].omega / std::f64::consts::TAU / bin_hz).ceil() as usize)
-                    .max()
-                    .unwrap_or(k1)
-                    .max(k1);
-                let a0 = kmin.saturating_sub(8).max(k0.saturating_sub(8));
-                let a1 = (kmax + 8).min(k1 + 8).min(lev.spec.len() - 1);
-                let target: Vec<C64> = lev.spec[a0..=a1].to_vec();
-                let mut init = vec![(mode.omega, mode.d, mode.b)];
-                init.extend(near.iter().map(|&j| (modes[j].omega, modes[j].d, modes[j].b)));
-                let (fitted, _) = lm_fit_multi(&ev, &target, a0, &init, 60, 1e-13);
-                let new: Vec<Mode> = fitted.iter().map(|&(omega, d, b)| Mode { omega, d, b, level: l }).collect();
-                for m in &new {
-                    residual = subtract(&mut r, m, fs, -1.0);
-                }
-                if residual <= before {
-                    modes.push(new[0]);
-                    for (i, &j) in near.iter().enumerate() {
-                        modes[j] = Mode { level: modes[j].level, ..new[i + 1] };
-                    }
-                } else {
-                    for m in &new {
-                        subtract(&mut r, m, fs, 1.0);
-                    }
-                    for &j in &near {
-                        subtract(&mut r, &modes[j], fs, -1.0);
-                    }
-                    residual = subtract(&mut r, &mode, fs, -1.0);
-                    modes.push(mode);
-                }
-                continue;
-            }
-            modes.push(mode);
-        }
-    }
-    // Back-fitting: refit each mode, jointly with the modes whose peaks lie in its band,
-    // against residual + themselves (block Gauss–Seidel on the joint least-squares fit).
-    // The level spectra are computed once per sweep; changes made during the sweep are
-    // applied to them in closed form (exact, and much cheaper than an FFT per mode), and
-    // the time-domain residual is rebuilt at the end of the sweep.
-    for _ in 0..opts.backfit_passes {
-        if modes.is_empty() {
-            break;
-        }
-        let mut used = vec![false; nlev];
-        modes.iter().for_each(|m| used[m.level] = true);
-        for (l, &u) in used.iter().enumerate() {
-            if u {
-                spectra.compute(l, &r);
-            }
-        }
-        let base = modes.clone();
-        let mut changed = vec![false; modes.len()];
-        for i in 0..modes.len() {
-            if cancel.load(Ordering::Relaxed) {
-                return Err(EstimateError::Cancelled);
-            }
-            let m = modes[i];
-            let l = m.level;
-            let lev = &spectra.levels[l];
-            let ev = ModelEval::new(lev, fs);
-            let bin_hz = fs / lev.m as f64;
-            let kc = (m.omega / std::f64::consts::TAU / bin_hz).round() as usize;
-            let hw_bins = (m.d / std::f64::consts::TAU / bin_hz).max(1.0) + lev.m as f64 / lev.w as f64;
-            let half = (3.0 * hw_bins).ceil().clamp(8.0, 1500.0) as usize;
-            let (lo_w, hi_w) = (
-                kc.saturating_sub(half) as f64 * bin_hz * std::f64::consts::TAU,
-                (kc + half) as f64 * bin_hz * std::f64::consts::TAU,
-            );
-            let mut near: Vec<usize> =
-                (0..modes.len()).filter(|&j| j != i && modes[j].omega > lo_w && modes[j].omega < hi_w).collect();
-            near.sort_by(|&a, &b| (modes[a].omega - m.omega).abs().total_cmp(&(modes[b].omega - m.omega).abs()));
-            near.truncate(3);
-            let mut group = vec![i];
-            group.extend(&near);
-            let kj = |j: usize| (modes[j].omega / std::f64::consts::TAU / bin_hz).round() as usize;
-            let kmin = group.iter().map(|&j| kj(j)).min().unwrap_or(kc);
-            let kmax = group.iter().map(|&j| kj(j)).max().unwrap_or(kc);
-            let k0 = kc.saturating_sub(half).min(kmin.saturating_sub(8)).min(lev.spec.len() - 1);
-            let k1 = (kmax + 8).max(kc + half).min(lev.spec.len() - 1);
-            // Target: residual spectrum at sweep start, corrected for this sweep's changes,
-            // plus the group's own current models.
-            let mut target: Vec<C64> = lev.spec[k0..=k1].to_vec();
-            for j in 0..modes.len() {
-                let in_group = group.contains(&j);
-                if !changed[j] && !in_group {
-                    continue;
-                }
-                let zc = zpow(&ev, modes[j].omega, modes[j].d);
-                let zb = zpow(&ev, base[j].omega, base[j].d);
-                for (t, k) in target.iter_mut().zip(k0..) {
-                    if changed[j] {
-                        *t += mode_value(&ev, &zb, base[j].b, k) - mode_value(&ev, &zc, modes[j].b, k);
-                    }
-                    if in_group {
-                        *t += mode_value(&ev, &zc, modes[j].b, k);
-                    }
-                }
-            }
-            let init: Vec<(f64, f64, C64)> = group.iter().map(|&j| (modes[j].omega, modes[j].d, modes[j].b)).collect();
-            let (fitted, _) = lm_fit_multi(&ev, &target, k0, &init, 15, 1e-9);
-            // Accept only if the time-domain residual does not grow (a fit can trade a
-            // smaller band error for broadband junk outside the band).
-            let before = residual;
-            for &j in &group {
-                subtract(&mut r, &modes[j], fs, 1.0);
-            }
-            let mut after = before;
-            for (gi, &(omega, d, b)) in fitted.iter().enumerate() {
-                after = subtract(&mut r, &Mode { omega, d, b, level: modes[group[gi]].level }, fs, -1.0);
-            }
-            if after.is_finite() && after <= before * (1.0 + 1e-12) {
-                for (gi, &(omega, d, b)) in fitted.iter().enumerate() {
-                    modes[group[gi]] = Mode { omega, d, b, level: modes[group[gi]].level };
-                    changed[group[gi]] = true;
-                }
-                residual = after;
-            } else {
-                for (gi, &(omega, d, b)) in fitted.iter().enumerate() {
-                    subtract(&mut r, &Mode { omega, d, b, level: modes[group[gi]].level }, fs, 1.0);
-                }
-                for &j in &group {
-                    residual = subtract(&mut r, &modes[j], fs, -1.0);
-                }
-            }
-        }
-    }
-    let fitted = modes.len();
-    let local_noise = LocalNoise::new(&r, fs);
-    let duration = n as f64 / fs;
-    let mut features: Vec<Feature> = modes
-        .iter()
-        .map(|m| {
-            let (freq_hz, amplitude) = (m.omega / std::f64::consts::TAU, 2.0 * m.b.norm());
-            let var = local_noise.around(freq_hz, m.d).max(noise_var);
-            let sd = crb_std(amplitude, m.d, var, fs, duration);
-            Feature {
-                freq_hz,
-                decay_per_s: m.d,
-                amplitude,
-                sigma_freq_hz: sd / std::f64::consts::TAU,
-                sigma_decay_per_s: sd,
-                single_exponential: 1.0,
-                early_decay_per_s: m.d,
-            }
-        })
-        .filter(|f| {
-            f.freq_hz >= opts.min_freq_hz
-                && f.freq_hz < 0.49 * fs
-                && f.decay_per_s >= opts.min_decay_per_s
-                && f.decay_per_s <= opts.max_decay_per_s
-                && (noise_var <= 0.0
-                    || f.amplitude * f.amplitude * fs / (4.0 * f.decay_per_s * noise_var)
-                        >= 10f64.powf(opts.min_feature_snr_db / 10.0))
-        })
-        .collect();
-    let amax = features.iter().fold(0.0f64, |m, f| m.max(f.amplitude));
-    let amin = amax * 10f64.powf(opts.min_rel_amplitude_db / 20.0);
-    features.retain(|f| f.amplitude >= amin);
-    let (mut features, mut components) = group_partials(features, duration);
-    features.sort_by(|a, b| b.amplitude.total_cmp(&a.amplitude));
-    components.sort_by(|a, b| b.amplitude.total_cmp(&a.amplitude));
-    Ok(ImpactFit {
-        features,
-        components,
-        explained_power: (1.0 - residual / total).clamp(0.0, 1.0),
-        residual_to_noise: residual / n as f64 / noise_var.max(1e-300),
-        fitted_modes: fitted,
-        rejected_peaks: rejected,
-    })
+    };
+    search.find_modes(cancel)?;
+    search.backfit(cancel)?;
+    Ok(search.into_fit(noise_var))
 }
 
 /// Groups features into partials (issue 10 part 4). A real partial is often not one
