@@ -274,22 +274,45 @@ fn make_feasible(kind: ModelKind, d: &Data, a: &mut [f64]) -> bool {
     a.iter().all(|v| v.is_finite()) && curve_constraints(kind, d, a.len(), &[]).feasible(a, 1e-12)
 }
 
+/// The limits of one [`newton`] run: iteration cap, gradient tolerance, largest step per
+/// coordinate.
+#[derive(Clone, Copy, Debug)]
+struct NewtonLimits {
+    max_iter: usize,
+    gtol: f64,
+    max_step: f64,
+}
+
+/// A constrained optimum and the names of the constraints active at it.
+struct ConstrainedFit {
+    opt: OptResult,
+    active: Vec<String>,
+}
+
+/// An (L)SQ fit in normalised units: parameters, Newton iterations, whether it converged,
+/// the active constraints' names.
+struct LsqFit {
+    params: Vec<f64>,
+    iterations: usize,
+    converged: bool,
+    active: Vec<String>,
+}
+
 /// An objective for [`newton`]: value, gradient and Hessian (row-major) at x.
 type Objective<'a> = dyn FnMut(&[f64], &mut [f64], &mut [f64]) -> f64 + 'a;
 
 /// Runs the constrained Newton method from `start`; for Caughey adds a cut wherever the
 /// result dips below zero between grid points and solves again (at most 12 rounds; a
 /// dip left after them, of round-off size, is lifted by raising the constant term).
-/// `limits` = (iteration cap, gradient tolerance, largest step per coordinate) of [`newton`].
 fn solve_constrained(
     kind: ModelKind,
     d: &Data,
     start: &[f64],
     extra: &dyn Fn(&mut Constraints, usize),
-    limits: (usize, f64, f64),
+    limits: NewtonLimits,
     f: &mut Objective,
-) -> (OptResult, Vec<String>) {
-    let (max_iter, gtol, max_step) = limits;
+) -> ConstrainedFit {
+    let NewtonLimits { max_iter, gtol, max_step } = limits;
     let n = start.len();
     let mut cuts: Vec<f64> = Vec::new();
     let mut its = 0;
@@ -312,8 +335,8 @@ fn solve_constrained(
                 r.x[0] += -c + 1e-9;
             }
         }
-        let names = r.active.iter().map(|&i| cons.names[i].clone()).collect();
-        return (r, names);
+        let active = r.active.iter().map(|&i| cons.names[i].clone()).collect();
+        return ConstrainedFit { opt: r, active };
     }
 }
 
@@ -879,9 +902,8 @@ fn golden(
 
 /// LSQ in normalised units under the validity constraints ([`curve_constraints`]): the
 /// constrained Newton method on ½ Σ rᵢ² from the closed-form (linear models) or log–log
-/// (power, hybrid) starts, moved into the valid region. Returns (params, iterations,
-/// converged, active constraint names).
-fn lsq_fit(kind: ModelKind, d: &Data) -> (Vec<f64>, usize, bool, Vec<String>) {
+/// (power, hybrid) starts, moved into the valid region; the best of them.
+fn lsq_fit(kind: ModelKind, d: &Data) -> LsqFit {
     let pos = d.c.iter().all(|&c| c > 0.0);
     let loglog = if pos { linear_lsq(d, 2, |i| d.lnx[i], |i| d.c[i].ln()) } else { None };
     let (la, p) = loglog.map(|v| (v[0], v[1])).unwrap_or((0.0, 1.0));
@@ -898,22 +920,21 @@ fn lsq_fit(kind: ModelKind, d: &Data) -> (Vec<f64>, usize, bool, Vec<String>) {
         // c ≡ 1 (the median) is valid for every model.
         starts.push(starts_fallback(kind));
     }
-    let mut best: Option<(f64, Vec<f64>, bool, Vec<String>)> = None;
+    let mut best: Option<ConstrainedFit> = None;
     let mut its = 0;
     for s in starts {
         let linear = matches!(kind, ModelKind::Rayleigh | ModelKind::Caughey);
         let max_step = if linear { f64::INFINITY } else { 2.0 };
-        let (r, names) = solve_constrained(kind, d, &s, &|_, _| {}, (200, 1e-12, max_step), &mut |a, g, h| {
-            sse_hess(kind, d, a, g, h)
-        });
-        its += r.iterations;
-        if r.f.is_finite() && best.as_ref().is_none_or(|b| r.f < b.0) {
-            best = Some((r.f, r.x, r.converged, names));
+        let limits = NewtonLimits { max_iter: 200, gtol: 1e-12, max_step };
+        let r = solve_constrained(kind, d, &s, &|_, _| {}, limits, &mut |a, g, h| sse_hess(kind, d, a, g, h));
+        its += r.opt.iterations;
+        if r.opt.f.is_finite() && best.as_ref().is_none_or(|b| r.opt.f < b.opt.f) {
+            best = Some(r);
         }
     }
     match best {
-        Some((_, x, conv, names)) => (x, its, conv, names),
-        None => (starts_fallback(kind), its, false, Vec::new()),
+        Some(b) => LsqFit { params: b.opt.x, iterations: its, converged: b.opt.converged, active: b.active },
+        None => LsqFit { params: starts_fallback(kind), iterations: its, converged: false, active: Vec::new() },
     }
 }
 
@@ -1044,217 +1065,250 @@ pub fn fit_damping_weighted(
         });
     }
     let d = normalise(points, sigmas, model)?;
-    let n = d.x.len();
-    let nf = n as f64;
-    let k = model.n_params();
-    let (ls, cs) = (d.ls, d.cs);
-    let no_conv = |reason: &str| EstimateError::NoConvergence { method: method.name(), reason: reason.to_string() };
-    let rms = |a: &[f64]| -> f64 {
-        let mut mg = [0.0; 4];
-        let s: f64 = (0..n).map(|i| (model_eval(model, a, d.x[i], d.lnx[i], &mut mg) - d.c[i]).powi(2)).sum();
-        (s / nf).sqrt()
-    };
     let result = match method {
-        Method::Lb => {
-            let a = lb_fit(model, &d).ok_or_else(|| no_conv("no lower hull edge spans the data"))?;
-            let params = denorm(model, &a, ls, cs);
-            let cons = curve_constraints(model, &d, k, &[]);
-            let active: Vec<String> =
-                (0..cons.len()).filter(|&i| cons.slack(i, &a).abs() <= 1e-12).map(|i| cons.names[i].clone()).collect();
-            FitResult {
-                model,
-                method,
-                std_errors: vec![None; params.len()],
-                params,
-                sigma: rms(&a) * cs,
-                eta: None,
-                sigma_std: None,
-                eta_std: None,
-                log_likelihood: None,
-                aic: None,
-                bic: None,
-                iterations: 0,
-                converged: true,
-                warnings: fit_warnings(model, method, true, 0, &active),
-                active_bounds: active,
-                n_points: n,
-            }
-        }
-        Method::Lsq => {
-            let (a, its, conv, active) = lsq_fit(model, &d);
-            if a.iter().any(|v| !v.is_finite()) {
-                return Err(no_conv("non-finite parameters"));
-            }
-            // Weighted residual variance at unit weight (the weights have mean 1; all 1
-            // without per-point uncertainties): point i has variance s2 / wᵢ.
-            let s2 = {
-                let mut mg = [0.0; 4];
-                (0..n)
-                    .map(|i| d.w[i] * (model_eval(model, &a, d.x[i], d.lnx[i], &mut mg) - d.c[i]).powi(2))
-                    .sum::<f64>()
-                    / nf
-            };
-            let mut h = vec![0.0; k * k];
-            let mut gtmp = vec![0.0; k];
-            sse_hess(model, &d, &a, &mut gtmp, &mut h);
-            // Mean ½ weighted SSE Hessian ≈ JᵀWJ/n, so cov = σ²(JᵀWJ)⁻¹ = σ² H⁻¹ / n with
-            // σ² = weighted SSE/(n−k).
-            let s2u = s2 * nf / (nf - k as f64).max(1.0);
-            let std = invert(&h, k)
-                .map(|inv| {
-                    let cov: Vec<f64> = inv.iter().map(|v| v * s2u / nf).collect();
-                    delta_std(|x| denorm(model, x, ls, cs), &a, &cov)
-                })
-                .unwrap_or(vec![None; k]);
-            let sigma = s2.sqrt() * cs;
-            // Gaussian log-likelihood with variance σ²/wᵢ per point.
-            let ll = -0.5 * nf * ((std::f64::consts::TAU * sigma * sigma).ln() + 1.0)
-                + 0.5 * d.w.iter().map(|w| w.ln()).sum::<f64>();
-            let kk = (k + 1) as f64;
-            FitResult {
-                model,
-                method,
-                params: denorm(model, &a, ls, cs),
-                std_errors: std,
-                sigma,
-                eta: None,
-                sigma_std: Some(sigma / (2.0 * nf).sqrt()),
-                eta_std: None,
-                log_likelihood: Some(ll),
-                aic: Some(2.0 * kk - 2.0 * ll),
-                bic: Some(kk * nf.ln() - 2.0 * ll),
-                iterations: its,
-                converged: conv,
-                warnings: fit_warnings(model, method, conv, its, &active),
-                active_bounds: active,
-                n_points: n,
-            }
-        }
-        Method::Emg => {
-            // Starts: (1) the LB curve with σ, η from the residuals above it; (2) the LSQ
-            // curve shifted down by the EMG moment estimate of the exponential part. Both
-            // are moved into the valid region (σ ≥ SIGMA_FLOOR, η ≤ ETA_MAX, valid curve).
-            let (lsq, mut its, _, _) = lsq_fit(model, &d);
-            let mut starts: Vec<Vec<f64>> = Vec::new();
-            let mut mg = [0.0; 4];
-            let resid = |a: &[f64], mg: &mut [f64; 4]| -> Vec<f64> {
-                (0..n).map(|i| d.c[i] - model_eval(model, a, d.x[i], d.lnx[i], mg)).collect()
-            };
-            let hetero = d.hetero();
-            let floor = if hetero { SIGMA_FLOOR_HETERO } else { SIGMA_FLOOR };
-            let (ls_lo, le_hi) = (floor.ln(), ETA_MAX.ln());
-            // With per-point uncertainties the extra spread σ usually ends far under them
-            // (the likelihood is flat in ln σ there): start it at a tenth of the median
-            // uncertainty rather than walking down from the residuals' scale.
-            let m_med = if hetero {
-                let mut m = d.m.clone();
-                m.sort_by(f64::total_cmp);
-                m[m.len() / 2]
-            } else {
-                f64::INFINITY
-            };
-            if let Some(lb) = lb_fit(model, &d) {
-                let r = resid(&lb, &mut mg);
-                let mean = (r.iter().sum::<f64>() / nf).max(1e-3);
-                let mut s = lb.clone();
-                s.push((0.1 * mean).min(0.1 * m_med).ln().max(ls_lo));
-                s.push((1.0 / mean).ln().min(le_hi));
-                starts.push(s);
-            }
-            {
-                let r = resid(&lsq, &mut mg);
-                let m = r.iter().sum::<f64>() / nf;
-                let v = (r.iter().map(|e| (e - m).powi(2)).sum::<f64>() / nf).max(1e-12);
-                let sk = r.iter().map(|e| (e - m).powi(3)).sum::<f64>() / nf / v.powf(1.5);
-                // EMG moments: var = σ² + τ², skewness = 2τ³/var^1.5 (τ = 1/η).
-                let tau = if sk > 0.0 { v.sqrt() * (0.5 * sk).min(0.99).cbrt() } else { 0.2 * v.sqrt() };
-                let sig = (v - tau * tau).max(0.01 * v).sqrt();
-                let mut s = lsq.clone();
-                match model {
-                    ModelKind::Power => s[0] *= (1.0 - tau / (d.c.iter().sum::<f64>() / nf)).max(0.1),
-                    _ => s[0] -= tau,
-                }
-                if !make_feasible(model, &d, &mut s[..k]) {
-                    s[..k].copy_from_slice(&lsq);
-                }
-                s.push(sig.min(0.1 * m_med).ln().max(ls_lo));
-                s.push((1.0 / tau.max(1e-6)).ln().min(le_hi));
-                starts.push(s);
-            }
-            let noise_bounds = |c: &mut Constraints, np: usize| {
-                c.bound(np, np - 2, ls_lo, false, format!("sigma >= floor ({floor} x median c)"));
-                c.bound(np, np - 1, le_hi, true, format!("eta <= {ETA_MAX} / median c"));
-            };
-            let mut best: Option<(OptResult, Vec<String>)> = None;
-            for s in &starts {
-                // The LB start usually lands on the optimum; the second start is for when it
-                // did not converge or stopped on a bound.
-                if best.as_ref().is_some_and(|b| b.0.converged && b.1.is_empty()) {
-                    break;
-                }
-                let (r, names) = solve_constrained(model, &d, s, &noise_bounds, (100, 1e-10, 2.0), &mut |p, g, h| {
-                    emg_nll_hess(model, &d, p, g, h)
-                });
-                its += r.iterations;
-                if r.f.is_finite() && best.as_ref().is_none_or(|b| r.f < b.0.f) {
-                    best = Some((r, names));
-                }
-            }
-            let (best, active) = best.ok_or_else(|| no_conv("likelihood not finite at any start"))?;
-            let x = &best.x;
-            let np = k + 2;
-            let mut h = vec![0.0; np * np];
-            let mut gtmp = vec![0.0; np];
-            emg_nll_hess(model, &d, x, &mut gtmp, &mut h);
-            let to_si = |p: &[f64]| -> Vec<f64> {
-                let mut v = denorm(model, &p[..k], ls, cs);
-                v.push(p[k].exp() * cs);
-                v.push(p[k + 1].exp() / cs);
-                v
-            };
-            let std = invert(&h, np)
-                .map(|inv| {
-                    let cov: Vec<f64> = inv.iter().map(|v| v / nf).collect();
-                    delta_std(to_si, x, &cov)
-                })
-                .unwrap_or(vec![None; np]);
-            let si = to_si(x);
-            // Density in SI: p(c) = p(c̃)/c_s.
-            let ll = -best.f * nf - nf * cs.ln();
-            let kk = np as f64;
-            FitResult {
-                model,
-                method,
-                params: si[..k].to_vec(),
-                std_errors: std[..k].to_vec(),
-                sigma: si[k],
-                eta: Some(si[k + 1]),
-                sigma_std: std[k],
-                eta_std: std[k + 1],
-                log_likelihood: Some(ll),
-                aic: Some(2.0 * kk - 2.0 * ll),
-                bic: Some(kk * nf.ln() - 2.0 * ll),
-                iterations: its,
-                converged: best.converged,
-                // With per-point uncertainties σ at its floor only says the points scatter no
-                // more than they were measured to: nothing to warn about.
-                warnings: fit_warnings(
-                    model,
-                    method,
-                    best.converged,
-                    best.iterations,
-                    &active.iter().filter(|a| !(hetero && a.starts_with("sigma"))).cloned().collect::<Vec<_>>(),
-                ),
-                active_bounds: active,
-                n_points: n,
-            }
-        }
+        Method::Lb => fit_lb(model, &d)?,
+        Method::Lsq => fit_lsq(model, &d)?,
+        Method::Emg => fit_emg(model, &d)?,
     };
     // The constraints make this hold; a failure here is a bug, not a property of the data.
     if let Err(e) = check_physical(model, &result.params) {
-        return Err(no_conv(&format!("the fitted law is not physically valid ({e})")));
+        return Err(no_convergence(method, &format!("the fitted law is not physically valid ({e})")));
     }
     Ok(result)
+}
+
+/// The error of a fit that found nothing usable.
+fn no_convergence(method: Method, reason: &str) -> EstimateError {
+    EstimateError::NoConvergence { method: method.name(), reason: reason.to_string() }
+}
+
+/// RMS of the residuals of the curve `a` (normalised units).
+fn rms_residual(model: ModelKind, d: &Data, a: &[f64]) -> f64 {
+    let n = d.x.len();
+    let mut mg = [0.0; 4];
+    let s: f64 = (0..n).map(|i| (model_eval(model, a, d.x[i], d.lnx[i], &mut mg) - d.c[i]).powi(2)).sum();
+    (s / n as f64).sqrt()
+}
+
+/// The LB fit (thesis §4.3.1): the lower hull of the points under the validity bounds; no
+/// likelihood, no standard errors.
+fn fit_lb(model: ModelKind, d: &Data) -> Result<FitResult, EstimateError> {
+    let method = Method::Lb;
+    let k = model.n_params();
+    let a = lb_fit(model, d).ok_or_else(|| no_convergence(method, "no lower hull edge spans the data"))?;
+    let params = denorm(model, &a, d.ls, d.cs);
+    let cons = curve_constraints(model, d, k, &[]);
+    let active: Vec<String> =
+        (0..cons.len()).filter(|&i| cons.slack(i, &a).abs() <= 1e-12).map(|i| cons.names[i].clone()).collect();
+    Ok(FitResult {
+        model,
+        method,
+        std_errors: vec![None; params.len()],
+        params,
+        sigma: rms_residual(model, d, &a) * d.cs,
+        eta: None,
+        sigma_std: None,
+        eta_std: None,
+        log_likelihood: None,
+        aic: None,
+        bic: None,
+        iterations: 0,
+        converged: true,
+        warnings: fit_warnings(model, method, true, 0, &active),
+        active_bounds: active,
+        n_points: d.x.len(),
+    })
+}
+
+/// The (weighted) least-squares fit with its Gaussian likelihood and delta-method standard
+/// errors.
+fn fit_lsq(model: ModelKind, d: &Data) -> Result<FitResult, EstimateError> {
+    let method = Method::Lsq;
+    let (n, k) = (d.x.len(), model.n_params());
+    let nf = n as f64;
+    let (ls, cs) = (d.ls, d.cs);
+    let LsqFit { params: a, iterations: its, converged: conv, active } = lsq_fit(model, d);
+    if a.iter().any(|v| !v.is_finite()) {
+        return Err(no_convergence(method, "non-finite parameters"));
+    }
+    // Weighted residual variance at unit weight (the weights have mean 1; all 1
+    // without per-point uncertainties): point i has variance s2 / wᵢ.
+    let s2 = {
+        let mut mg = [0.0; 4];
+        (0..n).map(|i| d.w[i] * (model_eval(model, &a, d.x[i], d.lnx[i], &mut mg) - d.c[i]).powi(2)).sum::<f64>() / nf
+    };
+    let mut h = vec![0.0; k * k];
+    let mut gtmp = vec![0.0; k];
+    sse_hess(model, d, &a, &mut gtmp, &mut h);
+    // Mean ½ weighted SSE Hessian ≈ JᵀWJ/n, so cov = σ²(JᵀWJ)⁻¹ = σ² H⁻¹ / n with
+    // σ² = weighted SSE/(n−k).
+    let s2u = s2 * nf / (nf - k as f64).max(1.0);
+    let std = invert(&h, k)
+        .map(|inv| {
+            let cov: Vec<f64> = inv.iter().map(|v| v * s2u / nf).collect();
+            delta_std(|x| denorm(model, x, ls, cs), &a, &cov)
+        })
+        .unwrap_or(vec![None; k]);
+    let sigma = s2.sqrt() * cs;
+    // Gaussian log-likelihood with variance σ²/wᵢ per point.
+    let ll = -0.5 * nf * ((std::f64::consts::TAU * sigma * sigma).ln() + 1.0)
+        + 0.5 * d.w.iter().map(|w| w.ln()).sum::<f64>();
+    let kk = (k + 1) as f64;
+    Ok(FitResult {
+        model,
+        method,
+        params: denorm(model, &a, ls, cs),
+        std_errors: std,
+        sigma,
+        eta: None,
+        sigma_std: Some(sigma / (2.0 * nf).sqrt()),
+        eta_std: None,
+        log_likelihood: Some(ll),
+        aic: Some(2.0 * kk - 2.0 * ll),
+        bic: Some(kk * nf.ln() - 2.0 * ll),
+        iterations: its,
+        converged: conv,
+        warnings: fit_warnings(model, method, conv, its, &active),
+        active_bounds: active,
+        n_points: n,
+    })
+}
+
+/// Bounds of the EMG's noise parameters in normalised log units: ln σ ≥ `ln_sigma_min`
+/// (the σ floor × median c), ln η ≤ `ln_eta_max`.
+#[derive(Clone, Copy, Debug)]
+struct NoiseBounds {
+    ln_sigma_min: f64,
+    ln_eta_max: f64,
+}
+
+/// The EMG maximum-likelihood fit (thesis §4.2.5): the law plus a Gaussian of spread σ and an
+/// exponential of rate η, from two starts, with delta-method standard errors.
+fn fit_emg(model: ModelKind, d: &Data) -> Result<FitResult, EstimateError> {
+    let method = Method::Emg;
+    let (n, k) = (d.x.len(), model.n_params());
+    let nf = n as f64;
+    let (ls, cs) = (d.ls, d.cs);
+    let lsq = lsq_fit(model, d);
+    let mut its = lsq.iterations;
+    let hetero = d.hetero();
+    let floor = if hetero { SIGMA_FLOOR_HETERO } else { SIGMA_FLOOR };
+    let bounds = NoiseBounds { ln_sigma_min: floor.ln(), ln_eta_max: ETA_MAX.ln() };
+    let starts = emg_starts(model, d, &lsq.params, bounds);
+    let noise_bounds = |c: &mut Constraints, np: usize| {
+        c.bound(np, np - 2, bounds.ln_sigma_min, false, format!("sigma >= floor ({floor} x median c)"));
+        c.bound(np, np - 1, bounds.ln_eta_max, true, format!("eta <= {ETA_MAX} / median c"));
+    };
+    let mut best: Option<ConstrainedFit> = None;
+    for s in &starts {
+        // The LB start usually lands on the optimum; the second start is for when it
+        // did not converge or stopped on a bound.
+        if best.as_ref().is_some_and(|b| b.opt.converged && b.active.is_empty()) {
+            break;
+        }
+        let limits = NewtonLimits { max_iter: 100, gtol: 1e-10, max_step: 2.0 };
+        let r = solve_constrained(model, d, s, &noise_bounds, limits, &mut |p, g, h| emg_nll_hess(model, d, p, g, h));
+        its += r.opt.iterations;
+        if r.opt.f.is_finite() && best.as_ref().is_none_or(|b| r.opt.f < b.opt.f) {
+            best = Some(r);
+        }
+    }
+    let ConstrainedFit { opt: best, active } =
+        best.ok_or_else(|| no_convergence(method, "likelihood not finite at any start"))?;
+    let x = &best.x;
+    let np = k + 2;
+    let mut h = vec![0.0; np * np];
+    let mut gtmp = vec![0.0; np];
+    emg_nll_hess(model, d, x, &mut gtmp, &mut h);
+    let to_si = |p: &[f64]| -> Vec<f64> {
+        let mut v = denorm(model, &p[..k], ls, cs);
+        v.push(p[k].exp() * cs);
+        v.push(p[k + 1].exp() / cs);
+        v
+    };
+    let std = invert(&h, np)
+        .map(|inv| {
+            let cov: Vec<f64> = inv.iter().map(|v| v / nf).collect();
+            delta_std(to_si, x, &cov)
+        })
+        .unwrap_or(vec![None; np]);
+    let si = to_si(x);
+    // Density in SI: p(c) = p(c̃)/c_s.
+    let ll = -best.f * nf - nf * cs.ln();
+    let kk = np as f64;
+    // With per-point uncertainties σ at its floor only says the points scatter no more than
+    // they were measured to: nothing to warn about.
+    let warn_on: Vec<String> = active.iter().filter(|a| !(hetero && a.starts_with("sigma"))).cloned().collect();
+    Ok(FitResult {
+        model,
+        method,
+        params: si[..k].to_vec(),
+        std_errors: std[..k].to_vec(),
+        sigma: si[k],
+        eta: Some(si[k + 1]),
+        sigma_std: std[k],
+        eta_std: std[k + 1],
+        log_likelihood: Some(ll),
+        aic: Some(2.0 * kk - 2.0 * ll),
+        bic: Some(kk * nf.ln() - 2.0 * ll),
+        iterations: its,
+        converged: best.converged,
+        warnings: fit_warnings(model, method, best.converged, best.iterations, &warn_on),
+        active_bounds: active,
+        n_points: n,
+    })
+}
+
+/// The EMG's starts, each (law, ln σ, ln η) in normalised units and inside the valid region
+/// (σ ≥ floor, η ≤ ETA_MAX, valid curve): (1) the LB curve with σ, η from the residuals above
+/// it; (2) the LSQ curve `lsq` shifted down by the EMG moment estimate of the exponential
+/// part.
+fn emg_starts(model: ModelKind, d: &Data, lsq: &[f64], bounds: NoiseBounds) -> Vec<Vec<f64>> {
+    let (n, k) = (d.x.len(), model.n_params());
+    let nf = n as f64;
+    let (ls_lo, le_hi) = (bounds.ln_sigma_min, bounds.ln_eta_max);
+    let mut starts: Vec<Vec<f64>> = Vec::new();
+    let mut mg = [0.0; 4];
+    let resid = |a: &[f64], mg: &mut [f64; 4]| -> Vec<f64> {
+        (0..n).map(|i| d.c[i] - model_eval(model, a, d.x[i], d.lnx[i], mg)).collect()
+    };
+    // With per-point uncertainties the extra spread σ usually ends far under them
+    // (the likelihood is flat in ln σ there): start it at a tenth of the median
+    // uncertainty rather than walking down from the residuals' scale.
+    let m_med = if d.hetero() {
+        let mut m = d.m.clone();
+        m.sort_by(f64::total_cmp);
+        m[m.len() / 2]
+    } else {
+        f64::INFINITY
+    };
+    if let Some(lb) = lb_fit(model, d) {
+        let r = resid(&lb, &mut mg);
+        let mean = (r.iter().sum::<f64>() / nf).max(1e-3);
+        let mut s = lb.clone();
+        s.push((0.1 * mean).min(0.1 * m_med).ln().max(ls_lo));
+        s.push((1.0 / mean).ln().min(le_hi));
+        starts.push(s);
+    }
+    let r = resid(lsq, &mut mg);
+    let m = r.iter().sum::<f64>() / nf;
+    let v = (r.iter().map(|e| (e - m).powi(2)).sum::<f64>() / nf).max(1e-12);
+    let sk = r.iter().map(|e| (e - m).powi(3)).sum::<f64>() / nf / v.powf(1.5);
+    // EMG moments: var = σ² + τ², skewness = 2τ³/var^1.5 (τ = 1/η).
+    let tau = if sk > 0.0 { v.sqrt() * (0.5 * sk).min(0.99).cbrt() } else { 0.2 * v.sqrt() };
+    let sig = (v - tau * tau).max(0.01 * v).sqrt();
+    let mut s = lsq.to_vec();
+    match model {
+        ModelKind::Power => s[0] *= (1.0 - tau / (d.c.iter().sum::<f64>() / nf)).max(0.1),
+        _ => s[0] -= tau,
+    }
+    if !make_feasible(model, d, &mut s[..k]) {
+        s[..k].copy_from_slice(lsq);
+    }
+    s.push(sig.min(0.1 * m_med).ln().max(ls_lo));
+    s.push((1.0 / tau.max(1e-6)).ln().min(le_hi));
+    starts.push(s);
+    starts
 }
 
 #[cfg(test)]
