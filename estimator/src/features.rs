@@ -49,7 +49,7 @@ use realfft::num_complex::Complex64 as C64;
 use realfft::RealFftPlanner;
 use serde::{Deserialize, Serialize};
 
-use crate::EstimateError;
+use crate::{linalg, EstimateError};
 
 /// One damped sinusoid. Serialises as `{"freq_hz", "decay_per_s", "amplitude",
 /// "sigma_freq_hz", "sigma_decay_per_s", "single_exponential", "early_decay_per_s"}`.
@@ -352,44 +352,6 @@ fn mode_spectrum(ev: &ModelEval, zp: &ZPow, b: C64, k: usize) -> (C64, [C64; 4])
     (s, [d_omega, d_d * zp.d, g1 + g2, i * (g1 - g2)])
 }
 
-/// Solves a small dense system A x = b (row-major `a`, n × n; the solution replaces `b`) by
-/// Gaussian elimination with partial pivoting (an LU; callers pass symmetric positive
-/// definite normal matrices, but any non-singular A works). False if A is singular.
-pub(crate) fn solve_small(a: &mut [f64], b: &mut [f64], n: usize) -> bool {
-    for col in 0..n {
-        let mut piv = col;
-        for r in col + 1..n {
-            if a[r * n + col].abs() > a[piv * n + col].abs() {
-                piv = r;
-            }
-        }
-        if a[piv * n + col].abs() < 1e-300 {
-            return false;
-        }
-        if piv != col {
-            for c in 0..n {
-                a.swap(col * n + c, piv * n + c);
-            }
-            b.swap(col, piv);
-        }
-        for r in col + 1..n {
-            let f = a[r * n + col] / a[col * n + col];
-            for c in col..n {
-                a[r * n + c] -= f * a[col * n + c];
-            }
-            b[r] -= f * b[col];
-        }
-    }
-    for col in (0..n).rev() {
-        let mut s = b[col];
-        for c in col + 1..n {
-            s -= a[col * n + c] * b[c];
-        }
-        b[col] = s / a[col * n + col];
-    }
-    b.iter().all(|v| v.is_finite())
-}
-
 /// Best complex amplitude for fixed (ω, d) (variable projection) and the resulting cost.
 fn project_amplitude(ev: &ModelEval, target: &[C64], k0: usize, omega: f64, d: f64) -> (C64, f64) {
     let mut ata = [0.0; 4];
@@ -410,7 +372,7 @@ fn project_amplitude(ev: &ModelEval, target: &[C64], k0: usize, omega: f64, d: f
     ata[2] = ata[1];
     let mut a = ata;
     let mut b = atb;
-    if !solve_small(&mut a, &mut b, 2) {
+    if !linalg::solve_small(&mut a, &mut b, 2) {
         return (C64::new(0.0, 0.0), tt);
     }
     let cost = tt - (b[0] * atb[0] + b[1] * atb[1]);
@@ -480,7 +442,7 @@ fn lm_fit_multi(
                 a[i * np + i] += mu * jtj[i * np + i].max(1e-300);
             }
             let mut step = jtr.clone();
-            if !solve_small(&mut a, &mut step, np) {
+            if !linalg::solve_small(&mut a, &mut step, np) {
                 mu *= 10.0;
                 continue;
             }
@@ -1242,31 +1204,4 @@ fn subtract(r: &mut [f64], m: &Mode, fs: f64, sign: f64) -> f64 {
         e += chunk.iter().map(|v| v * v).sum::<f64>();
     }
     e
-}
-
-#[cfg(test)]
-mod tests {
-    use super::solve_small;
-
-    /// `solve_small` against a known solution: the 4 × 4 Hilbert matrix (condition ≈ 1.6e4,
-    /// symmetric positive definite) and a non-symmetric system needing a row swap; a singular
-    /// matrix is refused.
-    #[test]
-    fn solve_small_finds_known_solutions_and_refuses_singular_systems() {
-        let n = 4;
-        let x_true = [1.0, -2.0, 3.0, 0.5];
-        let hilbert: Vec<f64> = (0..n * n).map(|k| 1.0 / ((k / n + k % n + 1) as f64)).collect();
-        let swap = vec![0.0, 2.0, 1.0, 3.0, 1.0, 1.0, 0.0, 2.0, 4.0, 0.0, 1.0, 1.0, 2.0, 3.0, 5.0, 0.0];
-        for (a0, tol) in [(hilbert, 1e-9), (swap, 1e-12)] {
-            let mut b: Vec<f64> = (0..n).map(|r| (0..n).map(|c| a0[r * n + c] * x_true[c]).sum()).collect();
-            let mut a = a0.clone();
-            assert!(solve_small(&mut a, &mut b, n));
-            for (got, want) in b.iter().zip(x_true) {
-                assert!((got - want).abs() < tol, "{b:?}");
-            }
-        }
-        let mut singular = vec![1.0, 2.0, 2.0, 4.0];
-        let mut b = vec![1.0, 2.0];
-        assert!(!solve_small(&mut singular, &mut b, 2));
-    }
 }

@@ -10,7 +10,7 @@
 use errorfunctions::RealErrorFunctions;
 use serde::{Deserialize, Serialize};
 
-use crate::features::solve_small;
+use crate::linalg::{invert, solve_small};
 use crate::optim::{newton, Constraints, OptResult};
 use crate::EstimateError;
 
@@ -946,23 +946,6 @@ fn starts_fallback(kind: ModelKind) -> Vec<f64> {
         ModelKind::Hybrid => vec![1.0, 0.0, 1.0],
         ModelKind::Caughey => vec![1.0, 0.0, 0.0],
     }
-}
-
-/// Inverse of a small matrix (None if singular).
-fn invert(h: &[f64], n: usize) -> Option<Vec<f64>> {
-    let mut inv = vec![0.0; n * n];
-    for c in 0..n {
-        let mut a = h.to_vec();
-        let mut b = vec![0.0; n];
-        b[c] = 1.0;
-        if !solve_small(&mut a, &mut b, n) {
-            return None;
-        }
-        for r in 0..n {
-            inv[r * n + c] = b[r];
-        }
-    }
-    Some(inv)
 }
 
 /// Standard errors in SI through the delta method: `to_si` maps the full normalised

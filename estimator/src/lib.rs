@@ -25,6 +25,7 @@
 pub mod error;
 pub mod features;
 pub mod fit;
+pub mod linalg;
 pub mod object;
 pub mod optim;
 pub mod segment;

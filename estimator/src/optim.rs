@@ -10,6 +10,8 @@
 //! a grid of the audible range), for which an active-set Newton method converges in ~10
 //! iterations and keeps an EMG fit of 1,000 points under the 2 ms target.
 
+use crate::linalg;
+
 /// Outcome of [`bfgs`].
 #[derive(Clone, Debug)]
 pub struct OptResult {
@@ -146,29 +148,6 @@ pub fn bfgs<F: FnMut(&[f64], &mut [f64]) -> f64>(mut f: F, x0: &[f64], max_iter:
         }
     }
     OptResult { x, f: fx, iterations: it, converged, active: Vec::new() }
-}
-
-/// Cholesky factorisation in place (lower triangle); false if not positive definite.
-fn cholesky(a: &mut [f64], n: usize) -> bool {
-    for j in 0..n {
-        let mut d = a[j * n + j];
-        for k in 0..j {
-            d -= a[j * n + k] * a[j * n + k];
-        }
-        if d.is_nan() || d <= 0.0 || !d.is_finite() {
-            return false;
-        }
-        let d = d.sqrt();
-        a[j * n + j] = d;
-        for i in j + 1..n {
-            let mut s = a[i * n + j];
-            for k in 0..j {
-                s -= a[i * n + k] * a[j * n + k];
-            }
-            a[i * n + j] = s / d;
-        }
-    }
-    true
 }
 
 /// Linear inequality constraints `rows[i] · x ≥ rhs[i]` (row-major, `n` columns).
@@ -458,7 +437,7 @@ fn multipliers(cons: &Constraints, work: &[usize], g: &[f64], n: usize) -> (Vec<
         }
         b[r] = (0..n).map(|k| cons.rows[i][k] * g[k]).sum();
     }
-    if !crate::features::solve_small(&mut a, &mut b, m) {
+    if !linalg::solve_small(&mut a, &mut b, m) {
         return (vec![0.0; m], g.to_vec());
     }
     let mut pg = g.to_vec();
@@ -481,7 +460,7 @@ fn kkt_step(h: &[f64], g: &[f64], cons: &Constraints, work: &[usize], n: usize) 
         for i in 0..n {
             a[i * n + i] += shift;
         }
-        if cholesky(&mut a, n) {
+        if linalg::cholesky(&mut a, n) {
             break;
         }
         shift = if shift == 0.0 { 1e-8 * scale } else { shift * 10.0 };
@@ -503,12 +482,71 @@ fn kkt_step(h: &[f64], g: &[f64], cons: &Constraints, work: &[usize], n: usize) 
             k[j * nn + n + r] = cons.rows[ci][j];
         }
     }
-    (crate::features::solve_small(&mut k, &mut rhs, nn).then(|| rhs[..n].to_vec()), shift > 0.0)
+    (linalg::solve_small(&mut k, &mut rhs, nn).then(|| rhs[..n].to_vec()), shift > 0.0)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// ½xᵀQx − bᵀx with its gradient and Hessian.
+    fn quadratic(q: [[f64; 2]; 2], b: [f64; 2]) -> impl FnMut(&[f64], &mut [f64], &mut [f64]) -> f64 {
+        move |x, g, h| {
+            for i in 0..2 {
+                g[i] = q[i][0] * x[0] + q[i][1] * x[1] - b[i];
+                for j in 0..2 {
+                    h[i * 2 + j] = q[i][j];
+                }
+            }
+            0.5 * (x[0] * (q[0][0] * x[0] + q[0][1] * x[1]) + x[1] * (q[1][0] * x[0] + q[1][1] * x[1]))
+                - b[0] * x[0]
+                - b[1] * x[1]
+        }
+    }
+
+    /// Rosenbrock's function with its gradient and Hessian (not convex).
+    fn rosenbrock_hess(x: &[f64], g: &mut [f64], h: &mut [f64]) -> f64 {
+        let (a, b) = (x[0], x[1]);
+        g[0] = -2.0 * (1.0 - a) - 400.0 * a * (b - a * a);
+        g[1] = 200.0 * (b - a * a);
+        h.copy_from_slice(&[2.0 - 400.0 * (b - 3.0 * a * a), -400.0 * a, -400.0 * a, 200.0]);
+        (1.0 - a).powi(2) + 100.0 * (b - a * a).powi(2)
+    }
+
+    /// `newton` against closed-form optima: an unconstrained quadratic (x = Q⁻¹b = (1/11,
+    /// 7/11)), the same with a bound that binds (y ≤ 0.5 → ∂f/∂x = 4x + y − 1 = 0 gives
+    /// x = (0.125, 0.5)), a general inequality x + y ≥ 1 on |x|² (→ (½, ½)), and Rosenbrock's
+    /// non-convex valley (→ (1, 1), which needs the shifted Hessian).
+    #[test]
+    fn newton_reaches_closed_form_optima_with_and_without_constraints() {
+        let q = [[4.0, 1.0], [1.0, 3.0]];
+        let free = newton(quadratic(q, [1.0, 2.0]), &[3.0, -2.0], &Constraints::default(), 50, 1e-12, f64::INFINITY);
+        assert!(free.converged && free.active.is_empty(), "{free:?}");
+        assert!((free.x[0] - 1.0 / 11.0).abs() < 1e-12 && (free.x[1] - 7.0 / 11.0).abs() < 1e-12, "{free:?}");
+
+        let mut cons = Constraints::default();
+        cons.bound(2, 1, 0.5, true, "y <= 0.5");
+        let bound = newton(quadratic(q, [1.0, 2.0]), &[0.0, 0.0], &cons, 50, 1e-12, f64::INFINITY);
+        assert!(bound.converged && bound.active == vec![0], "{bound:?}");
+        assert!((bound.x[0] - 0.125).abs() < 1e-12 && (bound.x[1] - 0.5).abs() < 1e-12, "{bound:?}");
+
+        let mut cons = Constraints::default();
+        cons.push(vec![1.0, 1.0], 1.0, "x + y >= 1");
+        let norm = newton(quadratic([[2.0, 0.0], [0.0, 2.0]], [0.0, 0.0]), &[2.0, 3.0], &cons, 50, 1e-12, 1.0);
+        assert!(norm.converged && norm.active == vec![0], "{norm:?}");
+        assert!((norm.x[0] - 0.5).abs() < 1e-10 && (norm.x[1] - 0.5).abs() < 1e-10, "{norm:?}");
+
+        let r = newton(rosenbrock_hess, &[-1.2, 1.0], &Constraints::default(), 200, 1e-10, 1.0);
+        assert!(r.converged && (r.x[0] - 1.0).abs() < 1e-8 && (r.x[1] - 1.0).abs() < 1e-8, "{r:?}");
+    }
+
+    /// An iteration cap that stops Newton early is reported as not converged, never as an
+    /// optimum.
+    #[test]
+    fn newton_says_when_it_ran_out_of_iterations() {
+        let r = newton(rosenbrock_hess, &[-1.2, 1.0], &Constraints::default(), 2, 1e-10, 1.0);
+        assert!(!r.converged && r.iterations <= 2, "{r:?}");
+    }
 
     #[test]
     fn rosenbrock() {
