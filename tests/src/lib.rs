@@ -136,3 +136,57 @@ pub fn peak(x: &[f32]) -> f32 {
 pub fn db(x: f64) -> f64 {
     20.0 * x.log10()
 }
+
+/// A mode as the science says it must ring, computed without the engine: frequency (Hz) and
+/// decay rate (s⁻¹).
+#[derive(Clone, Copy, Debug)]
+pub struct ExpectedMode {
+    /// f = √(λ s)/2π.
+    pub freq_hz: f64,
+    /// d = c(λ s)/2 with the material file's Rayleigh law c = α₁ + α₂λ (Ren 2013 eq. 6).
+    pub decay_per_s: f64,
+}
+
+/// Every mode of factory bank `object` played at MIDI `key` with the default *Keys tune the
+/// object* (the lowest mode at the key's equal-tempered pitch, A4 = 440 Hz: λ scale
+/// s = (2π f_key)²/λ₀) and factory material `material`, whose file must hold a Rayleigh law.
+/// Read from the bank's λ and the material's JSON file, not from the engine: the independent
+/// truth the process tests compare the rendered sound with.
+///
+/// # Panics
+/// If the bank or the material file is missing or not Rayleigh (a test bug).
+pub fn expected_modes(object: &str, material: &str, key: u8) -> Vec<ExpectedMode> {
+    let lib = struck::library::Library::factory();
+    let bank = &lib.banks[lib.bank_index(object).expect("factory bank")];
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../presets/factory/materials")
+        .join(format!("{material}.json"));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).expect("material file")).expect("material JSON");
+    assert_eq!(json["damping"]["model"], "rayleigh", "{material}: not a Rayleigh material");
+    let p = &json["damping"]["params"];
+    let (alpha1, alpha2) = (p[0].as_f64().expect("alpha1"), p[1].as_f64().expect("alpha2"));
+    let lambda0 = bank.lambdas.iter().copied().fold(f64::INFINITY, f64::min);
+    let f_key = 440.0 * 2f64.powf((f64::from(key) - 69.0) / 12.0);
+    let scale = (2.0 * PI * f_key).powi(2) / lambda0;
+    bank.lambdas
+        .iter()
+        .map(|&l| ExpectedMode {
+            freq_hz: (l * scale).sqrt() / (2.0 * PI),
+            decay_per_s: 0.5 * (alpha1 + alpha2 * l * scale),
+        })
+        .collect()
+}
+
+/// The expected mode nearest `freq_hz`, and its distance in cents.
+///
+/// # Panics
+/// If `modes` is empty.
+pub fn nearest_expected(modes: &[ExpectedMode], freq_hz: f64) -> (ExpectedMode, f64) {
+    let m = modes
+        .iter()
+        .copied()
+        .min_by(|a, b| cents(a.freq_hz, freq_hz).abs().total_cmp(&cents(b.freq_hz, freq_hz).abs()))
+        .expect("modes");
+    (m, cents(m.freq_hz, freq_hz))
+}
