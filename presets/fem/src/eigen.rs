@@ -443,14 +443,10 @@ fn orthogonalise(
     for pass in 0..2 {
         let t = Instant::now();
         if locked.ncols() > 0 {
-            let mut c = Mat::<f64>::zeros(locked.ncols(), b);
-            matmul(c.as_mut(), Accum::Replace, locked.transpose(), z.as_ref(), 1.0, STEP_PAR);
-            matmul(w.as_mut(), Accum::Add, locked, c.as_ref(), -1.0, STEP_PAR);
+            subtract_projection(locked, w, z.as_ref());
         }
         if v.ncols() > 0 {
-            let mut c = Mat::<f64>::zeros(v.ncols(), b);
-            matmul(c.as_mut(), Accum::Replace, v.transpose(), z.as_ref(), 1.0, STEP_PAR);
-            matmul(w.as_mut(), Accum::Add, v, c.as_ref(), -1.0, STEP_PAR);
+            let c = subtract_projection(v, w, z.as_ref());
             if pass == 1 {
                 matmul(z.as_mut(), Accum::Add, mv, c.as_ref(), -1.0, STEP_PAR);
             }
@@ -462,6 +458,15 @@ fn orthogonalise(
         }
     }
     total
+}
+
+/// W ← W − X(XᵀZ) for M-orthonormal columns X, with Z = MW; returns the coefficients XᵀZ
+/// (one classical Gram–Schmidt projection).
+fn subtract_projection(x: MatRef<'_, f64>, w: &mut Mat<f64>, z: MatRef<'_, f64>) -> Mat<f64> {
+    let mut c = Mat::<f64>::zeros(x.ncols(), w.ncols());
+    matmul(c.as_mut(), Accum::Replace, x.transpose(), z, 1.0, STEP_PAR);
+    matmul(w.as_mut(), Accum::Add, x, c.as_ref(), -1.0, STEP_PAR);
+    c
 }
 
 /// Cholesky-QR in the M inner product with Z = MW: W = Q R, QᵀMQ = I, R upper triangular;
@@ -738,195 +743,35 @@ fn gap_point(sorted: &[f64], i: usize) -> f64 {
 /// As [`solve`].
 pub fn solve_sliced(sys: &System, opts: &EigenOptions, progress: &dyn Fn(&str, f32)) -> Result<EigenResult, FemError> {
     let t0 = Instant::now();
-    let n = sys.n;
     let mut prof = Profile::default();
-    let b = opts.block.clamp(1, n.max(1));
-    let nev = opts.nev.min(n / 2);
-    let lmax = opts.lambda_max.unwrap_or(f64::INFINITY);
-    let cap_max = (opts.max_basis.min(n / 2) / b * b).max(4 * b);
-    if 4 * b > n / 2 || nev == 0 {
-        return Err(FemError::Mesh(format!(
-            "the mesh has only {n} degrees of freedom; too few for {} modes, use a finer resolution",
-            opts.nev
-        )));
-    }
-    let slice = opts.slice.max(2 * b);
-    let mut fac = Factor::new(sys, opts.max_factor_bytes, &mut prof)?;
-    let mut mass = Mass { sys, xr: Vec::new(), yr: Vec::new() };
-    let mut locked = Locked { lambdas: Vec::new(), vecs: Mat::zeros(n, nev + slice) };
+    let plan = SlicePlan::new(sys.n, opts)?;
+    let fac = Factor::new(sys, opts.max_factor_bytes, &mut prof)?;
+    let mut sl = Slicing::new(sys, fac, plan, prof);
     progress("factorise", 0.0);
-    fac.factor(opts.sigma, &mut prof)?;
+    sl.fac.factor(opts.sigma, &mut sl.prof)?;
     progress("eigen", 0.0);
-    let mut seed = 1u64;
-    let mut first = true;
-    let mut verifying = false;
-    let mut ran_here = false;
-    let mut last: Option<RunOut> = None;
-    let mut stalls = 0;
-    let max_runs = 8 + 4 * nev.div_ceil(slice / 2);
     loop {
-        let sigma = fac.sigma;
-        let nu = fac.negative;
-        let below = locked.count_below(sigma);
-        let need = nu.saturating_sub(below);
-        // A verification shift sits just above the last wanted eigenvalue.
-        if need == 0 && (nu >= nev || sigma >= lmax || verifying) {
-            break;
+        let at = sl.at_shift();
+        match sl.next_step(&at) {
+            Step::Done => break,
+            Step::Run { want_above } => {
+                sl.run_here(&at, want_above, t0)?;
+                progress("eigen", (sl.locked.len() as f32 / plan.nev as f32).min(1.0));
+            }
+            Step::Advance => sl.advance(&at)?,
         }
-        let want_above = if verifying {
-            0
-        } else if first {
-            // The first shift sits below the whole spectrum (one-sided): take the rigid
-            // modes and the first few elastic ones, enough to measure the density.
-            (slice / 2).min(nev - nu + 2)
-        } else {
-            (slice / 2).min(nev.saturating_sub(nu) + 2)
-        };
-        if need > 0 || (!ran_here && want_above > 0) {
-            if prof.runs >= max_runs {
-                return Err(FemError::NotConverged {
-                    converged: locked.count_below(lmax).min(nev),
-                    wanted: nev,
-                    basis: prof.max_basis,
-                });
-            }
-            // Eigenvalues as close above σ as the needed ones below converge alongside them.
-            // A repeated run at the same shift gets a larger basis.
-            // Eigenvalues as close above σ as the needed ones below converge alongside them;
-            // the basis grows past this first allocation if needed.
-            let cap = ((5 * (need + want_above.max(need)) / 2 + 4 * b).div_ceil(b) * b).clamp(6 * b, cap_max);
-            let goal = Goal { need_below: need, want_above, lambda_stop: lmax, cap, cap_max };
-            let before = locked.len();
-            let out = run(&fac, &mut mass, &mut locked, &goal, b, opts.tol, &mut seed, &mut prof)?;
-            if debug() {
-                eprintln!(
-                    "eigen: run {} sigma {sigma:.4e} nu {nu} locked-below {below} need {need} want {want_above} cap {cap} -> found below {} locked {} ritz_above {:?} steps {} t {:.1}s",
-                    prof.runs, out.below, locked.len(), &out.ritz_above[..out.ritz_above.len().min(3)], prof.steps, t0.elapsed().as_secs_f64()
-                );
-            }
-            stalls = if locked.len() == before && out.below == 0 { stalls + 1 } else { 0 };
-            if stalls >= 3 {
-                return Err(FemError::NotConverged {
-                    converged: locked.len().min(nev),
-                    wanted: nev,
-                    basis: prof.max_basis,
-                });
-            }
-            ran_here = true;
-            last = Some(out);
-            progress("eigen", (locked.len() as f32 / nev as f32).min(1.0));
-            continue;
-        }
-        // Everything below σ is locked; move the shift up.
-        let out = last.take().unwrap_or(RunOut { below: 0, ritz_above: Vec::new() });
-        let mut above: Vec<f64> = locked.lambdas.iter().copied().filter(|&l| l >= sigma).collect();
-        above.sort_by(f64::total_cmp);
-        // The chain's end: locked values above σ that lie below the first unconverged Ritz
-        // value are complete as far as this run can tell (the next Sturm count checks it).
-        let r_min = out.ritz_above.first().copied().unwrap_or(f64::INFINITY);
-        let chain: Vec<f64> = above.iter().copied().filter(|&l| l < r_min).collect();
-        let c = chain.len();
-        let next = if nu + c > nev || chain.last().is_some_and(|&l| l >= lmax) {
-            // Verification shift between the last wanted eigenvalue and the next one.
-            verifying = true;
-            let idx = (nev - nu - 1).min(c - 1);
-            let idx = match chain.iter().position(|&l| l > lmax) {
-                Some(0) => usize::MAX,
-                Some(p) if p - 1 < idx => p - 1,
-                _ => idx,
-            };
-            if idx == usize::MAX {
-                // Every eigenvalue up to λ_max lies below σ or in the gap before the chain.
-                0.5 * (sigma + chain[0])
-            } else if idx + 1 < c {
-                gap_point(&chain, idx)
-            } else if r_min.is_finite() {
-                0.5 * (chain[idx] + r_min)
-            } else {
-                chain[idx] + 1e-3 * chain[idx].abs()
-            }
-        } else if c >= 4 {
-            // Density from the upper half of the chain; place the shift so about half a
-            // slice lies between the chain's end and the shift.
-            let u = chain[c - 1];
-            let lo = chain[c / 2];
-            let rho = (c - c / 2 - 1).max(1) as f64 / (u - lo).max(1e-300);
-            let target = u + 0.5 * slice as f64 / rho;
-            // Prefer the midpoint of the widest Ritz-value gap near the target, so σ stays
-            // well away from every eigenvalue (a σ inside a near-degenerate pair would make
-            // K − σM nearly singular).
-            let mut est: Vec<f64> = out.ritz_above.iter().copied().filter(|&l| l > u).collect();
-            est.insert(0, u);
-            let mut best = target;
-            let mut widest = 0.0;
-            for win in est.windows(2) {
-                let m = 0.5 * (win[0] + win[1]);
-                if (m - target).abs() < 0.25 * (target - u) && win[1] - win[0] > widest {
-                    widest = win[1] - win[0];
-                    best = m;
-                }
-            }
-            best
-        } else {
-            let u = chain.last().copied().unwrap_or(sigma);
-            u + (u - sigma).abs().max(sigma.abs())
-        };
-        if !(next > sigma) {
-            return Err(FemError::NotConverged {
-                converged: locked.len().min(nev),
-                wanted: nev,
-                basis: prof.max_basis,
-            });
-        }
-        first = false;
-        ran_here = false;
-        fac.factor(next, &mut prof)?;
     }
-
-    // The lowest `want` locked pairs, ascending.
+    let Slicing { fac, locked, mut prof, .. } = sl;
     let t = Instant::now();
-    let mut order: Vec<usize> = (0..locked.len()).collect();
-    order.sort_by(|&i, &j| locked.lambdas[i].total_cmp(&locked.lambdas[j]));
-    let want =
-        order.iter().take_while(|&&i| locked.lambdas[i] <= lmax).count().saturating_add(1).min(nev).min(order.len());
-    let lambdas: Vec<f64> = order[..want].iter().map(|&i| locked.lambdas[i]).collect();
-    let mut vectors = Mat::<f64>::zeros(n, want);
-    for (j, &i) in order[..want].iter().enumerate() {
-        vectors.as_mut().col_mut(j).copy_from(locked.vecs.col(i));
-    }
+    let pairs = lowest_pairs(&locked, &plan, sys.n);
     drop(locked);
     drop(fac);
     prof.lock_seconds += t.elapsed().as_secs_f64();
-    // Residual check on the original problem (guards the unpivoted LDLᵀ of indefinite
-    // K − σM: an inaccurate solve would show here).
-    let t = Instant::now();
-    let (res, rq, corrections) = residual(sys, &lambdas, vectors.as_ref(), opts.sigma.abs(), b);
-    prof.max_residual = res;
-    prof.max_rayleigh_error = rq;
-    prof.check_seconds = t.elapsed().as_secs_f64();
-    prof.total_seconds = t0.elapsed().as_secs_f64();
-    // A relative error of 1e-4 in λ is 0.09 cents: beyond it the factorisation was broken.
-    // Below it, each λ is replaced by its Rayleigh quotient φᵀKφ/φᵀMφ, whose error is
-    // second order in the eigenvector's (Parlett, The Symmetric Eigenvalue Problem, §4.6).
-    if !(rq < 1e-4) {
-        return Err(FemError::Factorization(format!(
-            "eigenpairs failed the Rayleigh-quotient check ({rq:.1e}); the shifted factorisation was inaccurate, try another resolution"
-        )));
-    }
-    let refined: Vec<f64> = lambdas.iter().zip(&corrections).map(|(l, d)| l + d).collect();
-    // Keep ascending order (a near-degenerate pair may swap by the correction).
-    let mut order: Vec<usize> = (0..refined.len()).collect();
-    order.sort_by(|&i, &j| refined[i].total_cmp(&refined[j]));
-    let lambdas: Vec<f64> = order.iter().map(|&i| refined[i]).collect();
-    let vectors = if order.iter().enumerate().all(|(k, &i)| k == i) {
-        vectors
-    } else {
-        Mat::from_fn(n, order.len(), |r, j| vectors[(r, order[j])])
-    };
+    let pairs = check_and_refine(sys, pairs, opts.sigma, plan.b, &mut prof, t0)?;
     LAST_PROFILE.with(|p| *p.borrow_mut() = prof.clone());
     Ok(EigenResult {
-        lambdas,
-        vectors,
+        lambdas: pairs.lambdas,
+        vectors: pairs.vectors,
         iterations: prof.steps,
         basis: prof.max_basis,
         factor_seconds: prof.symbolic_seconds + prof.numeric_seconds,
@@ -935,11 +780,359 @@ pub fn solve_sliced(sys: &System, opts: &EigenOptions, progress: &dyn Fn(&str, f
     })
 }
 
+/// The sizes of a spectrum-slicing solve, fixed by the options and the problem size.
+#[derive(Clone, Copy)]
+struct SlicePlan {
+    /// Block size.
+    b: usize,
+    /// Eigenpairs wanted (at most half the DOFs).
+    nev: usize,
+    /// Largest eigenvalue wanted (∞ for none).
+    lmax: f64,
+    /// Largest basis of one run (a multiple of the block size).
+    cap_max: usize,
+    /// Eigenvalues each shift after the first aims at.
+    slice: usize,
+    /// Most Lanczos runs in all.
+    max_runs: usize,
+    /// Convergence tolerance of the Ritz pairs.
+    tol: f64,
+}
+
+impl SlicePlan {
+    /// The plan for `n` DOFs; an error if they are too few for the block size or the modes.
+    fn new(n: usize, opts: &EigenOptions) -> Result<SlicePlan, FemError> {
+        let b = opts.block.clamp(1, n.max(1));
+        let nev = opts.nev.min(n / 2);
+        let lmax = opts.lambda_max.unwrap_or(f64::INFINITY);
+        let cap_max = (opts.max_basis.min(n / 2) / b * b).max(4 * b);
+        if 4 * b > n / 2 || nev == 0 {
+            return Err(FemError::Mesh(format!(
+                "the mesh has only {n} degrees of freedom; too few for {} modes, use a finer resolution",
+                opts.nev
+            )));
+        }
+        let slice = opts.slice.max(2 * b);
+        let max_runs = 8 + 4 * nev.div_ceil(slice / 2);
+        Ok(SlicePlan { b, nev, lmax, cap_max, slice, max_runs, tol: opts.tol })
+    }
+}
+
+/// Which kind of shift the slicing is at.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Phase {
+    /// The first shift, below the whole spectrum.
+    First,
+    /// A shift placed beyond the locked eigenvalues from their observed density.
+    Advancing,
+    /// A verification shift just above the last wanted eigenvalue: only what its Sturm count
+    /// says lies below it is still to be found.
+    Verifying,
+}
+
+/// The Sturm count at the current shift against what is locked.
+struct AtShift {
+    /// The shift σ (rad²/s²).
+    sigma: f64,
+    /// Eigenvalues below σ (negative pivots of K − σM).
+    nu: usize,
+    /// Locked eigenvalues below σ.
+    below: usize,
+    /// Eigenvalues below σ not yet locked.
+    need: usize,
+}
+
+/// What to do at the current shift.
+enum Step {
+    /// Every wanted eigenvalue is locked.
+    Done,
+    /// A Lanczos run at this shift, also after `want_above` eigenvalues above it.
+    Run {
+        /// Contiguous eigenvalues above σ wanted.
+        want_above: usize,
+    },
+    /// Everything below σ is locked: move the shift up.
+    Advance,
+}
+
+/// The state of a spectrum-slicing solve between Lanczos runs.
+struct Slicing<'a> {
+    /// The solve's sizes.
+    plan: SlicePlan,
+    /// LDLᵀ of K − σM at the current shift.
+    fac: Factor<'a>,
+    /// M products.
+    mass: Mass<'a>,
+    /// Converged eigenpairs.
+    locked: Locked,
+    /// Timings and counters.
+    prof: Profile,
+    /// Seed of the next random start block.
+    seed: u64,
+    /// Which kind of shift σ is.
+    phase: Phase,
+    /// Whether a run was made at the current shift.
+    ran_here: bool,
+    /// What the latest run found.
+    last: Option<RunOut>,
+    /// Consecutive runs that found nothing.
+    stalls: usize,
+}
+
+impl<'a> Slicing<'a> {
+    /// The state before the first shift is factored.
+    fn new(sys: &'a System, fac: Factor<'a>, plan: SlicePlan, prof: Profile) -> Slicing<'a> {
+        Slicing {
+            plan,
+            fac,
+            mass: Mass { sys, xr: Vec::new(), yr: Vec::new() },
+            locked: Locked { lambdas: Vec::new(), vecs: Mat::zeros(sys.n, plan.nev + plan.slice) },
+            prof,
+            seed: 1,
+            phase: Phase::First,
+            ran_here: false,
+            last: None,
+            stalls: 0,
+        }
+    }
+
+    /// The Sturm count at the current shift and how much of it is locked.
+    fn at_shift(&self) -> AtShift {
+        let sigma = self.fac.sigma;
+        let nu = self.fac.negative;
+        let below = self.locked.count_below(sigma);
+        AtShift { sigma, nu, below, need: nu.saturating_sub(below) }
+    }
+
+    /// Stop, run at this shift, or move on.
+    fn next_step(&self, at: &AtShift) -> Step {
+        let p = &self.plan;
+        // A verification shift sits just above the last wanted eigenvalue.
+        if at.need == 0 && (at.nu >= p.nev || at.sigma >= p.lmax || self.phase == Phase::Verifying) {
+            return Step::Done;
+        }
+        let want_above = match self.phase {
+            Phase::Verifying => 0,
+            // The first shift sits below the whole spectrum (one-sided): take the rigid
+            // modes and the first few elastic ones, enough to measure the density.
+            Phase::First => (p.slice / 2).min(p.nev - at.nu + 2),
+            Phase::Advancing => (p.slice / 2).min(p.nev.saturating_sub(at.nu) + 2),
+        };
+        if at.need > 0 || (!self.ran_here && want_above > 0) {
+            Step::Run { want_above }
+        } else {
+            Step::Advance
+        }
+    }
+
+    /// One Lanczos run at the current shift, locking what converges.
+    ///
+    /// # Errors
+    /// [`FemError::NotConverged`] past the run limit or after three runs that found nothing.
+    fn run_here(&mut self, at: &AtShift, want_above: usize, t0: Instant) -> Result<(), FemError> {
+        let p = self.plan;
+        let (b, need) = (p.b, at.need);
+        if self.prof.runs >= p.max_runs {
+            return Err(FemError::NotConverged {
+                converged: self.locked.count_below(p.lmax).min(p.nev),
+                wanted: p.nev,
+                basis: self.prof.max_basis,
+            });
+        }
+        // Eigenvalues as close above σ as the needed ones below converge alongside them;
+        // the basis grows past this first allocation if needed.
+        let cap = ((5 * (need + want_above.max(need)) / 2 + 4 * b).div_ceil(b) * b).clamp(6 * b, p.cap_max);
+        let goal = Goal { need_below: need, want_above, lambda_stop: p.lmax, cap, cap_max: p.cap_max };
+        let before = self.locked.len();
+        let out = run(&self.fac, &mut self.mass, &mut self.locked, &goal, b, p.tol, &mut self.seed, &mut self.prof)?;
+        if debug() {
+            eprintln!(
+                "eigen: run {} sigma {:.4e} nu {} locked-below {} need {need} want {want_above} cap {cap} -> found below {} locked {} ritz_above {:?} steps {} t {:.1}s",
+                self.prof.runs, at.sigma, at.nu, at.below, out.below, self.locked.len(), &out.ritz_above[..out.ritz_above.len().min(3)], self.prof.steps, t0.elapsed().as_secs_f64()
+            );
+        }
+        self.stalls = if self.locked.len() == before && out.below == 0 { self.stalls + 1 } else { 0 };
+        if self.stalls >= 3 {
+            return Err(FemError::NotConverged {
+                converged: self.locked.len().min(p.nev),
+                wanted: p.nev,
+                basis: self.prof.max_basis,
+            });
+        }
+        self.ran_here = true;
+        self.last = Some(out);
+        Ok(())
+    }
+
+    /// Everything below σ is locked: places the next shift beyond the locked chain (a
+    /// verification shift once the wanted eigenvalues are in it) and factors there.
+    ///
+    /// # Errors
+    /// [`FemError::NotConverged`] if the shift would not move up; as [`Factor::factor`].
+    fn advance(&mut self, at: &AtShift) -> Result<(), FemError> {
+        let p = self.plan;
+        let out = self.last.take().unwrap_or(RunOut { below: 0, ritz_above: Vec::new() });
+        let mut above: Vec<f64> = self.locked.lambdas.iter().copied().filter(|&l| l >= at.sigma).collect();
+        above.sort_by(f64::total_cmp);
+        // The chain's end: locked values above σ that lie below the first unconverged Ritz
+        // value are complete as far as this run can tell (the next Sturm count checks it).
+        let r_min = out.ritz_above.first().copied().unwrap_or(f64::INFINITY);
+        let chain: Vec<f64> = above.iter().copied().filter(|&l| l < r_min).collect();
+        let verify = at.nu + chain.len() > p.nev || chain.last().is_some_and(|&l| l >= p.lmax);
+        let next = if verify {
+            verification_shift(&chain, r_min, at, &p)
+        } else if chain.len() >= 4 {
+            density_shift(&chain, &out.ritz_above, p.slice)
+        } else {
+            let u = chain.last().copied().unwrap_or(at.sigma);
+            u + (u - at.sigma).abs().max(at.sigma.abs())
+        };
+        if !(next > at.sigma) {
+            return Err(FemError::NotConverged {
+                converged: self.locked.len().min(p.nev),
+                wanted: p.nev,
+                basis: self.prof.max_basis,
+            });
+        }
+        self.phase = if verify { Phase::Verifying } else { Phase::Advancing };
+        self.ran_here = false;
+        self.fac.factor(next, &mut self.prof)
+    }
+}
+
+/// A verification shift between the last wanted eigenvalue of the locked `chain` above σ
+/// and the next one (or the first unconverged Ritz value `r_min`).
+fn verification_shift(chain: &[f64], r_min: f64, at: &AtShift, p: &SlicePlan) -> f64 {
+    let c = chain.len();
+    let idx = (p.nev - at.nu - 1).min(c - 1);
+    let idx = match chain.iter().position(|&l| l > p.lmax) {
+        Some(0) => usize::MAX,
+        Some(q) if q - 1 < idx => q - 1,
+        _ => idx,
+    };
+    if idx == usize::MAX {
+        // Every eigenvalue up to λ_max lies below σ or in the gap before the chain.
+        0.5 * (at.sigma + chain[0])
+    } else if idx + 1 < c {
+        gap_point(chain, idx)
+    } else if r_min.is_finite() {
+        0.5 * (chain[idx] + r_min)
+    } else {
+        chain[idx] + 1e-3 * chain[idx].abs()
+    }
+}
+
+/// The next shift from the density of the upper half of the locked `chain` (at least four
+/// values), so about half a slice lies between the chain's end and the shift.
+fn density_shift(chain: &[f64], ritz_above: &[f64], slice: usize) -> f64 {
+    let c = chain.len();
+    let u = chain[c - 1];
+    let lo = chain[c / 2];
+    let rho = (c - c / 2 - 1).max(1) as f64 / (u - lo).max(1e-300);
+    let target = u + 0.5 * slice as f64 / rho;
+    // Prefer the midpoint of the widest Ritz-value gap near the target, so σ stays
+    // well away from every eigenvalue (a σ inside a near-degenerate pair would make
+    // K − σM nearly singular).
+    let mut est: Vec<f64> = ritz_above.iter().copied().filter(|&l| l > u).collect();
+    est.insert(0, u);
+    let mut best = target;
+    let mut widest = 0.0;
+    for win in est.windows(2) {
+        let m = 0.5 * (win[0] + win[1]);
+        if (m - target).abs() < 0.25 * (target - u) && win[1] - win[0] > widest {
+            widest = win[1] - win[0];
+            best = m;
+        }
+    }
+    best
+}
+
+/// Eigenvalues with one eigenvector per column.
+struct Pairs {
+    /// Eigenvalues λ (rad²/s²), ascending.
+    lambdas: Vec<f64>,
+    /// Mass-normalised eigenvectors.
+    vectors: Mat<f64>,
+}
+
+/// The lowest locked pairs, ascending: up to the first past λ_max, at most `nev`.
+fn lowest_pairs(locked: &Locked, p: &SlicePlan, n: usize) -> Pairs {
+    let mut order: Vec<usize> = (0..locked.len()).collect();
+    order.sort_by(|&i, &j| locked.lambdas[i].total_cmp(&locked.lambdas[j]));
+    let want = order
+        .iter()
+        .take_while(|&&i| locked.lambdas[i] <= p.lmax)
+        .count()
+        .saturating_add(1)
+        .min(p.nev)
+        .min(order.len());
+    let lambdas: Vec<f64> = order[..want].iter().map(|&i| locked.lambdas[i]).collect();
+    let mut vectors = Mat::<f64>::zeros(n, want);
+    for (j, &i) in order[..want].iter().enumerate() {
+        vectors.as_mut().col_mut(j).copy_from(locked.vecs.col(i));
+    }
+    Pairs { lambdas, vectors }
+}
+
+/// Checks the pairs on the original problem and replaces each λ by its Rayleigh quotient,
+/// keeping ascending order; records the check in `prof`.
+///
+/// # Errors
+/// [`FemError::Factorization`] if a Rayleigh quotient is off by 1e-4 or more.
+fn check_and_refine(
+    sys: &System,
+    pairs: Pairs,
+    sigma0: f64,
+    b: usize,
+    prof: &mut Profile,
+    t0: Instant,
+) -> Result<Pairs, FemError> {
+    // Residual check on the original problem (guards the unpivoted LDLᵀ of indefinite
+    // K − σM: an inaccurate solve would show here).
+    let t = Instant::now();
+    let check = residual(sys, &pairs.lambdas, pairs.vectors.as_ref(), sigma0.abs(), b);
+    prof.max_residual = check.residual;
+    prof.max_rayleigh_error = check.rayleigh_error;
+    prof.check_seconds = t.elapsed().as_secs_f64();
+    prof.total_seconds = t0.elapsed().as_secs_f64();
+    // A relative error of 1e-4 in λ is 0.09 cents: beyond it the factorisation was broken.
+    // Below it, each λ is replaced by its Rayleigh quotient φᵀKφ/φᵀMφ, whose error is
+    // second order in the eigenvector's (Parlett, The Symmetric Eigenvalue Problem, §4.6).
+    let rq = check.rayleigh_error;
+    if !(rq < 1e-4) {
+        return Err(FemError::Factorization(format!(
+            "eigenpairs failed the Rayleigh-quotient check ({rq:.1e}); the shifted factorisation was inaccurate, try another resolution"
+        )));
+    }
+    let refined: Vec<f64> = pairs.lambdas.iter().zip(&check.corrections).map(|(l, d)| l + d).collect();
+    // Keep ascending order (a near-degenerate pair may swap by the correction).
+    let mut order: Vec<usize> = (0..refined.len()).collect();
+    order.sort_by(|&i, &j| refined[i].total_cmp(&refined[j]));
+    let lambdas: Vec<f64> = order.iter().map(|&i| refined[i]).collect();
+    let vectors = pairs.vectors;
+    let vectors = if order.iter().enumerate().all(|(k, &i)| k == i) {
+        vectors
+    } else {
+        Mat::from_fn(vectors.nrows(), order.len(), |r, j| vectors[(r, order[j])])
+    };
+    Ok(Pairs { lambdas, vectors })
+}
+
+/// What [`residual`] measured.
+struct Check {
+    /// Largest ‖Kφ − λMφ‖₂ / ((|λ| + s)‖Mφ‖₂).
+    residual: f64,
+    /// Largest |φᵀKφ − λ·φᵀMφ| / (|λ| + s).
+    rayleigh_error: f64,
+    /// Per column, the Rayleigh-quotient correction φᵀ(K − λM)φ / φᵀMφ.
+    corrections: Vec<f64>,
+}
+
 /// Over all columns: the largest ‖Kφ − λMφ‖₂ / ((|λ| + s)‖Mφ‖₂) and the largest
 /// |φᵀKφ − λ·φᵀMφ| / (|λ| + s) (the Rayleigh quotient; an inaccurate factorisation would
 /// move it at first order, a merely unconverged vector only at second order).
 /// Also returns, per column, the Rayleigh-quotient correction φᵀ(K − λM)φ / φᵀMφ.
-fn residual(sys: &System, lambdas: &[f64], phi: MatRef<'_, f64>, s: f64, b: usize) -> (f64, f64, Vec<f64>) {
+fn residual(sys: &System, lambdas: &[f64], phi: MatRef<'_, f64>, s: f64, b: usize) -> Check {
     let n = sys.n;
     let mut worst = 0.0f64;
     let mut worst_rq = 0.0f64;
@@ -984,5 +1177,5 @@ fn residual(sys: &System, lambdas: &[f64], phi: MatRef<'_, f64>, s: f64, b: usiz
             }
         }
     }
-    (worst, worst_rq, corrections)
+    Check { residual: worst, rayleigh_error: worst_rq, corrections }
 }

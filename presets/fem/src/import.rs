@@ -16,12 +16,12 @@
 use super::surface::{check_surface, read_obj, read_stl, TriGrid, TriSurface};
 use super::voxel::{auto_resolution, voxelise, VoxelOptions, DEFAULT_VERTEX_BUDGET};
 use super::{
-    analyse, finish_bank, strike, strike_gains, today, BuildOptions, BuildReport, FemError, Material, Modes, TetMesh,
+    analyse, fem_bank, finish_bank, start_build, strike, strike_gains, today, BankParts, BuildOptions, BuildReport,
+    FemError, Material, Modes, TetMesh,
 };
-use presets::{Bank, BankReference, StrikePoint};
+use presets::{Bank, StrikePoint};
 use std::collections::HashMap;
 use std::path::Path;
-use std::time::Instant;
 
 /// Largest mesh accepted, in corner vertices (a bound on time and memory; see the README).
 pub const MAX_IMPORT_VERTICES: usize = 60_000;
@@ -345,9 +345,7 @@ fn build(
     opts: &BuildOptions,
     progress: &dyn Fn(&str, f32),
 ) -> Result<(Bank, BuildReport), FemError> {
-    let t0 = Instant::now();
-    material.validate()?;
-    opts.validate()?;
+    let t0 = start_build(material, opts)?;
     if mesh.corners > MAX_IMPORT_VERTICES {
         return Err(FemError::Mesh(format!(
             "{} corner vertices is over the limit of {MAX_IMPORT_VERTICES}: coarsen the mesh (e.g. a larger Gmsh characteristic length)",
@@ -370,10 +368,7 @@ fn build(
     axes.sort_by(|&a, &b| ext[b].total_cmp(&ext[a]));
     let (u, v) = (axes[0], axes[1]);
     let size = ext[u].max(1e-9);
-    let bank = Bank {
-        schema_version: presets::SCHEMA_VERSION,
-        id: id.to_string(),
-        name: name.to_string(),
+    let parts = BankParts {
         description: format!(
             "Imported mesh {source} ({:.4} x {:.4} x {:.4} m bounding box), computed by FEM for E = {:.4e} Pa, rho = {} kg/m^3, nu = {}. Strike points: boundary corner nodes, farthest-point sampled; xy = projection on the two longest box axes.",
             ext[0], ext[1], ext[2], material.young, material.density, material.poisson
@@ -388,14 +383,8 @@ fn build(
             modes.dofs,
             today()
         ),
-        reference: BankReference {
-            specific_modulus: material.specific_modulus(),
-            poisson: material.poisson,
-            density: material.density,
-            dimensions_m: ext.to_vec(),
-            size_m: size,
-        },
-        lambdas: modes.lambdas.clone(),
+        dimensions_m: ext.to_vec(),
+        size_m: size,
         points: points
             .iter()
             .enumerate()
@@ -405,10 +394,9 @@ fn build(
                 position_m: [p[0] as f32, p[1] as f32, p[2] as f32],
             })
             .collect(),
-        gains: gains.iter().map(|r| r.iter().map(|&g| g as f32).collect()).collect(),
-        mode_labels: modes.frequencies_hz().iter().map(|f| format!("{f:.1} Hz")).collect(),
         surface: super::strike::Surface::new(mesh).drawing(mesh, presets::MAX_DRAW_TRIANGLES),
     };
+    let bank = fem_bank(id, name, material, &modes, &gains, parts);
     finish_bank(bank, mesh, &modes, t0, progress)
 }
 

@@ -622,9 +622,7 @@ pub fn build_bank(
     opts: &BuildOptions,
     progress: &dyn Fn(&str, f32),
 ) -> Result<(Bank, BuildReport), FemError> {
-    let t0 = Instant::now();
-    material.validate()?;
-    opts.validate()?;
+    let t0 = start_build(material, opts)?;
     progress("mesh", 0.0);
     let (mesh, geom) = mesh::mesh_with_geometry(shape, opts.resolution)?;
     let modes = analyse(&mesh, material, opts, progress)?;
@@ -664,20 +662,11 @@ pub fn build_bank(
         modes.sigma,
         today()
     );
-    let bank = Bank {
-        schema_version: presets::SCHEMA_VERSION,
-        id: id.to_string(),
-        name: name.to_string(),
+    let parts = BankParts {
         description,
         provenance,
-        reference: BankReference {
-            specific_modulus: material.specific_modulus(),
-            poisson: material.poisson,
-            density: material.density,
-            dimensions_m: dims,
-            size_m: shape.size(),
-        },
-        lambdas: modes.lambdas.clone(),
+        dimensions_m: dims,
+        size_m: shape.size(),
         points: path
             .iter()
             .map(|p| StrikePoint {
@@ -686,10 +675,9 @@ pub fn build_bank(
                 position_m: [p.position[0] as f32, p.position[1] as f32, p.position[2] as f32],
             })
             .collect(),
-        gains: gains.iter().map(|r| r.iter().map(|&g| g as f32).collect()).collect(),
-        mode_labels: modes.frequencies_hz().iter().map(|f| format!("{f:.1} Hz")).collect(),
         surface: drawing_surface(shape, opts.resolution),
     };
+    let bank = fem_bank(id, name, material, &modes, &gains, parts);
     finish_bank(bank, &mesh, &modes, t0, progress)
 }
 
@@ -710,6 +698,64 @@ pub fn drawing_surface(shape: &Shape, resolution: usize) -> Option<presets::Draw
         r = r * 3 / 4;
     }
     None
+}
+
+/// The preamble of every bank build (shared by [`build_bank`] and the imports): starts the
+/// clock, then checks the material and the options.
+pub(crate) fn start_build(material: &Material, opts: &BuildOptions) -> Result<Instant, FemError> {
+    let t0 = Instant::now();
+    material.validate()?;
+    opts.validate()?;
+    Ok(t0)
+}
+
+/// The parts of a bank that depend on where the mesh came from (a built-in shape or an
+/// imported mesh).
+pub(crate) struct BankParts {
+    /// What the bank models.
+    pub description: String,
+    /// How it was computed.
+    pub provenance: String,
+    /// The reference dimensions, m.
+    pub dimensions_m: Vec<f64>,
+    /// The reference size, m.
+    pub size_m: f64,
+    /// Strike points, one per row of the gains.
+    pub points: Vec<StrikePoint>,
+    /// A drawing of the object.
+    pub surface: Option<presets::DrawSurface>,
+}
+
+/// A bank of `modes` with `gains` (`[point][mode]`, not normalised): the fields every FEM
+/// build fills the same way (the material as reference, eigenvalues, gains, frequency
+/// labels) and the `parts` that differ.
+pub(crate) fn fem_bank(
+    id: &str,
+    name: &str,
+    material: &Material,
+    modes: &Modes,
+    gains: &[Vec<f64>],
+    parts: BankParts,
+) -> Bank {
+    Bank {
+        schema_version: presets::SCHEMA_VERSION,
+        id: id.to_string(),
+        name: name.to_string(),
+        description: parts.description,
+        provenance: parts.provenance,
+        reference: BankReference {
+            specific_modulus: material.specific_modulus(),
+            poisson: material.poisson,
+            density: material.density,
+            dimensions_m: parts.dimensions_m,
+            size_m: parts.size_m,
+        },
+        lambdas: modes.lambdas.clone(),
+        points: parts.points,
+        gains: gains.iter().map(|r| r.iter().map(|&g| g as f32).collect()).collect(),
+        mode_labels: modes.frequencies_hz().iter().map(|f| format!("{f:.1} Hz")).collect(),
+        surface: parts.surface,
+    }
 }
 
 /// Normalises and validates a freshly built bank and reports how it was made (shared by

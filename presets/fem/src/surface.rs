@@ -586,6 +586,33 @@ fn triangles_cross(s: &TriSurface, t1: usize, t2: usize) -> bool {
 /// non-manifold edges, a non-orientable piece, no enclosed volume, or self-intersection.
 pub fn check_surface(s: &mut TriSurface) -> Result<SurfaceReport, FemError> {
     let mut rep = SurfaceReport::default();
+    let diag = check_size(s)?;
+    let collinear = drop_degenerate(s, diag, &mut rep)?;
+    let n = s.triangles.len();
+    let edges = edge_uses(s);
+    check_closed_and_manifold(s, &edges)?;
+    let mut orientation = orient_consistently(s, &edges)?;
+    rep.pieces = orientation.pieces;
+    let geom = geometric_triangles(n, &collinear);
+    let grid = TriGrid::new(s, &geom, 0.0);
+    check_self_intersection(s, &grid, &mut rep)?;
+    orient_outward(s, &grid, &geom, diag, &mut orientation);
+    rep.flipped = orientation.flip.iter().filter(|&&f| f).count();
+    if rep.flipped > 0 {
+        rep.warnings
+            .push(format!("reversed {} of {n} triangles to make the normals point outward consistently", rep.flipped));
+    }
+    rep.volume = s.signed_volume();
+    if !(rep.volume > 1e-9 * diag * diag * diag) {
+        return Err(FemError::Mesh(format!("the surface encloses no volume ({:.3e} m^3); is it flat?", rep.volume)));
+    }
+    rep.triangles = n;
+    Ok(rep)
+}
+
+/// Checks that `s` has triangles, not too many, finite vertices and a non-zero size; returns
+/// its bounding-box diagonal.
+fn check_size(s: &TriSurface) -> Result<f64, FemError> {
     if s.triangles.is_empty() {
         return Err(FemError::Mesh("the surface is empty".into()));
     }
@@ -602,6 +629,12 @@ pub fn check_surface(s: &mut TriSurface) -> Result<SurfaceReport, FemError> {
     if !(diag > 0.0) {
         return Err(FemError::Mesh("the surface has zero size".into()));
     }
+    Ok(diag)
+}
+
+/// Drops the triangles with a repeated vertex and counts them and the collinear ones as
+/// zero-area (an error if there are many); returns the collinear triangles' new numbers.
+fn drop_degenerate(s: &mut TriSurface, diag: f64, rep: &mut SurfaceReport) -> Result<Vec<usize>, FemError> {
     // Zero-area triangles: repeated vertices (they carry no edge) or collinear corners (their
     // edges still close the surface, so they count for topology but not for geometry).
     let area_tol = 1e-14 * diag * diag;
@@ -631,16 +664,36 @@ pub fn check_surface(s: &mut TriSurface) -> Result<SurfaceReport, FemError> {
     if degenerate > 0 {
         rep.warnings.push(format!("dropped {degenerate} zero-area triangle(s) of {total}"));
     }
-    // Edges: undirected edge → triangles and whether each runs it as (min, max).
-    let n = s.triangles.len();
-    let mut edges: HashMap<(u32, u32), Vec<(u32, bool)>> = HashMap::with_capacity(2 * n);
+    Ok(collinear)
+}
+
+/// An undirected edge: its lower and higher vertex.
+type EdgeKey = (u32, u32);
+
+/// One triangle's use of an undirected edge.
+#[derive(Clone, Copy)]
+struct EdgeUse {
+    /// The triangle.
+    tri: u32,
+    /// Whether the triangle runs the edge from its lower to its higher vertex.
+    ascending: bool,
+}
+
+/// Every edge of `s` with the triangles that use it, in triangle order.
+fn edge_uses(s: &TriSurface) -> HashMap<EdgeKey, Vec<EdgeUse>> {
+    let mut edges: HashMap<EdgeKey, Vec<EdgeUse>> = HashMap::with_capacity(2 * s.triangles.len());
     for (i, t) in s.triangles.iter().enumerate() {
         for k in 0..3 {
             let (a, b) = (t[k], t[(k + 1) % 3]);
-            edges.entry((a.min(b), a.max(b))).or_default().push((i as u32, a < b));
+            edges.entry((a.min(b), a.max(b))).or_default().push(EdgeUse { tri: i as u32, ascending: a < b });
         }
     }
-    let mut open: Vec<(u32, u32)> = edges.iter().filter(|(_, v)| v.len() == 1).map(|(e, _)| *e).collect();
+    edges
+}
+
+/// Checks that every edge is shared by exactly two triangles (closed and manifold).
+fn check_closed_and_manifold(s: &TriSurface, edges: &HashMap<EdgeKey, Vec<EdgeUse>>) -> Result<(), FemError> {
+    let mut open: Vec<EdgeKey> = edges.iter().filter(|(_, v)| v.len() == 1).map(|(e, _)| *e).collect();
     if !open.is_empty() {
         open.sort_unstable();
         let p = s.vertices[open[0].0 as usize];
@@ -650,7 +703,7 @@ pub fn check_surface(s: &mut TriSurface) -> Result<SurfaceReport, FemError> {
             fmt_p(p)
         )));
     }
-    let mut nonman: Vec<(u32, u32)> = edges.iter().filter(|(_, v)| v.len() > 2).map(|(e, _)| *e).collect();
+    let mut nonman: Vec<EdgeKey> = edges.iter().filter(|(_, v)| v.len() > 2).map(|(e, _)| *e).collect();
     if !nonman.is_empty() {
         nonman.sort_unstable();
         let p = s.vertices[nonman[0].0 as usize];
@@ -660,8 +713,23 @@ pub fn check_surface(s: &mut TriSurface) -> Result<SurfaceReport, FemError> {
             fmt_p(p)
         )));
     }
-    // Consistent orientation per piece by breadth-first search: neighbours across an edge
-    // must run it in opposite directions.
+    Ok(())
+}
+
+/// The pieces (connected components) of the surface and which triangles were reversed.
+struct Orientation {
+    /// Whether each triangle's vertex order was reversed.
+    flip: Vec<bool>,
+    /// Piece of each triangle.
+    piece: Vec<u32>,
+    /// Number of pieces.
+    pieces: usize,
+}
+
+/// Orients each piece consistently by breadth-first search (neighbours across an edge must
+/// run it in opposite directions) and reverses the triangles that need it.
+fn orient_consistently(s: &mut TriSurface, edges: &HashMap<EdgeKey, Vec<EdgeUse>>) -> Result<Orientation, FemError> {
+    let n = s.triangles.len();
     let mut flip = vec![false; n];
     let mut piece = vec![u32::MAX; n];
     let mut pieces = 0u32;
@@ -678,7 +746,7 @@ pub fn check_surface(s: &mut TriSurface) -> Result<SurfaceReport, FemError> {
             for k in 0..3 {
                 let (a, b) = (tv[k], tv[(k + 1) % 3]);
                 let fwd_t = (a < b) != flip[t];
-                for &(o, fwd_o) in &edges[&(a.min(b), a.max(b))] {
+                for &EdgeUse { tri: o, ascending: fwd_o } in &edges[&(a.min(b), a.max(b))] {
                     let o = o as usize;
                     if o == t {
                         continue;
@@ -705,57 +773,96 @@ pub fn check_surface(s: &mut TriSurface) -> Result<SurfaceReport, FemError> {
             t.swap(1, 2);
         }
     }
-    rep.pieces = pieces as usize;
-    // Triangles that carry geometry (not the collinear ones).
+    Ok(Orientation { flip, piece, pieces: pieces as usize })
+}
+
+/// The triangles that carry geometry: all `n` but the collinear ones.
+fn geometric_triangles(n: usize, collinear: &[usize]) -> Vec<u32> {
     let mut is_collinear = vec![false; n];
-    for &t in &collinear {
+    for &t in collinear {
         is_collinear[t] = true;
     }
-    let geom: Vec<u32> = (0..n as u32).filter(|&t| !is_collinear[t as usize]).collect();
-    let grid = TriGrid::new(s, &geom, 0.0);
-    // Self-intersection: broad phase on the grid, then triangle pairs. Each pair is tested in
-    // one cell only: the one holding the low corner of the overlap of their boxes.
+    (0..n as u32).filter(|&t| !is_collinear[t as usize]).collect()
+}
+
+/// An axis-aligned bounding box.
+struct Aabb {
+    /// Lowest corner.
+    lo: [f64; 3],
+    /// Highest corner.
+    hi: [f64; 3],
+}
+
+/// What the self-intersection check found.
+struct Crossings {
+    /// Crossing triangle pairs.
+    pairs: usize,
+    /// A corner of the first triangle found crossing another.
+    first: Option<[f64; 3]>,
+    /// Whether the check ran to the end (within [`SELF_INTERSECTION_BUDGET`]).
+    complete: bool,
+}
+
+/// Checks that the surface does not intersect itself (a warning if the check ran out of
+/// time).
+fn check_self_intersection(s: &TriSurface, grid: &TriGrid, rep: &mut SurfaceReport) -> Result<(), FemError> {
+    let found = find_crossings(s, grid);
+    rep.intersection_check_complete = found.complete;
+    if !found.complete {
+        rep.warnings.push(format!(
+            "the self-intersection check stopped after {:.0} s; the surface was not fully checked",
+            SELF_INTERSECTION_BUDGET.as_secs_f64()
+        ));
+    }
+    if let Some(p) = found.first {
+        return Err(FemError::Mesh(format!(
+            "the surface intersects itself ({} crossing triangle pairs, one near {}); repair it (e.g. a boolean union of the overlapping parts)",
+            found.pairs,
+            fmt_p(p)
+        )));
+    }
+    Ok(())
+}
+
+/// Crossing triangle pairs: broad phase on the grid, then triangle pairs. Each pair is tested
+/// in one cell only: the one holding the low corner of the overlap of their boxes.
+fn find_crossings(s: &TriSurface, grid: &TriGrid) -> Crossings {
     let t0 = Instant::now();
-    let mut found: Option<(usize, [f64; 3])> = None;
-    let mut hits = 0usize;
-    let mut complete = true;
-    let boxes: Vec<([f64; 3], [f64; 3])> = (0..n)
+    let mut found = Crossings { pairs: 0, first: None, complete: false };
+    let boxes: Vec<Aabb> = (0..s.triangles.len())
         .map(|t| {
             let c = s.corners(t);
-            (
-                std::array::from_fn(|i| c[0][i].min(c[1][i]).min(c[2][i])),
-                std::array::from_fn(|i| c[0][i].max(c[1][i]).max(c[2][i])),
-            )
+            Aabb {
+                lo: std::array::from_fn(|i| c[0][i].min(c[1][i]).min(c[2][i])),
+                hi: std::array::from_fn(|i| c[0][i].max(c[1][i]).max(c[2][i])),
+            }
         })
         .collect();
-    'cells: for z in 0..grid.dims[2] {
+    for z in 0..grid.dims[2] {
         for y in 0..grid.dims[1] {
             if t0.elapsed() > SELF_INTERSECTION_BUDGET {
-                complete = false;
-                break 'cells;
+                return found;
             }
             for x in 0..grid.dims[0] {
                 let list = grid.cell(x, y, z);
                 for (ia, &ta) in list.iter().enumerate() {
                     // Checked per triangle too: one crowded cell can hold many pairs.
                     if ia % 64 == 63 && t0.elapsed() > SELF_INTERSECTION_BUDGET {
-                        complete = false;
-                        break 'cells;
+                        return found;
                     }
                     for &tb in &list[ia + 1..] {
                         let (a, b) = (&boxes[ta as usize], &boxes[tb as usize]);
-                        let lo: [f64; 3] = std::array::from_fn(|i| a.0[i].max(b.0[i]));
-                        if (0..3).any(|i| lo[i] > a.1[i].min(b.1[i])) {
+                        let lo: [f64; 3] = std::array::from_fn(|i| a.lo[i].max(b.lo[i]));
+                        if (0..3).any(|i| lo[i] > a.hi[i].min(b.hi[i])) {
                             continue;
                         }
                         if TriGrid::cell_of(grid.lo, grid.h, grid.dims, lo) != [x, y, z] {
                             continue;
                         }
                         if triangles_cross(s, ta as usize, tb as usize) {
-                            hits += 1;
-                            if found.is_none() {
-                                let c = s.corners(ta as usize);
-                                found = Some((hits, c[0]));
+                            found.pairs += 1;
+                            if found.first.is_none() {
+                                found.first = Some(s.corners(ta as usize)[0]);
                             }
                         }
                     }
@@ -763,59 +870,50 @@ pub fn check_surface(s: &mut TriSurface) -> Result<SurfaceReport, FemError> {
             }
         }
     }
-    rep.intersection_check_complete = complete;
-    if !complete {
-        rep.warnings.push(format!(
-            "the self-intersection check stopped after {:.0} s; the surface was not fully checked",
-            SELF_INTERSECTION_BUDGET.as_secs_f64()
-        ));
-    }
-    if let Some((_, p)) = found {
-        return Err(FemError::Mesh(format!(
-            "the surface intersects itself ({hits} crossing triangle pairs, one near {}); repair it (e.g. a boolean union of the overlapping parts)",
-            fmt_p(p)
-        )));
-    }
-    // Outward: each piece's normals must point out of the solid. A piece inside another (a
-    // cavity) points into the cavity, so decide by parity: a point just off a triangle along
-    // its normal must be outside.
-    let mut piece_flip = vec![false; pieces as usize];
-    // The largest triangle of each piece gives the most reliable probe.
-    let mut best: Vec<Option<(f64, u32)>> = vec![None; pieces as usize];
-    for &t in &geom {
+    found.complete = true;
+    found
+}
+
+/// The largest (geometric) triangle of a piece, which gives the most reliable probe.
+#[derive(Clone, Copy)]
+struct Largest {
+    /// Its area (twice, as the cross product's norm).
+    area: f64,
+    /// The triangle.
+    tri: u32,
+}
+
+/// Makes each piece's normals point out of the solid. A piece inside another (a cavity)
+/// points into the cavity, so decide by parity: a point just off a triangle along its normal
+/// must be outside. Reversed triangles are recorded in `orientation.flip`.
+fn orient_outward(s: &mut TriSurface, grid: &TriGrid, geom: &[u32], diag: f64, orientation: &mut Orientation) {
+    let mut best: Vec<Option<Largest>> = vec![None; orientation.pieces];
+    for &t in geom {
         let [x, y, z] = s.corners(t as usize);
         let area = norm(cross(sub(y, x), sub(z, x)));
-        let b = &mut best[piece[t as usize] as usize];
-        if b.is_none_or(|(a, _)| area > a) {
-            *b = Some((area, t));
+        let b = &mut best[orientation.piece[t as usize] as usize];
+        if b.is_none_or(|l| area > l.area) {
+            *b = Some(Largest { area, tri: t });
         }
     }
-    for (pf, b) in piece_flip.iter_mut().zip(&best) {
-        let Some((_, t)) = *b else { continue };
-        let [a, b, c] = s.corners(t as usize);
-        let nrm = s.normal(t as usize);
-        let ctr = [(a[0] + b[0] + c[0]) / 3.0, (a[1] + b[1] + c[1]) / 3.0, (a[2] + b[2] + c[2]) / 3.0];
-        let eps = 1e-6 * diag;
-        let probe = [ctr[0] + eps * nrm[0], ctr[1] + eps * nrm[1], ctr[2] + eps * nrm[2]];
-        *pf = inside_by_rays(s, &grid, probe) == Some(true);
-    }
+    let piece_flip: Vec<bool> =
+        best.iter().map(|b| b.is_some_and(|l| points_inward(s, grid, l.tri as usize, diag))).collect();
     for (i, t) in s.triangles.iter_mut().enumerate() {
-        if piece_flip[piece[i] as usize] {
+        if piece_flip[orientation.piece[i] as usize] {
             t.swap(1, 2);
-            flip[i] = !flip[i];
+            orientation.flip[i] = !orientation.flip[i];
         }
     }
-    rep.flipped = flip.iter().filter(|&&f| f).count();
-    if rep.flipped > 0 {
-        rep.warnings
-            .push(format!("reversed {} of {n} triangles to make the normals point outward consistently", rep.flipped));
-    }
-    rep.volume = s.signed_volume();
-    if !(rep.volume > 1e-9 * diag * diag * diag) {
-        return Err(FemError::Mesh(format!("the surface encloses no volume ({:.3e} m^3); is it flat?", rep.volume)));
-    }
-    rep.triangles = n;
-    Ok(rep)
+}
+
+/// Whether a point 10⁻⁶·`diag` off triangle `t`'s centroid along its normal is inside.
+fn points_inward(s: &TriSurface, grid: &TriGrid, t: usize, diag: f64) -> bool {
+    let [a, b, c] = s.corners(t);
+    let nrm = s.normal(t);
+    let ctr = [(a[0] + b[0] + c[0]) / 3.0, (a[1] + b[1] + c[1]) / 3.0, (a[2] + b[2] + c[2]) / 3.0];
+    let eps = 1e-6 * diag;
+    let probe = [ctr[0] + eps * nrm[0], ctr[1] + eps * nrm[1], ctr[2] + eps * nrm[2]];
+    inside_by_rays(s, grid, probe) == Some(true)
 }
 
 /// Whether `p` is inside the closed surface, by the parity of crossings along rays in the
