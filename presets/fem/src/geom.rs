@@ -1,5 +1,5 @@
-//! 3-D vector helpers and the signed volume of a tetrahedron, shared by the mesher, the
-//! surface checks, the voxeliser and the strike-point code.
+//! 3-D vector helpers, the signed volume of a tetrahedron and the undercut bar's profile,
+//! shared by the mesher, the surface checks, the voxeliser, the tuner and the strike-point code.
 
 /// a − b.
 pub fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
@@ -31,6 +31,16 @@ pub fn mid(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 pub fn signed_volume(x: &[[f64; 3]], t: &[u32; 4]) -> f64 {
     let a = x[t[0] as usize];
     dot(sub(x[t[1] as usize], a), cross(sub(x[t[2] as usize], a), sub(x[t[3] as usize], a))) / 6.0
+}
+
+/// Thickness of an undercut bar at `x` (see [`crate::Shape::UndercutBar`]).
+pub fn undercut_thickness(x: f64, length: f64, thickness: f64, depth: f64, cut: f64, exponent: f64) -> f64 {
+    let u = ((x - 0.5 * length) / (0.5 * cut * length)).abs();
+    if u >= 1.0 {
+        thickness
+    } else {
+        thickness * (1.0 - depth * (1.0 - u.powf(exponent)))
+    }
 }
 
 #[cfg(test)]

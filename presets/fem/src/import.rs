@@ -23,8 +23,7 @@ use presets::{Bank, StrikePoint};
 use std::collections::HashMap;
 use std::path::Path;
 
-/// Largest mesh accepted, in corner vertices (a bound on time and memory; see the README).
-pub const MAX_IMPORT_VERTICES: usize = 60_000;
+pub use crate::MAX_IMPORT_VERTICES;
 /// Largest mesh file read, bytes.
 pub const MAX_MESH_FILE_BYTES: u64 = 1 << 30;
 

@@ -41,6 +41,10 @@ use std::time::Instant;
 
 use presets::{Bank, BankReference, PresetError, StrikePoint, MAX_BANK_MODES, MAX_BANK_POINTS};
 
+/// Largest mesh accepted, imported or voxelised, in corner vertices (a bound on time and
+/// memory; see the README).
+pub const MAX_IMPORT_VERTICES: usize = 60_000;
+
 pub use assembly::{assemble, System};
 pub use gmsh::read_gmsh;
 pub use import::{build_bank_from_mesh, surface_strike_points};

@@ -378,7 +378,7 @@ pub(crate) fn mesh_with_geometry(shape: &Shape, resolution: usize) -> Result<(Te
             let (base, tris) = rect_base(length, width, divisions(length, h), divisions(width, h));
             let lay = Layered { base, tris, layers: divisions(thickness, h).max(2) };
             let bottom =
-                move |x: f64| thickness - super::tune::undercut_thickness(x, length, thickness, depth, cut, exponent);
+                move |x: f64| thickness - super::geom::undercut_thickness(x, length, thickness, depth, cut, exponent);
             let mesh = lay.build(
                 &|q| {
                     let zb = bottom(q[0]);

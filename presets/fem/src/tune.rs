@@ -32,15 +32,7 @@ const FEM_STEPS: usize = 8;
 const DEPTH_RANGE: (f64, f64) = (0.02, 0.9);
 const CUT_RANGE: (f64, f64) = (0.05, 1.0);
 
-/// Thickness of an undercut bar at `x` (see [`Shape::UndercutBar`]).
-pub fn undercut_thickness(x: f64, length: f64, thickness: f64, depth: f64, cut: f64, exponent: f64) -> f64 {
-    let u = ((x - 0.5 * length) / (0.5 * cut * length)).abs();
-    if u >= 1.0 {
-        thickness
-    } else {
-        thickness * (1.0 - depth * (1.0 - u.powf(exponent)))
-    }
-}
+pub use crate::geom::undercut_thickness;
 
 /// What [`tune_undercut_bar`] found.
 #[derive(Clone, Debug)]

@@ -26,10 +26,10 @@ use std::collections::HashSet;
 use std::ops::RangeInclusive;
 
 use super::geom::{cross, dot, signed_volume, sub};
-use super::import::MAX_IMPORT_VERTICES;
 use super::mesh::TetMesh;
 use super::surface::{ray_hit, RayHit, TriGrid, TriSurface};
 use super::FemError;
+use crate::MAX_IMPORT_VERTICES;
 
 /// Corner vertices aimed at by [`auto_resolution`]: about 60 000 DOFs, a build of the order
 /// of a minute for a few tens of modes on a laptop.
