@@ -1148,15 +1148,8 @@ impl Engine {
     pub fn predict_modes(&self, object: usize, strike: Strike) -> Vec<(f64, f64, f32)> {
         let p = self.target;
         let damping = p.damping.scaled(p.decay_scale);
-        let obj = &self.objects[object.min(self.objects.len() - 1)];
-        let modes = ModeSet {
-            obj,
-            damping: &damping,
-            support: p.support_c * p.decay_scale,
-            extra: 0.0,
-            scale: p.modulus_ratio * strike.lambda_factor / (p.size * p.size),
-            fs: self.sample_rate,
-        };
+        let modes = Self::target_modes(&self.objects, &p, self.sample_rate, object, strike, &damping);
+        let obj = modes.obj;
         let n = obj.num_modes();
         let mut gains = vec![0.0; n];
         obj.gains_at(strike.position, &mut gains);
@@ -1172,20 +1165,34 @@ impl Engine {
             .collect()
     }
 
+    /// The modes of `object` under the target settings (no glide, no release or pressure) for
+    /// `strike`, with `damping` = the target law × decay scale: what [`Engine::predict_modes`]
+    /// and the pitch reference plan with, the same [`ModeSet::plan`] a note-on uses.
+    fn target_modes<'a>(
+        objects: &'a [ObjectModes],
+        p: &SoundParams,
+        fs: f64,
+        object: usize,
+        strike: Strike,
+        damping: &'a Damping,
+    ) -> ModeSet<'a> {
+        ModeSet {
+            obj: &objects[object.min(objects.len() - 1)],
+            damping,
+            support: p.support_c * p.decay_scale,
+            extra: 0.0,
+            scale: p.modulus_ratio * strike.lambda_factor / (p.size * p.size),
+            fs,
+        }
+    }
+
     /// Fills the engine's scratch amplitudes and poles for `strike` on `object` at the
     /// current settings; false if no mode rings. Realtime-safe.
     fn scratch_plan(&mut self, object: usize, strike: Strike) -> bool {
         let p = self.target;
         let damping = p.damping.scaled(p.decay_scale);
-        let obj = &self.objects[object.min(self.objects.len() - 1)];
-        let modes = ModeSet {
-            obj,
-            damping: &damping,
-            support: p.support_c * p.decay_scale,
-            extra: 0.0,
-            scale: p.modulus_ratio * strike.lambda_factor / (p.size * p.size),
-            fs: self.sample_rate,
-        };
+        let modes = Self::target_modes(&self.objects, &p, self.sample_rate, object, strike, &damping);
+        let obj = modes.obj;
         obj.gains_at(strike.position, &mut self.gains);
         if modes.plan(&p, strike.velocity, 1.0, &self.gains, &mut self.amps, &mut self.poles).is_none() {
             return false;

@@ -245,13 +245,7 @@ impl Bank {
     /// [`PresetError::SchemaVersion`] for another format version, and
     /// [`PresetError::Invalid`] for values [`Bank::validate`] rejects.
     pub fn from_json(s: &str) -> Result<Bank, PresetError> {
-        Self::parse(s, "bank")
-    }
-
-    fn parse(s: &str, what: &str) -> Result<Bank, PresetError> {
-        let b: Bank = json::parse(s, what)?;
-        b.validate()?;
-        Ok(b)
+        json::parse_valid(s, "bank")
     }
 
     /// Pretty-printed JSON (with a trailing newline). Does not validate.
@@ -265,8 +259,7 @@ impl Bank {
     /// [`PresetError::Io`] naming `path` if it cannot be read; otherwise as
     /// [`Bank::from_json`], with the path in [`PresetError::Json`]'s `what`.
     pub fn load(path: &Path) -> Result<Bank, PresetError> {
-        let text = json::read(path)?;
-        Self::parse(&text, &path.display().to_string())
+        json::load(path)
     }
 
     /// Validates, then writes pretty JSON to `path` (through a temporary file and a rename).
@@ -275,8 +268,7 @@ impl Bank {
     /// As [`Bank::validate`] (nothing is written), or [`PresetError::Output`] naming `path`
     /// (an existing file is then untouched).
     pub fn save(&self, path: &Path) -> Result<(), PresetError> {
-        self.validate()?;
-        json::write(path, &self.to_json())
+        json::save(self, path)
     }
 
     /// Checks every field.
@@ -425,5 +417,11 @@ impl Bank {
             positive(&format!("dimensions_m[{i}]"), d, "m")?;
         }
         Ok(())
+    }
+}
+
+impl json::PresetFile for Bank {
+    fn validate(&self) -> Result<(), PresetError> {
+        Bank::validate(self)
     }
 }

@@ -46,6 +46,32 @@ pub(crate) fn parse<T: DeserializeOwned>(s: &str, what: &str) -> Result<T, Prese
     serde_json::from_str(s).map_err(|e| PresetError::json(what, &e))
 }
 
+/// A preset type stored as one JSON file ([`crate::Bank`], [`crate::Material`]): parsed,
+/// loaded and saved the same way, each with its own [`PresetFile::validate`].
+pub(crate) trait PresetFile: Serialize + DeserializeOwned {
+    /// Checks every field.
+    fn validate(&self) -> Result<(), PresetError>;
+}
+
+/// Parses `s` as a `T` ([`parse`]) and validates it; `what` names the source in errors.
+pub(crate) fn parse_valid<T: PresetFile>(s: &str, what: &str) -> Result<T, PresetError> {
+    let value: T = parse(s, what)?;
+    value.validate()?;
+    Ok(value)
+}
+
+/// Reads, parses and validates a preset file; errors name `path`.
+pub(crate) fn load<T: PresetFile>(path: &Path) -> Result<T, PresetError> {
+    let text = read(path)?;
+    parse_valid(&text, &path.display().to_string())
+}
+
+/// Validates `value`, then writes it as pretty JSON to `path` ([`write`]).
+pub(crate) fn save<T: PresetFile>(value: &T, path: &Path) -> Result<(), PresetError> {
+    value.validate()?;
+    write(path, &to_pretty(value))
+}
+
 /// Pretty JSON with a trailing newline.
 pub(crate) fn to_pretty<T: Serialize>(value: &T) -> String {
     // PANIC: our types have only string map keys and no fallible Serialize impls, so

@@ -58,13 +58,7 @@ impl Material {
     /// [`PresetError::SchemaVersion`] for another format version, and
     /// [`PresetError::Invalid`] for values [`Material::validate`] rejects.
     pub fn from_json(s: &str) -> Result<Material, PresetError> {
-        Self::parse(s, "material")
-    }
-
-    fn parse(s: &str, what: &str) -> Result<Material, PresetError> {
-        let m: Material = json::parse(s, what)?;
-        m.validate()?;
-        Ok(m)
+        json::parse_valid(s, "material")
     }
 
     /// Pretty-printed JSON (with a trailing newline). Does not validate.
@@ -78,8 +72,7 @@ impl Material {
     /// [`PresetError::Io`] naming `path` if it cannot be read; otherwise as
     /// [`Material::from_json`], with the path in [`PresetError::Json`]'s `what`.
     pub fn load(path: &Path) -> Result<Material, PresetError> {
-        let text = json::read(path)?;
-        Self::parse(&text, &path.display().to_string())
+        json::load(path)
     }
 
     /// Validates, then writes pretty JSON to `path` (through a temporary file and a rename).
@@ -89,8 +82,7 @@ impl Material {
     /// (nothing is written), [`PresetError::Output`] naming `path` if writing fails (an
     /// existing file is then untouched).
     pub fn save(&self, path: &Path) -> Result<(), PresetError> {
-        self.validate()?;
-        json::write(path, &self.to_json())
+        json::save(self, path)
     }
 
     /// Checks every field.
@@ -146,5 +138,11 @@ impl Material {
         let d = self.damping.to_damping().ok()?;
         let omega = 2.0 * std::f64::consts::PI * freq_hz;
         Some(1000f64.ln() / (0.5 * d.c(omega * omega)))
+    }
+}
+
+impl json::PresetFile for Material {
+    fn validate(&self) -> Result<(), PresetError> {
+        Material::validate(self)
     }
 }
