@@ -46,7 +46,6 @@ impl ObjectPanel {
 
     /// Draws the panel: object choice, audition controls, the object view, the mode gains.
     pub fn show(&mut self, ui: &mut egui::Ui, cx: &PanelCtx) {
-        let setter = cx.setter;
         ui.heading("Object");
         let lib = cx.library.clone();
         let Some(obj) = logic::object_index(cx.params, &lib) else {
@@ -54,21 +53,11 @@ impl ObjectPanel {
             return;
         };
         let bank = &lib.banks[obj];
-        egui::ComboBox::from_label("Object").selected_text(bank.name.as_str()).show_ui(ui, |ui| {
-            for (i, b) in lib.banks.iter().enumerate() {
-                let r = ui
-                    .selectable_label(i == obj, b.name.as_str())
-                    .on_hover_text(format!("{}\n\n{}", b.description, b.provenance));
-                if r.clicked() && i != obj {
-                    set_param(setter, &cx.params.object, i as i32);
-                }
-            }
-        });
+        object_choice(ui, cx, obj);
         ui.horizontal(|ui| {
             ui.add(egui::Slider::new(&mut self.velocity, 0.05..=1.0).text("Velocity"));
             ui.add(egui::DragValue::new(&mut self.key).range(0..=127).prefix("Key "));
         });
-
         // The picture: the object's surface seen from a fixed camera, the strike path on it
         // (see `drawing`); cached per bank.
         if self.drawing.as_ref().is_none_or(|d| d.bank_id != bank.id || d.points.len() != bank.points.len()) {
@@ -80,24 +69,22 @@ impl ObjectPanel {
         let height = ((width - 24.0) * aspect + 40.0).clamp(110.0, 280.0);
         let (rect, response) = ui.allocate_exact_size(Vec2::new(width, height), Sense::click_and_drag());
         let response = response.accessible_name("Object view");
-        let area = Rect::from_min_max(rect.min + Vec2::new(12.0, 22.0), rect.max - Vec2::new(12.0, 12.0));
-        let scale = (area.width() / pic.size[0].max(1e-3)).min(area.height() / pic.size[1].max(1e-3));
-        let centre = area.center();
-        let to_screen = |q: [f32; 2]| {
-            Pos2::new(centre.x + (q[0] - 0.5 * pic.size[0]) * scale, centre.y - (q[1] - 0.5 * pic.size[1]) * scale)
-        };
-        let from_screen =
-            |p: Pos2| [(p.x - centre.x) / scale + 0.5 * pic.size[0], (centre.y - p.y) / scale + 0.5 * pic.size[1]];
-        let points = &pic.points;
-        let n = points.len();
+        let view = View::new(&pic, rect);
+        self.interact(&response, &view, cx);
+        paint_view(ui, &response, &view, bank, cx);
+        ui.add_space(6.0);
+        self.mode_gains(ui, cx, bank);
+    }
 
-        // Interaction: press (or drag onto) a point → one gesture on the strike position,
-        // released when the button is; each new point also strikes. Only points the camera
-        // sees are picked.
+    /// Press (or drag onto) a point → one gesture on the strike position, released when the
+    /// button is; each new point also strikes. Only points the camera sees are picked.
+    fn interact(&mut self, response: &egui::Response, view: &View, cx: &PanelCtx) {
+        let setter = cx.setter;
+        let n = view.pic.points.len();
         let pointer = response.interact_pointer_pos().or_else(|| response.hover_pos());
-        let down = response.is_pointer_button_down_on();
-        if down {
-            if let Some(i) = pointer.and_then(|p| drawing::nearest_seen(&pic, from_screen(p))) {
+        let picked = |p: Pos2| drawing::nearest_seen(view.pic, view.to_drawing(p));
+        if response.is_pointer_button_down_on() {
+            if let Some(i) = pointer.and_then(picked) {
                 let pos = logic::position_of_point(i, n);
                 match self.gesture {
                     None => {
@@ -118,82 +105,20 @@ impl ObjectPanel {
             setter.end_set_parameter(&cx.params.strike_position);
         } else if response.clicked() {
             // Press and release within one frame.
-            if let Some(i) = pointer.and_then(|p| drawing::nearest_seen(&pic, from_screen(p))) {
+            if let Some(i) = pointer.and_then(picked) {
                 let pos = logic::position_of_point(i, n);
                 set_param(setter, &cx.params.strike_position, pos);
                 self.audition(cx.shared, pos);
             }
         }
+    }
 
-        let painter = ui.painter_at(rect);
-        let visuals = ui.visuals();
-        painter.rect_filled(rect, 4.0, visuals.extreme_bg_color);
-        let mut mesh = egui::Mesh::default();
-        for f in &pic.facets {
-            let g = |c: f32| (c * (0.15 + 0.85 * f.shade)).round().clamp(0.0, 255.0) as u8;
-            let color = Color32::from_rgb(g(150.0), g(165.0), g(185.0));
-            let base = mesh.vertices.len() as u32;
-            for &c in &f.corners {
-                mesh.colored_vertex(to_screen(c), color);
-            }
-            mesh.add_triangle(base, base + 1, base + 2);
-        }
-        if !mesh.is_empty() {
-            painter.add(egui::Shape::mesh(mesh));
-        }
-        let path: Vec<Pos2> = points.iter().map(|&p| to_screen(p)).collect();
-        let seen = |i: usize| pic.visible.get(i).copied().unwrap_or(true);
-        let hidden_color = visuals.weak_text_color().gamma_multiply(0.6);
-        for i in 1..path.len() {
-            let stroke = if seen(i - 1) && seen(i) {
-                Stroke::new(1.0, visuals.text_color().gamma_multiply(0.7))
-            } else {
-                Stroke::new(1.0, hidden_color)
-            };
-            painter.line_segment([path[i - 1], path[i]], stroke);
-        }
-        let position = cx.params.strike_position.value();
-        // The strike point nearest along the path (on screen, points in front and behind can
-        // overlap).
-        let current = (n > 0).then(|| {
-            let p = if position.is_finite() { position.clamp(0.0, 1.0) } else { 0.0 };
-            ((p * (n - 1) as f32).round() as usize).min(n - 1)
-        });
-        for (i, p) in path.iter().enumerate() {
-            let (color, radius) = if Some(i) == current {
-                (Color32::from_rgb(255, 190, 60), 5.0)
-            } else if seen(i) {
-                (visuals.strong_text_color(), 2.5)
-            } else {
-                (hidden_color, 1.5)
-            };
-            painter.circle_filled(*p, radius, color);
-        }
-        if let Some(xy) = logic::point_at_position(points, position) {
-            let alpha = if current.is_none_or(seen) { 1.0 } else { 0.4 };
-            painter.circle_stroke(
-                to_screen(xy),
-                9.0,
-                Stroke::new(2.0, Color32::from_rgb(255, 150, 40).gamma_multiply(alpha)),
-            );
-        }
-        let label = current.and_then(|i| bank.points.get(i)).map_or("", |p| p.label.as_str());
-        painter.text(
-            rect.left_top() + Vec2::new(6.0, 4.0),
-            egui::Align2::LEFT_TOP,
-            format!("{} · {label}", cx.params.strike_position),
-            egui::FontId::proportional(11.0),
-            visuals.text_color(),
-        );
-        if let Some(p) = response.hover_pos() {
-            if let Some(i) = drawing::nearest_seen(&pic, from_screen(p)) {
-                painter.circle_stroke(path[i], 6.0, Stroke::new(1.0, visuals.strong_text_color()));
-            }
-        }
-
-        ui.add_space(6.0);
+    /// The mode gains at the strike position, at the audition key's pitch (bars above the
+    /// quality threshold in colour).
+    fn mode_gains(&self, ui: &mut egui::Ui, cx: &PanelCtx, bank: &presets::Bank) {
         ui.label("Mode gains at the strike position (mode shapes at key's pitch, before the mallet)");
-        let scale = logic::lambda_scale(cx.params, &lib, self.key);
+        let position = cx.params.strike_position.value();
+        let scale = logic::lambda_scale(cx.params, cx.library, self.key);
         let bars = logic::mode_bars(bank, position, scale);
         let peak = bars.iter().fold(0.0f32, |m, b| m.max(b.gain.abs())).max(1e-6);
         let threshold = peak * 10f32.powf(-cx.params.quality_db.value() / 20.0);
@@ -210,6 +135,123 @@ impl ObjectPanel {
             let strong = b.gain.abs() >= threshold && b.gain != 0.0;
             let color = if strong { Color32::from_rgb(90, 170, 255) } else { Color32::from_gray(90) };
             plot.bar(&painter, b.freq_hz, f64::from(b.gain.abs()), Stroke::new(2.0, color));
+        }
+    }
+}
+
+/// The object list; choosing one sets the *Object* parameter (one gesture).
+fn object_choice(ui: &mut egui::Ui, cx: &PanelCtx, selected: usize) {
+    let lib = cx.library;
+    egui::ComboBox::from_label("Object").selected_text(lib.banks[selected].name.as_str()).show_ui(ui, |ui| {
+        for (i, b) in lib.banks.iter().enumerate() {
+            let r = ui
+                .selectable_label(i == selected, b.name.as_str())
+                .on_hover_text(format!("{}\n\n{}", b.description, b.provenance));
+            if r.clicked() && i != selected {
+                set_param(cx.setter, &cx.params.object, i as i32);
+            }
+        }
+    });
+}
+
+/// The object view's rectangle and the map between the drawing's plane and the screen.
+struct View<'a> {
+    pic: &'a drawing::ObjectDrawing,
+    rect: Rect,
+    centre: Pos2,
+    /// Points per drawing unit.
+    scale: f32,
+}
+
+impl<'a> View<'a> {
+    /// The drawing fitted into `rect` with margins for the label.
+    fn new(pic: &'a drawing::ObjectDrawing, rect: Rect) -> Self {
+        let area = Rect::from_min_max(rect.min + Vec2::new(12.0, 22.0), rect.max - Vec2::new(12.0, 12.0));
+        let scale = (area.width() / pic.size[0].max(1e-3)).min(area.height() / pic.size[1].max(1e-3));
+        View { pic, rect, centre: area.center(), scale }
+    }
+
+    fn to_screen(&self, q: [f32; 2]) -> Pos2 {
+        let (c, s, size) = (self.centre, self.scale, self.pic.size);
+        Pos2::new(c.x + (q[0] - 0.5 * size[0]) * s, c.y - (q[1] - 0.5 * size[1]) * s)
+    }
+
+    fn to_drawing(&self, p: Pos2) -> [f32; 2] {
+        let (c, s, size) = (self.centre, self.scale, self.pic.size);
+        [(p.x - c.x) / s + 0.5 * size[0], (c.y - p.y) / s + 0.5 * size[1]]
+    }
+}
+
+/// Paints the shaded object, the strike path (hidden parts dimmed), the points, the current
+/// strike position and the hovered point.
+fn paint_view(ui: &egui::Ui, response: &egui::Response, view: &View, bank: &presets::Bank, cx: &PanelCtx) {
+    let pic = view.pic;
+    let rect = view.rect;
+    let points = &pic.points;
+    let n = points.len();
+    let painter = ui.painter_at(rect);
+    let visuals = ui.visuals();
+    painter.rect_filled(rect, 4.0, visuals.extreme_bg_color);
+    let mut mesh = egui::Mesh::default();
+    for f in &pic.facets {
+        let g = |c: f32| (c * (0.15 + 0.85 * f.shade)).round().clamp(0.0, 255.0) as u8;
+        let color = Color32::from_rgb(g(150.0), g(165.0), g(185.0));
+        let base = mesh.vertices.len() as u32;
+        for &c in &f.corners {
+            mesh.colored_vertex(view.to_screen(c), color);
+        }
+        mesh.add_triangle(base, base + 1, base + 2);
+    }
+    if !mesh.is_empty() {
+        painter.add(egui::Shape::mesh(mesh));
+    }
+    let path: Vec<Pos2> = points.iter().map(|&p| view.to_screen(p)).collect();
+    let seen = |i: usize| pic.visible.get(i).copied().unwrap_or(true);
+    let hidden_color = visuals.weak_text_color().gamma_multiply(0.6);
+    for i in 1..path.len() {
+        let stroke = if seen(i - 1) && seen(i) {
+            Stroke::new(1.0, visuals.text_color().gamma_multiply(0.7))
+        } else {
+            Stroke::new(1.0, hidden_color)
+        };
+        painter.line_segment([path[i - 1], path[i]], stroke);
+    }
+    let position = cx.params.strike_position.value();
+    // The strike point nearest along the path (on screen, points in front and behind can
+    // overlap).
+    let current = (n > 0).then(|| {
+        let p = if position.is_finite() { position.clamp(0.0, 1.0) } else { 0.0 };
+        ((p * (n - 1) as f32).round() as usize).min(n - 1)
+    });
+    for (i, p) in path.iter().enumerate() {
+        let (color, radius) = if Some(i) == current {
+            (Color32::from_rgb(255, 190, 60), 5.0)
+        } else if seen(i) {
+            (visuals.strong_text_color(), 2.5)
+        } else {
+            (hidden_color, 1.5)
+        };
+        painter.circle_filled(*p, radius, color);
+    }
+    if let Some(xy) = logic::point_at_position(points, position) {
+        let alpha = if current.is_none_or(seen) { 1.0 } else { 0.4 };
+        painter.circle_stroke(
+            view.to_screen(xy),
+            9.0,
+            Stroke::new(2.0, Color32::from_rgb(255, 150, 40).gamma_multiply(alpha)),
+        );
+    }
+    let label = current.and_then(|i| bank.points.get(i)).map_or("", |p| p.label.as_str());
+    painter.text(
+        rect.left_top() + Vec2::new(6.0, 4.0),
+        egui::Align2::LEFT_TOP,
+        format!("{} · {label}", cx.params.strike_position),
+        egui::FontId::proportional(11.0),
+        visuals.text_color(),
+    );
+    if let Some(p) = response.hover_pos() {
+        if let Some(i) = drawing::nearest_seen(pic, view.to_drawing(p)) {
+            painter.circle_stroke(path[i], 6.0, Stroke::new(1.0, visuals.strong_text_color()));
         }
     }
 }
