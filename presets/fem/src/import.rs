@@ -123,11 +123,82 @@ pub fn import_mesh_file(
                 }
             }
             let summary = format!("Gmsh tetrahedral mesh, scale {}", opts.scale);
-            Ok(ImportedMesh { mesh, surface: None, warnings: Vec::new(), summary })
+            check_one_body(&mesh)?;
+            let (lo, hi) = mesh.bounds();
+            let warnings = units_warning(extent(lo, hi), opts.scale).into_iter().collect();
+            Ok(ImportedMesh { mesh, surface: None, warnings, summary })
         }
         MeshFileKind::Obj => import_surface(read_obj(&String::from_utf8_lossy(&bytes))?, "OBJ", opts, progress),
         MeshFileKind::Stl => import_surface(read_stl(&bytes)?, "STL", opts, progress),
     }
+}
+
+/// The largest side of the box `lo`–`hi`.
+fn extent(lo: [f64; 3], hi: [f64; 3]) -> f64 {
+    (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f64::max)
+}
+
+/// Struck's objects are millimetres to metres across: a warning naming `--scale` when an
+/// imported object's largest side `size` (m, after `scale`) is outside 2 mm–20 m, the usual
+/// sign of a file in other units (a 5 cm cup saved in millimetres is read as 50 m and rings
+/// at a few hertz).
+pub fn units_warning(size: f64, scale: f64) -> Option<String> {
+    if size > 20.0 {
+        Some(format!(
+            "the object is {size:.4} m across at --scale {scale}: if the file is in millimetres use --scale {}, in centimetres --scale {}",
+            scale * 1e-3,
+            scale * 1e-2
+        ))
+    } else if size < 2e-3 {
+        Some(format!(
+            "the object is {:.4} mm across at --scale {scale}: its modes will lie far above hearing; check --scale (the factor from the file's units to metres)",
+            size * 1e3
+        ))
+    } else {
+        None
+    }
+}
+
+/// Fails when the tetrahedra form more than one connected body (sharing no node), naming how
+/// many and their sizes: a free solid made of N bodies has 6N rigid modes, and a bank is one
+/// object.
+///
+/// # Errors
+/// [`FemError::Mesh`] for two or more bodies.
+pub fn check_one_body(mesh: &TetMesh) -> Result<(), FemError> {
+    let mut parent: Vec<u32> = (0..mesh.nodes.len() as u32).collect();
+    fn root(parent: &mut [u32], mut i: u32) -> u32 {
+        while parent[i as usize] != i {
+            parent[i as usize] = parent[parent[i as usize] as usize];
+            i = parent[i as usize];
+        }
+        i
+    }
+    for t in &mesh.tets {
+        let a = root(&mut parent, t[0]);
+        for &n in &t[1..] {
+            let b = root(&mut parent, n);
+            if a != b {
+                parent[b as usize] = a;
+            }
+        }
+    }
+    let mut sizes: HashMap<u32, usize> = HashMap::new();
+    for t in &mesh.tets {
+        *sizes.entry(root(&mut parent, t[0])).or_default() += 1;
+    }
+    if sizes.len() <= 1 {
+        return Ok(());
+    }
+    let mut counts: Vec<usize> = sizes.into_values().collect();
+    counts.sort_unstable_by(|a, b| b.cmp(a));
+    let shown: Vec<String> = counts.iter().take(5).map(|c| c.to_string()).collect();
+    Err(FemError::Mesh(format!(
+        "the mesh is {} separate bodies that share no node ({}{} tetrahedra); a bank is one connected object: mesh each body on its own",
+        counts.len(),
+        shown.join(", "),
+        if counts.len() > 5 { ", …" } else { "" }
+    )))
 }
 
 fn validate_scale(scale: f64) -> Result<(), FemError> {
@@ -156,9 +227,12 @@ pub fn import_surface(
     }
     progress("check", 0.0);
     let check = check_surface(&mut surface)?;
+    let (lo, hi) = surface.bounds();
+    let units = units_warning(extent(lo, hi), opts.scale);
     let resolution = opts.resolution.unwrap_or_else(|| auto_resolution(&surface, DEFAULT_VERTEX_BUDGET));
     let (mesh, vox) = voxelise(&surface, &VoxelOptions { resolution, snap: opts.snap }, progress)?;
     let mut warnings = check.warnings;
+    warnings.extend(units);
     warnings.extend(vox.warnings.iter().cloned());
     let summary = format!(
         "{format} surface of {} triangles (scale {}), voxelised at resolution {}{} (h = {:.3e} m, {} x {} x {} grid, {} voxels, 5 tetrahedra each; boundary vertices moved onto the surface: {} fully, {} partly); volume {:.4e} m^3 vs {:.4e} m^3 enclosed",
@@ -354,6 +428,7 @@ fn build(
     if mesh.tets.is_empty() {
         return Err(FemError::Mesh("the mesh has no tetrahedra".into()));
     }
+    check_one_body(mesh)?;
     let modes = analyse(mesh, material, opts, progress)?;
     progress("strike", 0.0);
     let points = surface_strike_points(mesh, opts.strike_points)?;

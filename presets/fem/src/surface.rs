@@ -55,6 +55,10 @@ pub struct SurfaceReport {
     pub flipped: usize,
     /// Closed pieces (connected components) of the surface.
     pub pieces: usize,
+    /// Separate bodies found: pieces not enclosed by another piece (a cavity's wall is a piece
+    /// but not a body; a ball inside a hollow ball's cavity is a second body). Of several,
+    /// only the largest is kept (with a warning).
+    pub bodies: usize,
     /// Enclosed volume, m³.
     pub volume: f64,
     /// Whether the self-intersection check ran to the end.
@@ -596,17 +600,23 @@ pub fn check_surface(s: &mut TriSurface) -> Result<SurfaceReport, FemError> {
     let geom = geometric_triangles(n, &collinear);
     let grid = TriGrid::new(s, &geom, 0.0);
     check_self_intersection(s, &grid, &mut rep)?;
-    orient_outward(s, &grid, &geom, diag, &mut orientation);
+    let largest = largest_per_piece(s, &geom, &orientation);
+    orient_outward(s, &grid, &largest, diag, &mut orientation);
     rep.flipped = orientation.flip.iter().filter(|&&f| f).count();
     if rep.flipped > 0 {
         rep.warnings
             .push(format!("reversed {} of {n} triangles to make the normals point outward consistently", rep.flipped));
     }
+    let bodies = Bodies::of(s, &grid, &largest, &orientation);
+    rep.bodies = bodies.count;
+    if bodies.count > 1 {
+        bodies.keep_largest_body(s, &orientation, &mut rep);
+    }
     rep.volume = s.signed_volume();
     if !(rep.volume > 1e-9 * diag * diag * diag) {
         return Err(FemError::Mesh(format!("the surface encloses no volume ({:.3e} m^3); is it flat?", rep.volume)));
     }
-    rep.triangles = n;
+    rep.triangles = s.triangles.len();
     Ok(rep)
 }
 
@@ -886,7 +896,26 @@ struct Largest {
 /// Makes each piece's normals point out of the solid. A piece inside another (a cavity)
 /// points into the cavity, so decide by parity: a point just off a triangle along its normal
 /// must be outside. Reversed triangles are recorded in `orientation.flip`.
-fn orient_outward(s: &mut TriSurface, grid: &TriGrid, geom: &[u32], diag: f64, orientation: &mut Orientation) {
+fn orient_outward(
+    s: &mut TriSurface,
+    grid: &TriGrid,
+    largest: &[Option<Largest>],
+    diag: f64,
+    orientation: &mut Orientation,
+) {
+    let piece_flip: Vec<bool> =
+        largest.iter().map(|b| b.is_some_and(|l| points_inward(s, grid, l.tri as usize, diag))).collect();
+    for (i, t) in s.triangles.iter_mut().enumerate() {
+        if piece_flip[orientation.piece[i] as usize] {
+            t.swap(1, 2);
+            orientation.flip[i] = !orientation.flip[i];
+        }
+    }
+}
+
+/// The largest geometric triangle of each piece (`None` for a piece of collinear triangles
+/// only).
+fn largest_per_piece(s: &TriSurface, geom: &[u32], orientation: &Orientation) -> Vec<Option<Largest>> {
     let mut best: Vec<Option<Largest>> = vec![None; orientation.pieces];
     for &t in geom {
         let [x, y, z] = s.corners(t as usize);
@@ -896,13 +925,88 @@ fn orient_outward(s: &mut TriSurface, grid: &TriGrid, geom: &[u32], diag: f64, o
             *b = Some(Largest { area, tri: t });
         }
     }
-    let piece_flip: Vec<bool> =
-        best.iter().map(|b| b.is_some_and(|l| points_inward(s, grid, l.tri as usize, diag))).collect();
-    for (i, t) in s.triangles.iter_mut().enumerate() {
-        if piece_flip[orientation.piece[i] as usize] {
-            t.swap(1, 2);
-            orientation.flip[i] = !orientation.flip[i];
+    best
+}
+
+/// The bodies of a surface of several pieces: which body each piece bounds (an outer wall is
+/// its own body; a cavity's wall belongs to the smallest outer wall around it) and each
+/// body's volume.
+struct Bodies {
+    /// Number of bodies (outer walls).
+    count: usize,
+    /// Body (its outer wall's piece) of each piece.
+    body_of: Vec<usize>,
+    /// Signed volume each piece encloses (a cavity's is negative), m³.
+    volume: Vec<f64>,
+}
+
+impl Bodies {
+    fn of(s: &TriSurface, grid: &TriGrid, largest: &[Option<Largest>], orientation: &Orientation) -> Bodies {
+        let pieces = orientation.pieces;
+        let mut volume = vec![0.0; pieces];
+        for t in 0..s.triangles.len() {
+            let [a, b, c] = s.corners(t);
+            volume[orientation.piece[t] as usize] += dot(a, cross(b, c)) / 6.0;
         }
+        let probe = |p: usize| {
+            largest[p].map(|l| {
+                let [a, b, c] = s.corners(l.tri as usize);
+                [(a[0] + b[0] + c[0]) / 3.0, (a[1] + b[1] + c[1]) / 3.0, (a[2] + b[2] + c[2]) / 3.0]
+            })
+        };
+        // Inside `o` alone (parity of `o`'s triangles), or inside the pieces other than `p`.
+        let inside_piece = |x: [f64; 3], o: usize| {
+            inside_by_rays_of(s, grid, x, &|t| orientation.piece[t as usize] as usize == o) == Some(true)
+        };
+        let outer: Vec<bool> = (0..pieces)
+            .map(|p| {
+                pieces == 1
+                    || probe(p).is_some_and(|x| {
+                        inside_by_rays_of(s, grid, x, &|t| orientation.piece[t as usize] as usize != p) == Some(false)
+                    })
+            })
+            .collect();
+        let body_of = (0..pieces)
+            .map(|p| {
+                if outer[p] {
+                    return p;
+                }
+                let x = probe(p);
+                (0..pieces)
+                    .filter(|&o| outer[o] && x.is_some_and(|x| inside_piece(x, o)))
+                    .min_by(|&a, &b| volume[a].abs().total_cmp(&volume[b].abs()))
+                    .unwrap_or(p)
+            })
+            .collect();
+        Bodies { count: outer.iter().filter(|&&o| o).count(), body_of, volume }
+    }
+
+    /// Keeps the triangles of the body with the largest volume and drops the others, saying
+    /// so in `rep.warnings`.
+    fn keep_largest_body(&self, s: &mut TriSurface, orientation: &Orientation, rep: &mut SurfaceReport) {
+        let mut body_volume = vec![0.0; self.volume.len()];
+        for (p, &b) in self.body_of.iter().enumerate() {
+            body_volume[b] += self.volume[p];
+        }
+        let Some(keep) = (0..body_volume.len()).max_by(|&a, &b| body_volume[a].total_cmp(&body_volume[b])) else {
+            return;
+        };
+        let total: f64 = body_volume.iter().sum();
+        let mut t = 0;
+        s.triangles.retain(|_| {
+            let kept = self.body_of[orientation.piece[t] as usize] == keep;
+            t += 1;
+            kept
+        });
+        // Drop the other bodies' vertices too (they would widen the bounding box).
+        s.merge_vertices(0.0);
+        rep.warnings.push(format!(
+            "the surface is {} separate bodies (closed shells not inside one another): kept the largest ({:.4e} m^3) and dropped {} ({:.4e} m^3); a bank is one connected object, so export each body to its own file to use it",
+            self.count,
+            body_volume[keep],
+            self.count - 1,
+            total - body_volume[keep]
+        ));
     }
 }
 
@@ -920,6 +1024,11 @@ fn points_inward(s: &TriSurface, grid: &TriGrid, t: usize, diag: f64) -> bool {
 /// three axis directions (slightly jittered), by majority; `None` if no ray gave a clean
 /// answer.
 fn inside_by_rays(s: &TriSurface, grid: &TriGrid, p: [f64; 3]) -> Option<bool> {
+    inside_by_rays_of(s, grid, p, &|_| true)
+}
+
+/// [`inside_by_rays`] counting only the triangles `keep` accepts.
+fn inside_by_rays_of(s: &TriSurface, grid: &TriGrid, p: [f64; 3], keep: &dyn Fn(u32) -> bool) -> Option<bool> {
     let mut votes = [0usize; 2];
     let mut cand: Vec<u32> = Vec::new();
     let c = TriGrid::cell_of(grid.lo, grid.h, grid.dims, p);
@@ -933,6 +1042,7 @@ fn inside_by_rays(s: &TriSurface, grid: &TriGrid, p: [f64; 3]) -> Option<bool> {
         }
         cand.sort_unstable();
         cand.dedup();
+        cand.retain(|&t| keep(t));
         let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
         for attempt in 0..4 {
             // Jitter well inside the cell, so the ray stays in the cells gathered above.

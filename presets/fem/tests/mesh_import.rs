@@ -372,6 +372,7 @@ fn orientation_is_repaired_and_cavities_point_inward() {
     s.triangles.push([0, 0, 1]); // one degenerate triangle: dropped with a warning
     let rep = fem::check_surface(&mut s).unwrap();
     assert_eq!(rep.pieces, 2);
+    assert_eq!(rep.bodies, 1, "a cavity's wall is not a body");
     assert_eq!(rep.degenerate_dropped, 1);
     assert!(rep.warnings.iter().any(|w| w.contains("reversed")), "{:?}", rep.warnings);
     // Outer minus inner (the polyhedral volumes): the cavity is oriented inward.
@@ -412,7 +413,7 @@ fn voxel_limits_and_thin_objects() {
     two.vertices.extend(small.vertices);
     two.triangles.extend(small.triangles.iter().map(|t| t.map(|v| v + n)));
     let imp = import_surface(two, "t", &o(10), &quiet).unwrap();
-    assert!(imp.warnings.iter().any(|w| w.contains("largest connected piece")), "{:?}", imp.warnings);
+    assert!(imp.warnings.iter().any(|w| w.contains("kept the largest")), "{:?}", imp.warnings);
     assert!((imp.mesh.volume() - 0.125).abs() < 1e-9, "{}", imp.mesh.volume());
     // Unknown extension.
     let e = mesh_err(MeshFileKind::of(std::path::Path::new("part.step")));
@@ -525,4 +526,66 @@ fn automatic_resolution_fits_the_vertex_budget() {
         "{}",
         imp.mesh.corners
     );
+}
+
+/// Separate bodies are named: of a surface, the largest is kept with a warning that says so
+/// (two spheres side by side; a ball loose in a hollow ball's cavity: nested shells, but two
+/// bodies); a tetrahedral mesh of two blocks sharing no node is refused before the solve. One
+/// hollow ball is one body.
+#[test]
+fn separate_bodies_are_named_not_solved() {
+    let mut two = TriSurface::default();
+    sphere_tris(0.02, [0.0; 3], false, &mut two);
+    sphere_tris(0.02, [0.1, 0.0, 0.0], false, &mut two);
+    assert_eq!(fem::check_surface(&mut two.clone()).unwrap().bodies, 2);
+    // Equal bodies: the first is kept, with a warning naming both and the way out; the mesh
+    // is one sphere (the volume check does not mistake the other for a thin part).
+    let imp = import_surface(two, "test", &ImportOptions { resolution: Some(12), ..ImportOptions::default() }, &quiet)
+        .unwrap();
+    assert!(
+        imp.warnings.iter().any(|w| w.contains("2 separate bodies") && w.contains("own file")),
+        "{:?}",
+        imp.warnings
+    );
+    let one = 4.0 / 3.0 * PI * 0.02f64.powi(3);
+    assert!((imp.mesh.volume() / one - 1.0).abs() < 0.1, "{} vs one sphere {one}", imp.mesh.volume());
+
+    let mut rattle = TriSurface::default();
+    sphere_tris(0.05, [0.0; 3], false, &mut rattle);
+    sphere_tris(0.04, [0.0; 3], true, &mut rattle);
+    sphere_tris(0.01, [0.005, 0.0, 0.0], false, &mut rattle);
+    let rep = fem::check_surface(&mut rattle).unwrap();
+    assert_eq!((rep.pieces, rep.bodies), (3, 2), "{rep:?}");
+    // The hollow ball (outer wall and cavity) is the larger body and is kept whole.
+    let mut shell = TriSurface::default();
+    sphere_tris(0.05, [0.0; 3], false, &mut shell);
+    sphere_tris(0.04, [0.0; 3], true, &mut shell);
+    assert!((rep.volume / shell.signed_volume() - 1.0).abs() < 1e-9, "{} vs {}", rep.volume, shell.signed_volume());
+
+    let block = fem::mesh_shape(&Shape::Block { length: 0.02, width: 0.02, height: 0.02 }, 4).unwrap();
+    let mut pair = block.clone();
+    let off = pair.nodes.len() as u32;
+    pair.nodes.extend(block.nodes.iter().map(|p| [p[0] + 0.1, p[1], p[2]]));
+    pair.tets.extend(block.tets.iter().map(|t| t.map(|n| n + off)));
+    let e = mesh_err(fem::import::check_one_body(&pair));
+    assert!(e.contains("2 separate bodies") && e.contains(&format!("{0}, {0} tetrahedra", block.tets.len())), "{e}");
+    assert!(fem::import::check_one_body(&block).is_ok());
+}
+
+/// A file in other units is warned about with the --scale that fixes it: a 5 cm cube saved
+/// in millimetres reads as 50 m; a 0.5 mm object is far above hearing; 5 cm is fine.
+#[test]
+fn wrong_units_are_warned_about_with_the_scale_hint() {
+    let w = fem::import::units_warning(50.0, 1.0).expect("50 m is not a percussion object");
+    assert!(w.contains("--scale 0.001"), "{w}");
+    assert!(fem::import::units_warning(5e-4, 1.0).is_some_and(|w| w.contains("--scale")));
+    assert!(fem::import::units_warning(0.05, 1.0).is_none());
+    let imp = import_surface(
+        fem::read_obj(&box_obj(50.0, 50.0, 50.0)).unwrap(),
+        "OBJ",
+        &ImportOptions { resolution: Some(4), ..ImportOptions::default() },
+        &quiet,
+    )
+    .unwrap();
+    assert!(imp.warnings.iter().any(|w| w.contains("--scale 0.001")), "{:?}", imp.warnings);
 }
