@@ -21,7 +21,8 @@ pub enum BankCommand {
         young: f64,
         density: f64,
         poisson: f64,
-        /// `None`: 40 for shapes, chosen by [`fem::voxel::auto_resolution`] for surfaces.
+        /// `None`: chosen by the build budget for shapes ([`fem::choose_resolution`]), by
+        /// [`fem::voxel::auto_resolution`] for surfaces.
         resolution: Option<usize>,
         points: usize,
         id: Option<String>,
@@ -259,8 +260,13 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
             }
             if shape == "tube" || vary.is_some() {
                 let vary = vary.unwrap_or_else(|| "outer_radius".into());
-                let opts =
-                    BuildOptions { max_modes: modes, max_freq_hz: Some(20_000.0), resolution, strike_points: points };
+                let opts = BuildOptions {
+                    max_modes: modes,
+                    max_freq_hz: Some(20_000.0),
+                    resolution,
+                    strike_points: points,
+                    auto_resolution: false,
+                };
                 return tune_dimensions(
                     &shape, &dims, &ratios, &vary, first_mode, tolerance, young, density, poisson, opts, id, name, &out,
                 );
@@ -292,8 +298,13 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
             let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("bank");
             let id = kebab(id.as_deref().unwrap_or(stem));
             let name = name.unwrap_or_else(|| id.clone());
-            let opts =
-                BuildOptions { max_modes: modes, max_freq_hz: Some(20_000.0), resolution, strike_points: points };
+            let opts = BuildOptions {
+                max_modes: modes,
+                max_freq_hz: Some(20_000.0),
+                resolution,
+                strike_points: points,
+                auto_resolution: false,
+            };
             let (mut bank, _) =
                 fem::build_bank(&id, &name, &tuned.shape, &material, &opts, &progress()).map_err(|e| e.to_string())?;
             let f = tuned.bending_hz;
@@ -353,6 +364,8 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
                 max_freq_hz: max_freq,
                 resolution: resolution.unwrap_or(BuildOptions::default().resolution),
                 strike_points: points,
+                // Without --resolution a shape's mesh is chosen by the build budget.
+                auto_resolution: resolution.is_none(),
             };
             let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("bank");
             let id = kebab(id.as_deref().unwrap_or(stem));

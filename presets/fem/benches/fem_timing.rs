@@ -58,7 +58,13 @@ fn main() {
     println!("| object | res | vertices | nodes | DOFs | modes | f1 Hz | f_last Hz | total s | factor s (sym+num) | solve s | M s | orth s | RR s | lock s | check s | CPU s | shifts | runs | steps | basis | residual / RQ err | peak MiB | load |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for (name, shape, mat, res, modes, fmax) in jobs {
-        let opts = BuildOptions { max_modes: modes, max_freq_hz: fmax, resolution: res, strike_points: 64 };
+        let opts = BuildOptions {
+            max_modes: modes,
+            max_freq_hz: fmax,
+            resolution: res,
+            strike_points: 64,
+            auto_resolution: false,
+        };
         let cpu0 = cpu_seconds();
         match build_bank(&name, &name, &shape, &mat, &opts, &|_, _| {}) {
             Ok((bank, r)) => {

@@ -269,6 +269,35 @@ struct Factor<'a> {
     negative: usize,
 }
 
+/// Bytes the sparse LDLᵀ factor of `mesh`'s stiffness matrix would take, estimated from the
+/// node graph (three DOFs per node: 9 values per node-factor entry) with the same AMD
+/// ordering, without assembling: cheap enough to choose a resolution before building.
+///
+/// # Errors
+/// [`FemError::Factorization`] if the symbolic analysis fails.
+pub fn factor_bytes_estimate(mesh: &crate::TetMesh) -> Result<f64, FemError> {
+    let nn = mesh.nodes.len();
+    let mut adj: Vec<Vec<u32>> = vec![Vec::new(); nn];
+    for t in &mesh.tets {
+        for &a in t {
+            adj[a as usize].extend_from_slice(t);
+        }
+    }
+    let mut col_ptr = Vec::with_capacity(nn + 1);
+    let mut row_idx = Vec::new();
+    col_ptr.push(0usize);
+    for a in adj.iter_mut() {
+        a.sort_unstable();
+        a.dedup();
+        row_idx.extend(a.iter().map(|&b| b as usize));
+        col_ptr.push(row_idx.len());
+    }
+    let pattern = SymbolicSparseColMatRef::new_checked(nn, nn, &col_ptr, None, &row_idx);
+    let symbolic = factorize_symbolic_cholesky(pattern, Side::Lower, SymmetricOrdering::Amd, Default::default())
+        .map_err(|e| FemError::Factorization(format!("symbolic analysis failed ({e:?}); out of memory?")))?;
+    Ok(9.0 * symbolic.len_val() as f64 * 8.0)
+}
+
 impl<'a> Factor<'a> {
     fn new(sys: &'a System, max_bytes: usize, prof: &mut Profile) -> Result<Self, FemError> {
         let t = Instant::now();

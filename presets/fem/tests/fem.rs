@@ -181,7 +181,8 @@ fn strike_at_a_mode_node_gives_near_zero_gain() {
 
 #[test]
 fn bar_bank_is_valid() {
-    let opts = BuildOptions { max_modes: 16, max_freq_hz: None, resolution: 30, strike_points: 64 };
+    let opts =
+        BuildOptions { max_modes: 16, max_freq_hz: None, resolution: 30, strike_points: 64, auto_resolution: false };
     let (bank, report) = fem::build_bank("fem-bar", "FEM bar", &BAR, &Material::STEEL, &opts, &quiet).unwrap();
     bank.validate().unwrap();
     assert_eq!(bank.num_modes(), 16);
@@ -195,7 +196,13 @@ fn bar_bank_is_valid() {
         assert!(d < 0.02, "strike points {d} m apart");
     }
     // Frequency limit: only modes below it.
-    let opts = BuildOptions { max_modes: 50, max_freq_hz: Some(600.0), resolution: 30, strike_points: 64 };
+    let opts = BuildOptions {
+        max_modes: 50,
+        max_freq_hz: Some(600.0),
+        resolution: 30,
+        strike_points: 64,
+        auto_resolution: false,
+    };
     let (bank, _) = fem::build_bank("fem-bar", "FEM bar", &BAR, &Material::STEEL, &opts, &quiet).unwrap();
     let f = bank.frequencies_hz();
     println!("modes below 600 Hz: {f:?}");
@@ -208,7 +215,8 @@ fn circular_plate_matches_kirchhoff() {
     let (a, h) = (0.1, 0.002);
     let shape = Shape::CircularPlate { radius: a, thickness: h };
     let mat = Material { young: 69e9, density: 2700.0, poisson: 0.33 };
-    let opts = BuildOptions { max_modes: 9, max_freq_hz: None, resolution: 28, strike_points: 64 };
+    let opts =
+        BuildOptions { max_modes: 9, max_freq_hz: None, resolution: 28, strike_points: 64, auto_resolution: false };
     let mesh = fem::mesh_shape(&shape, opts.resolution).unwrap();
     let modes = fem::analyse(&mesh, &mat, &opts, &quiet).unwrap();
     let f = modes.frequencies_hz();
@@ -243,7 +251,13 @@ fn other_shapes_mesh_and_solve() {
         Shape::Block { length: 0.1, width: 0.07, height: 0.03 },
     ];
     for s in &shapes {
-        let opts = BuildOptions { max_modes: 10, max_freq_hz: None, resolution: 10, strike_points: 64 };
+        let opts = BuildOptions {
+            max_modes: 10,
+            max_freq_hz: None,
+            resolution: 10,
+            strike_points: 64,
+            auto_resolution: false,
+        };
         let t = std::time::Instant::now();
         let (bank, r) =
             fem::build_bank("x", "x", s, &mat, &opts, &quiet).unwrap_or_else(|e| panic!("{}: {e}", s.kind()));
@@ -298,7 +312,8 @@ fn gmsh_two_cubes_and_disconnected_mesh() {
     let mesh = fem::read_gmsh(&text).unwrap();
     assert_eq!(mesh.tets.len(), 5);
     assert!((mesh.volume() - 1e-3).abs() < 1e-12);
-    let opts = BuildOptions { max_modes: 4, max_freq_hz: None, resolution: 2, strike_points: 8 };
+    let opts =
+        BuildOptions { max_modes: 4, max_freq_hz: None, resolution: 2, strike_points: 8, auto_resolution: false };
     let modes = fem::analyse(&mesh, &Material::STEEL, &opts, &quiet).unwrap();
     assert_eq!(modes.rigid_lambdas.len(), 6);
     // Two separate cubes: twelve zero eigenvalues (more than six), which must be reported.
@@ -388,7 +403,8 @@ fn chunky_block_converges_all_requested_modes() {
     assert!(p.max_rayleigh_error < 1e-9);
     // Sturm count at the last shift agrees with what was found (checked inside); and the
     // modes agree with the full build path.
-    let opts = BuildOptions { max_modes: 80, max_freq_hz: None, resolution: 8, strike_points: 16 };
+    let opts =
+        BuildOptions { max_modes: 80, max_freq_hz: None, resolution: 8, strike_points: 16, auto_resolution: false };
     let modes = fem::analyse(&mesh, &Material::STEEL, &opts, &quiet).unwrap();
     assert_eq!(modes.lambdas.len(), 80);
     for (a, b) in modes.lambdas.iter().zip(&r.lambdas[6..]) {
@@ -411,4 +427,40 @@ fn a_mesh_whose_factor_exceeds_the_memory_limit_is_refused_before_factoring() {
         Err(e) => e.to_string(),
     };
     assert!(e.contains("too large") && e.contains("GiB") && e.contains(&format!("{} DOFs", sys.n)), "{e}");
+}
+
+/// Without a resolution the mesh is chosen by the build budget ([`fem::choose_resolution`]):
+/// a slender steel bar gets enough elements across its section that its first torsion mode is
+/// within 0.2 % of Saint-Venant's closed form (1.7 % sharp at the old fixed resolution 40,
+/// two elements across), and a 5 cm cube, which at 40 elements per side needed an 80 GiB
+/// factor, fits the budget.
+#[test]
+fn the_automatic_resolution_keeps_torsion_in_tune_and_cubes_solvable() {
+    let steel = Material { young: 200e9, density: 7850.0, poisson: 0.3 };
+    let (l, a) = (0.4, 0.02);
+    let bar = Shape::Bar { length: l, width: a, thickness: a };
+    let opts = BuildOptions { max_modes: 12, auto_resolution: true, ..BuildOptions::default() };
+    let (bank, report) = fem::build_bank("bar", "Bar", &bar, &steel, &opts, &quiet).unwrap();
+    assert!(report.dofs <= fem::AUTO_DOFS, "{} DOFs", report.dofs);
+    // Saint-Venant torsion of a square section (Timoshenko & Goodier, Theory of Elasticity
+    // §109): J = 0.1406 a⁴, polar moment Ip = a⁴/6; free-free f₁ = (1/2L)·√(G J/(ρ Ip)).
+    let g = steel.young / (2.0 * (1.0 + steel.poisson));
+    let f_torsion = (g * 0.1406 * 6.0 / steel.density).sqrt() / (2.0 * l);
+    let f = bank.frequencies_hz();
+    let nearest = f.iter().copied().min_by(|x, y| (x - f_torsion).abs().total_cmp(&(y - f_torsion).abs())).unwrap();
+    let err = nearest / f_torsion - 1.0;
+    assert!(err.abs() < 0.002, "torsion {nearest:.1} Hz vs Saint-Venant {f_torsion:.1} Hz ({:+.3} %)", 100.0 * err);
+    // The budget's factor estimate (node graph × 9) against the factor the solve made.
+    let real = fem::eigen::last_profile().factor_nnz as f64 * 8.0;
+    let mesh = fem::mesh_shape(&bar, fem::choose_resolution(&bar).unwrap()).unwrap();
+    let estimate = fem::eigen::factor_bytes_estimate(&mesh).unwrap();
+    assert!((estimate / real - 1.0).abs() < 0.5, "factor estimate {estimate:.3e} B vs {real:.3e} B");
+    println!("bar: factor estimate {estimate:.3e} B, real {real:.3e} B");
+
+    let cube = Shape::Block { length: 0.05, width: 0.05, height: 0.05 };
+    let r = fem::choose_resolution(&cube).unwrap();
+    let mesh = fem::mesh_shape(&cube, r).unwrap();
+    assert!(r >= 8 && 3 * mesh.nodes.len() <= fem::AUTO_DOFS, "cube at resolution {r}: {} nodes", mesh.nodes.len());
+    let bytes = fem::eigen::factor_bytes_estimate(&mesh).unwrap();
+    assert!(bytes <= fem::eigen::MAX_FACTOR_BYTES as f64, "{:.2} GiB", bytes / f64::from(1 << 30));
 }
