@@ -164,8 +164,8 @@ enum BankCommand {
         #[arg(long, default_value_t = 0.3)]
         poisson: f64,
         /// Mesh resolution: elements along the largest dimension (built-in shapes; default: the
-        /// finest within the build budget of about 100,000 DOFs and a 1.5 GiB factor, e.g. 130
-        /// for a 0.4 m bar, 14 for a cube), or voxels along the longest side (.obj/.stl; default:
+        /// finest within the build budget of about 100,000 DOFs and a 1.5 GiB factor, e.g. 95
+        /// for a 0.4 m bar, 15 for a cube), or voxels along the longest side (.obj/.stl; default:
         /// the highest giving about 3000 vertices, e.g. 16 for a sphere, 60 for a rod of length 10
         /// diameters).
         #[arg(long)]
