@@ -8,7 +8,7 @@
 
 use crate::damping::Damping;
 use crate::exciter::{self, Mallet, MalletKind, Noise};
-use crate::resonator::{ModeCoeffs, ResonatorBank, MAX_KERNEL_BLOCK};
+use crate::resonator::{reduce_lanes, ModeCoeffs, ResonatorBank, LANES, MAX_KERNEL_BLOCK};
 use std::f64::consts::PI;
 
 /// Samples between control ticks (voice end checks, per-voice dirty rebuilds).
@@ -496,15 +496,16 @@ fn mode_pole(lambda: f64, damping: &Damping, support_c: f64, extra_d: f64, sampl
     Some((d, omega))
 }
 
-/// Renders `voice` into `out` (at most one kernel block): the forced kernel while its force
+/// Renders `voice` into the lane accumulator `lanes` ([`LANES`] floats per sample, at most one
+/// kernel block): the forced kernel while its force
 /// pulse or noise burst lasts, split exactly where the pulse ends to add its correction,
 /// then the free kernel. Realtime-safe.
-fn render_voice(voice: &mut Voice, buf: &mut [Vec<f32>; 3], out: &mut [f32]) {
-    let n = out.len();
+fn render_voice(voice: &mut Voice, buf: &mut [Vec<f32>; 3], lanes: &mut [f32]) {
+    let n = lanes.len() / LANES;
     let mut i = 0;
     while i < n {
         if !voice.forced() {
-            voice.bank.process(&mut out[i..]);
+            voice.bank.process_lanes(&mut lanes[i * LANES..]);
             return;
         }
         let in_contact = voice.contact_pos < voice.contact_len;
@@ -528,7 +529,7 @@ fn render_voice(voice: &mut Voice, buf: &mut [Vec<f32>; 3], out: &mut [f32]) {
                 0.0
             };
         }
-        voice.bank.process_forced([&u0[..m], &u1[..m], &u2[..m]], &mut out[i..end]);
+        voice.bank.process_forced_lanes([&u0[..m], &u1[..m], &u2[..m]], &mut lanes[i * LANES..end * LANES]);
         if in_contact {
             voice.contact_pos = (voice.contact_pos + m).min(voice.contact_len);
             if voice.contact_pos == voice.contact_len {
@@ -713,6 +714,8 @@ pub struct Engine {
     heard: Vec<f64>,
     /// The force pulse's two signals and the noise signal of one chunk.
     drive_buf: [Vec<f32>; 3],
+    /// The voices' shared lane accumulator ([`MAX_KERNEL_BLOCK`] × [`LANES`]).
+    lanes: Vec<f32>,
     variation_rng: Noise,
     terminated: [Terminated; MAX_TERMINATED],
     num_terminated: usize,
@@ -745,6 +748,7 @@ impl Engine {
             poles: vec![(0.0, 0.0); max_modes],
             heard: vec![0.0; max_modes],
             drive_buf: [vec![0.0; MAX_KERNEL_BLOCK], vec![0.0; MAX_KERNEL_BLOCK], vec![0.0; MAX_KERNEL_BLOCK]],
+            lanes: vec![0.0; MAX_KERNEL_BLOCK * LANES],
             variation_rng: Noise::new(VARIATION_SEED),
             terminated: [Terminated { note: NoteId { voice_id: None, channel: 0, key: 0 }, offset: 0 }; MAX_TERMINATED],
             num_terminated: 0,
@@ -1126,9 +1130,14 @@ impl Engine {
             }
             let n = (CONTROL_INTERVAL - phase).min(out.len() - pos);
             let chunk = &mut out[pos..pos + n];
+            // Every voice adds into one lane accumulator, summed once (see
+            // `ResonatorBank::process_lanes`).
+            let lanes = &mut self.lanes[..n * LANES];
+            lanes.fill(0.0);
             for voice in self.voices.iter_mut().filter(|v| v.active) {
-                render_voice(voice, &mut self.drive_buf, chunk);
+                render_voice(voice, &mut self.drive_buf, lanes);
             }
+            reduce_lanes(lanes, chunk);
             pos += n;
             self.clock += n as u64;
             self.rendered_in_call = pos as u32;

@@ -211,17 +211,42 @@ impl ResonatorBank {
         if self.len == 0 || n == 0 {
             return;
         }
+        let mut acc = std::mem::take(&mut self.acc);
+        acc[..n * LANES].fill(0.0);
+        self.process_forced_lanes(u, &mut acc[..n * LANES]);
+        reduce_lanes(&acc[..n * LANES], &mut out[..n]);
+        self.acc = acc;
+    }
+
+    /// [`process_forced`](Self::process_forced) adding each sample's eight lane sums into
+    /// `lanes` (n × [`LANES`] floats) instead of their total into an output: see
+    /// [`process_lanes`](Self::process_lanes). Realtime-safe.
+    pub fn process_forced_lanes(&mut self, u: [&[f32]; 3], lanes: &mut [f32]) {
+        let n = (lanes.len() / LANES).min(MAX_KERNEL_BLOCK);
+        if self.len == 0 || n == 0 {
+            return;
+        }
         let padded = self.len.div_ceil(LANES) * LANES;
-        let acc = &mut self.acc[..n * LANES];
-        acc.fill(0.0);
         portable::run_forced(
             (&mut self.re[..padded], &mut self.im[..padded]),
             (&self.pr[..padded], &self.pi[..padded]),
             [&self.fpr[..padded], &self.fpi[..padded], &self.fqr[..padded], &self.fqi[..padded], &self.fb[..padded]],
             [&u[0][..n], &u[1][..n], &u[2][..n]],
-            acc,
+            &mut lanes[..n * LANES],
         );
-        reduce(acc, &mut out[..n]);
+    }
+
+    /// [`process`](Self::process) adding each sample's eight lane sums into `lanes`
+    /// (n × [`LANES`] floats for n ≤ [`MAX_KERNEL_BLOCK`] samples) instead of their total
+    /// into an output. The engine lets every voice add into one accumulator and sums its
+    /// lanes once per block ([`reduce_lanes`]): a voice of a few modes then costs its modes,
+    /// not a block of clearing and summing. Realtime-safe.
+    pub fn process_lanes(&mut self, lanes: &mut [f32]) {
+        let n = (lanes.len() / LANES).min(MAX_KERNEL_BLOCK);
+        if self.len == 0 || n == 0 {
+            return;
+        }
+        self.run_lanes(None, &mut lanes[..n * LANES], n);
     }
 
     fn run(&mut self, input: Option<(&[f32], &[f32])>, out: &mut [f32]) {
@@ -229,9 +254,16 @@ impl ResonatorBank {
         if self.len == 0 || n == 0 {
             return;
         }
+        let mut acc = std::mem::take(&mut self.acc);
+        acc[..n * LANES].fill(0.0);
+        self.run_lanes(input, &mut acc[..n * LANES], n);
+        reduce_lanes(&acc[..n * LANES], &mut out[..n]);
+        self.acc = acc;
+    }
+
+    /// Advances every mode by `n` samples, adding each sample's lane sums into `acc`.
+    fn run_lanes(&mut self, input: Option<(&[f32], &[f32])>, acc: &mut [f32], n: usize) {
         let padded = self.len.div_ceil(LANES) * LANES;
-        let acc = &mut self.acc[..n * LANES];
-        acc.fill(0.0);
         #[cfg(target_arch = "x86_64")]
         {
             if self.avx2 {
@@ -248,7 +280,6 @@ impl ResonatorBank {
                         n,
                     )
                 };
-                reduce(acc, &mut out[..n]);
                 return;
             }
         }
@@ -261,13 +292,13 @@ impl ResonatorBank {
             acc,
             n,
         );
-        reduce(acc, &mut out[..n]);
     }
 }
 
-/// Adds the lane sums of each sample's accumulator into `out` (fixed order: deterministic).
+/// Adds the lane sums of each sample's accumulator (`acc`: [`LANES`] floats per sample) into
+/// `out` (fixed order: deterministic).
 #[inline]
-fn reduce(acc: &[f32], out: &mut [f32]) {
+pub fn reduce_lanes(acc: &[f32], out: &mut [f32]) {
     for (o, a) in out.iter_mut().zip(acc.chunks_exact(LANES)) {
         let s = ((a[0] + a[4]) + (a[1] + a[5])) + ((a[2] + a[6]) + (a[3] + a[7]));
         *o += s;
@@ -570,7 +601,7 @@ mod tests {
         let padded = b.len.div_ceil(LANES) * LANES;
         let mut acc = vec![0.0f32; 64 * LANES];
         portable::run(&mut b.re[..padded], &mut b.im[..padded], &b.pr[..padded], &b.pi[..padded], None, &mut acc, 64);
-        reduce(&acc, &mut out_b);
+        reduce_lanes(&acc, &mut out_b);
         for (x, y) in out_a.iter().zip(&out_b) {
             assert!((x - y).abs() <= 1e-5 * (1.0 + x.abs()), "{x} vs {y}");
         }
