@@ -8,7 +8,7 @@
 
 use crate::damping::Damping;
 use crate::exciter::{self, Mallet, MalletKind, Noise};
-use crate::resonator::{reduce_lanes, ModeCoeffs, ResonatorBank, LANES, MAX_KERNEL_BLOCK};
+use crate::resonator::{reduce_lanes, ModeCoeffs, ResonatorBank, VectorBatch, BATCH_VECTORS, LANES, MAX_KERNEL_BLOCK};
 use std::f64::consts::PI;
 
 /// Samples between control ticks (voice end checks, per-voice dirty rebuilds).
@@ -496,10 +496,44 @@ fn mode_pole(lambda: f64, damping: &Damping, support_c: f64, extra_d: f64, sampl
     Some((d, omega))
 }
 
+/// Renders the active voices into the lane accumulator `lanes`, in voice order: a free-running
+/// voice runs its whole kernel groups in place and its last vectors through one
+/// [`VectorBatch`] shared with the next voices (four independent chains per kernel group
+/// however few modes each voice has); a voice in contact is
+/// rendered on its own ([`render_voice`]) after the batch before it has run, so every sample
+/// adds the voices in the same order whatever the block size.
+fn render_voices(voices: &mut [Voice], buf: &mut [Vec<f32>; 3], avx2: bool, lanes: &mut [f32]) {
+    let mut batch = VectorBatch::new(avx2);
+    for v in 0..voices.len() {
+        if !voices[v].active {
+            continue;
+        }
+        if voices[v].forced() {
+            batch.run(lanes, |v, k, re, im| voices[v].bank.store_vector(k, re, im));
+            render_voice(&mut voices[v], buf, lanes);
+            continue;
+        }
+        // Whole kernel groups run in place (after the vectors already waiting); the rest
+        // wait in the batch for the next voices'.
+        let vectors = voices[v].bank.vectors();
+        let whole = vectors / BATCH_VECTORS * BATCH_VECTORS;
+        if whole > 0 {
+            batch.run(lanes, |v, k, re, im| voices[v].bank.store_vector(k, re, im));
+            voices[v].bank.process_first_vectors_lanes(whole, lanes);
+        }
+        for k in whole..vectors {
+            batch.push(v, &voices[v].bank, k);
+            if batch.is_full() {
+                batch.run(lanes, |v, k, re, im| voices[v].bank.store_vector(k, re, im));
+            }
+        }
+    }
+    batch.run(lanes, |v, k, re, im| voices[v].bank.store_vector(k, re, im));
+}
+
 /// Renders `voice` into the lane accumulator `lanes` ([`LANES`] floats per sample, at most one
-/// kernel block): the forced kernel while its force
-/// pulse or noise burst lasts, split exactly where the pulse ends to add its correction,
-/// then the free kernel. Realtime-safe.
+/// kernel block): the forced kernel while its force pulse or noise burst lasts, split exactly
+/// where the pulse ends to add its correction, then the free kernel. Realtime-safe.
 fn render_voice(voice: &mut Voice, buf: &mut [Vec<f32>; 3], lanes: &mut [f32]) {
     let n = lanes.len() / LANES;
     let mut i = 0;
@@ -716,6 +750,8 @@ pub struct Engine {
     drive_buf: [Vec<f32>; 3],
     /// The voices' shared lane accumulator ([`MAX_KERNEL_BLOCK`] × [`LANES`]).
     lanes: Vec<f32>,
+    /// Whether the voices' banks run the AVX2 kernel (the same choice for all).
+    avx2: bool,
     variation_rng: Noise,
     terminated: [Terminated; MAX_TERMINATED],
     num_terminated: usize,
@@ -749,6 +785,7 @@ impl Engine {
             heard: vec![0.0; max_modes],
             drive_buf: [vec![0.0; MAX_KERNEL_BLOCK], vec![0.0; MAX_KERNEL_BLOCK], vec![0.0; MAX_KERNEL_BLOCK]],
             lanes: vec![0.0; MAX_KERNEL_BLOCK * LANES],
+            avx2: crate::resonator::avx2_available(),
             variation_rng: Noise::new(VARIATION_SEED),
             terminated: [Terminated { note: NoteId { voice_id: None, channel: 0, key: 0 }, offset: 0 }; MAX_TERMINATED],
             num_terminated: 0,
@@ -1134,9 +1171,7 @@ impl Engine {
             // `ResonatorBank::process_lanes`).
             let lanes = &mut self.lanes[..n * LANES];
             lanes.fill(0.0);
-            for voice in self.voices.iter_mut().filter(|v| v.active) {
-                render_voice(voice, &mut self.drive_buf, lanes);
-            }
+            render_voices(&mut self.voices, &mut self.drive_buf, self.avx2, lanes);
             reduce_lanes(lanes, chunk);
             pos += n;
             self.clock += n as u64;

@@ -102,6 +102,39 @@ impl ResonatorBank {
         self.len
     }
 
+    /// Number of [`LANES`]-mode vectors the kernels advance (the modes rounded up).
+    pub fn vectors(&self) -> usize {
+        self.len.div_ceil(LANES)
+    }
+
+    /// [`process_lanes`](Self::process_lanes) for the first `count` vectors only (a multiple
+    /// of [`BATCH_VECTORS`] in the engine: whole kernel groups, run in place; the rest go
+    /// through a [`VectorBatch`]).
+    pub fn process_first_vectors_lanes(&mut self, count: usize, lanes: &mut [f32]) {
+        let n = (lanes.len() / LANES).min(MAX_KERNEL_BLOCK);
+        let m = (count * LANES).min(self.len.div_ceil(LANES) * LANES);
+        if m == 0 || n == 0 {
+            return;
+        }
+        let acc = &mut lanes[..n * LANES];
+        let (re, im, pr, pi) = (&mut self.re[..m], &mut self.im[..m], &self.pr[..m], &self.pi[..m]);
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: AVX2 and FMA were detected at run time (`ResonatorBank::new`); the slices
+            // hold `m` floats, a multiple of LANES, and `acc` holds n × LANES.
+            unsafe { avx2::run(re, im, pr, pi, None, acc, n) };
+            return;
+        }
+        portable::run(re, im, pr, pi, None, acc, n);
+    }
+
+    /// Sets the state of vector `k` (what a [`VectorBatch`] hands back).
+    pub fn store_vector(&mut self, k: usize, re: &[f32], im: &[f32]) {
+        let o = k * LANES;
+        self.re[o..o + LANES].copy_from_slice(&re[..LANES]);
+        self.im[o..o + LANES].copy_from_slice(&im[..LANES]);
+    }
+
     /// True when no mode is in use.
     pub fn is_empty(&self) -> bool {
         self.len == 0
@@ -292,6 +325,88 @@ impl ResonatorBank {
             acc,
             n,
         );
+    }
+}
+
+/// Vectors ([`LANES`] modes each) of several banks advanced together: up to [`BATCH_VECTORS`]
+/// free-running vectors, whatever bank they come from, in one kernel group, so that voices of
+/// a few modes fill the kernel's independent chains instead of each running one alone (a
+/// single vector's recurrence is latency-bound). Per sample the vectors add into the lane
+/// accumulator in the order they were pushed, so a batch of vectors pushed in voice order
+/// gives bit for bit what each bank's [`ResonatorBank::process_lanes`] in that order gives.
+/// Realtime-safe (fixed-size arrays).
+pub struct VectorBatch {
+    re: [f32; BATCH_VECTORS * LANES],
+    im: [f32; BATCH_VECTORS * LANES],
+    pr: [f32; BATCH_VECTORS * LANES],
+    pi: [f32; BATCH_VECTORS * LANES],
+    /// (owner, vector index in its bank) of each pushed vector; the owner is the caller's.
+    from: [(usize, usize); BATCH_VECTORS],
+    len: usize,
+    avx2: bool,
+}
+
+/// Vectors a [`VectorBatch`] holds: the AVX2 kernel's group size.
+pub const BATCH_VECTORS: usize = 4;
+
+impl VectorBatch {
+    /// An empty batch run by the AVX2 kernel if `avx2` (as [`ResonatorBank::uses_avx2`]).
+    pub fn new(avx2: bool) -> Self {
+        let z = [0.0; BATCH_VECTORS * LANES];
+        VectorBatch { re: z, im: z, pr: z, pi: z, from: [(0, 0); BATCH_VECTORS], len: 0, avx2 }
+    }
+
+    /// Whether no vector is waiting.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Whether the batch is full (run it).
+    pub fn is_full(&self) -> bool {
+        self.len == BATCH_VECTORS
+    }
+
+    /// Adds vector `k` of `bank` (state and pole), remembering `owner`.
+    pub fn push(&mut self, owner: usize, bank: &ResonatorBank, k: usize) {
+        debug_assert!(!self.is_full() && k < bank.vectors());
+        let (o, d) = (k * LANES, self.len * LANES);
+        self.re[d..d + LANES].copy_from_slice(&bank.re[o..o + LANES]);
+        self.im[d..d + LANES].copy_from_slice(&bank.im[o..o + LANES]);
+        self.pr[d..d + LANES].copy_from_slice(&bank.pr[o..o + LANES]);
+        self.pi[d..d + LANES].copy_from_slice(&bank.pi[o..o + LANES]);
+        self.from[self.len] = (owner, k);
+        self.len += 1;
+    }
+
+    /// Advances the pushed vectors by `acc.len() / LANES` samples (at most
+    /// [`MAX_KERNEL_BLOCK`]) adding into the lane accumulator `acc`, then hands each vector's
+    /// new state back through `store(owner, k, re, im)` and empties the batch.
+    pub fn run(&mut self, acc: &mut [f32], mut store: impl FnMut(usize, usize, &[f32], &[f32])) {
+        let n = (acc.len() / LANES).min(MAX_KERNEL_BLOCK);
+        let m = self.len * LANES;
+        if m > 0 && n > 0 {
+            let acc = &mut acc[..n * LANES];
+            let (re, im, pr, pi) = (&mut self.re[..m], &mut self.im[..m], &self.pr[..m], &self.pi[..m]);
+            #[cfg(target_arch = "x86_64")]
+            let done = if self.avx2 {
+                // SAFETY: `avx2` is only set where AVX2 and FMA were detected
+                // (`ResonatorBank::uses_avx2`); the slices hold `m` floats, a multiple of LANES,
+                // and `acc` holds n × LANES.
+                unsafe { avx2::run(re, im, pr, pi, None, acc, n) };
+                true
+            } else {
+                false
+            };
+            #[cfg(not(target_arch = "x86_64"))]
+            let done = false;
+            if !done {
+                portable::run(re, im, pr, pi, None, acc, n);
+            }
+            for (j, &(owner, k)) in self.from[..self.len].iter().enumerate() {
+                store(owner, k, &self.re[j * LANES..(j + 1) * LANES], &self.im[j * LANES..(j + 1) * LANES]);
+            }
+        }
+        self.len = 0;
     }
 }
 
@@ -554,6 +669,70 @@ mod avx2 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Banks of 3, 10 and 17 modes (1, 2 and 3 vectors) excited with distinct amplitudes.
+    fn three_banks() -> Vec<ResonatorBank> {
+        [3usize, 10, 17]
+            .iter()
+            .enumerate()
+            .map(|(b, &n)| {
+                let mut bank = ResonatorBank::new(32);
+                for m in 0..n {
+                    let f = 200.0 + 173.0 * m as f64 + 50.0 * b as f64;
+                    let k =
+                        bank.push(ModeCoeffs::new(3.0 + m as f64, 2.0 * std::f64::consts::PI * f, 48_000.0)).unwrap();
+                    bank.excite(k, 1.0 / (1.0 + m as f32 + b as f32));
+                }
+                bank
+            })
+            .collect()
+    }
+
+    /// A `VectorBatch` of the vectors of several banks, pushed in bank order, gives bit for
+    /// bit the lane sums and the states of each bank's own `process_lanes` in that order,
+    /// with either kernel, over several blocks.
+    #[test]
+    fn a_batch_across_banks_is_bit_identical_to_each_bank_in_turn() {
+        for avx2 in [false, avx2_available()] {
+            let mut own = three_banks();
+            let mut batched = three_banks();
+            for bank in own.iter_mut().chain(batched.iter_mut()) {
+                bank.avx2 = avx2;
+            }
+            for block in [64usize, 17, 64, 5] {
+                let mut lanes_own = vec![0.0f32; block * LANES];
+                for bank in &mut own {
+                    bank.process_lanes(&mut lanes_own);
+                }
+                let mut batch = VectorBatch::new(avx2);
+                let mut lanes_batch = vec![0.0f32; block * LANES];
+                // The batch holds copies: states are handed back after the pass.
+                let snapshot: Vec<ResonatorBank> = batched.clone();
+                let mut states: Vec<(usize, usize, Vec<f32>, Vec<f32>)> = Vec::new();
+                for (b, bank) in snapshot.iter().enumerate() {
+                    for k in 0..bank.vectors() {
+                        batch.push(b, bank, k);
+                        if batch.is_full() {
+                            batch.run(&mut lanes_batch, |o, k, re, im| states.push((o, k, re.to_vec(), im.to_vec())));
+                        }
+                    }
+                }
+                batch.run(&mut lanes_batch, |o, k, re, im| states.push((o, k, re.to_vec(), im.to_vec())));
+                for (o, k, re, im) in &states {
+                    batched[*o].store_vector(*k, re, im);
+                }
+                assert_eq!(
+                    lanes_own.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+                    lanes_batch.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+                    "avx2 {avx2}, block {block}"
+                );
+                for (a, b) in own.iter().zip(&batched) {
+                    assert_eq!(a.re, b.re, "avx2 {avx2}");
+                    assert_eq!(a.im, b.im, "avx2 {avx2}");
+                }
+            }
+        }
+    }
 
     /// A slow oracle: the direct sum of damped sinusoids in f64, against each kernel on its
     /// own — the AVX2/FMA kernel (where the CPU has it) and the portable one.
