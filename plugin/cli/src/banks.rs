@@ -227,6 +227,18 @@ fn progress() -> impl Fn(&str, f32) {
 /// Runs a `struck bank` command.
 ///
 /// # Errors
+/// The build options of a tuned bank: the resolution the tuner used (its modes were fitted
+/// on that mesh), modes up to 20 kHz.
+fn tuned_build_options(modes: usize, resolution: usize, points: usize) -> BuildOptions {
+    BuildOptions {
+        max_modes: modes,
+        max_freq_hz: Some(20_000.0),
+        resolution,
+        strike_points: points,
+        auto_resolution: false,
+    }
+}
+
 /// A one-line reason (bad arguments, unreadable mesh, solver failure, unwritable output).
 pub fn run(cmd: BankCommand) -> Result<(), String> {
     match cmd {
@@ -260,13 +272,7 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
             }
             if shape == "tube" || vary.is_some() {
                 let vary = vary.unwrap_or_else(|| "outer_radius".into());
-                let opts = BuildOptions {
-                    max_modes: modes,
-                    max_freq_hz: Some(20_000.0),
-                    resolution,
-                    strike_points: points,
-                    auto_resolution: false,
-                };
+                let opts = tuned_build_options(modes, resolution, points);
                 return tune_dimensions(
                     &shape, &dims, &ratios, &vary, first_mode, tolerance, young, density, poisson, opts, id, name, &out,
                 );
@@ -298,13 +304,7 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
             let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("bank");
             let id = kebab(id.as_deref().unwrap_or(stem));
             let name = name.unwrap_or_else(|| id.clone());
-            let opts = BuildOptions {
-                max_modes: modes,
-                max_freq_hz: Some(20_000.0),
-                resolution,
-                strike_points: points,
-                auto_resolution: false,
-            };
+            let opts = tuned_build_options(modes, resolution, points);
             let (mut bank, _) =
                 fem::build_bank(&id, &name, &tuned.shape, &material, &opts, &progress()).map_err(|e| e.to_string())?;
             let f = tuned.bending_hz;
