@@ -412,6 +412,13 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
                 report.seconds,
                 report.peak_memory_bytes.map_or("n/a".into(), |b| format!("{:.0} MiB", b as f64 / 1048576.0))
             );
+            if let Some(e) = report.error_estimate {
+                eprintln!(
+                    "estimated discretisation error of the frequencies: {:.2} % (first {} modes; --resolution sets the mesh)",
+                    100.0 * e,
+                    fem::ERROR_MODES.min(bank.num_modes())
+                );
+            }
             Ok(())
         }
     }
