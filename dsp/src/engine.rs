@@ -752,6 +752,8 @@ pub struct Engine {
     lanes: Vec<f32>,
     /// Whether the voices' banks run the AVX2 kernel (the same choice for all).
     avx2: bool,
+    /// Mode coefficients recomputed by control-rate rebuilds since construction.
+    rebuilt_modes: u64,
     variation_rng: Noise,
     terminated: [Terminated; MAX_TERMINATED],
     num_terminated: usize,
@@ -786,6 +788,7 @@ impl Engine {
             drive_buf: [vec![0.0; MAX_KERNEL_BLOCK], vec![0.0; MAX_KERNEL_BLOCK], vec![0.0; MAX_KERNEL_BLOCK]],
             lanes: vec![0.0; MAX_KERNEL_BLOCK * LANES],
             avx2: crate::resonator::avx2_available(),
+            rebuilt_modes: 0,
             variation_rng: Noise::new(VARIATION_SEED),
             terminated: [Terminated { note: NoteId { voice_id: None, channel: 0, key: 0 }, offset: 0 }; MAX_TERMINATED],
             num_terminated: 0,
@@ -863,6 +866,13 @@ impl Engine {
     /// Number of sounding voices.
     pub fn active_voices(&self) -> usize {
         self.voices.iter().filter(|v| v.active).count()
+    }
+
+    /// Mode coefficients recomputed by control-rate rebuilds (a glide moving, the damping
+    /// law or support changed, a voice's release or pressure) since construction: what
+    /// unchanged controls must not cost.
+    pub fn rebuilt_modes(&self) -> u64 {
+        self.rebuilt_modes
     }
 
     /// Number of modes being rendered over all voices.
@@ -1090,6 +1100,7 @@ impl Engine {
             };
             voice.bank.set_coeffs(k, c);
         }
+        self.rebuilt_modes += voice.bank.len() as u64;
         voice.dirty = false;
     }
 
@@ -1341,6 +1352,46 @@ mod tests {
         let a: Vec<f32> = (0..20).map(|k| if k % 2 == 0 { 1.0 } else { -1.0 }).collect();
         let b: Vec<f32> = (0..20).map(|_| 1.0).collect();
         ObjectModes::new(lambdas, &[a, b])
+    }
+
+    /// Controls that do not change cost nothing (issue 13 part 4): ringing voices under
+    /// parameters sent again unchanged every block rebuild no mode; a damping change rebuilds
+    /// every sounding mode once; a size change rebuilds while its glide moves and then stops.
+    #[test]
+    fn unchanged_controls_rebuild_nothing() {
+        let lambdas: Vec<f64> = (1..=200).map(|k| (2.0 * PI * (80.0 + 37.0 * k as f64)).powi(2)).collect();
+        let obj = ObjectModes::new(lambdas, &[vec![1.0; 200]]);
+        let mut e = Engine::new(vec![obj], 8, 48_000.0);
+        let p = SoundParams { damping: Damping::Rayleigh { alpha1: 1.0, alpha2: 1e-10 }, ..SoundParams::default() };
+        e.set_params(p);
+        e.reset();
+        for key in 0..4u8 {
+            let strike = Strike { velocity: 0.8, position: 0.1 * f32::from(key), lambda_factor: 1.0 };
+            e.note_on(NoteId { voice_id: None, channel: 0, key: 60 + key }, strike);
+        }
+        let mut out = [0.0f32; 512];
+        let mut run = |e: &mut Engine, blocks: usize, p: SoundParams| {
+            for _ in 0..blocks {
+                e.set_params(p);
+                out.fill(0.0);
+                e.render(&mut out);
+            }
+        };
+        run(&mut e, 94, p); // 1 s, the same parameters sent every block
+        assert_eq!(e.rebuilt_modes(), 0);
+        let sounding = e.active_modes() as u64;
+        assert!(sounding > 100, "{sounding} modes");
+        let q = SoundParams { damping: Damping::Rayleigh { alpha1: 2.0, alpha2: 1e-10 }, ..p };
+        run(&mut e, 47, q);
+        assert_eq!(e.rebuilt_modes(), sounding, "one rebuild of every sounding mode");
+        let r = SoundParams { size: 1.2, ..q };
+        run(&mut e, 47, r);
+        let while_gliding = e.rebuilt_modes();
+        assert!(while_gliding > 3 * sounding, "the glide rebuilds as it moves: {while_gliding}");
+        run(&mut e, 94, r);
+        let settled = e.rebuilt_modes();
+        run(&mut e, 94, r);
+        assert_eq!(e.rebuilt_modes(), settled, "a settled glide rebuilds nothing");
     }
 
     /// Support damping (issue 10 part 6): each mode's extra c is its own fixed draw of an
