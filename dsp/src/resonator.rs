@@ -350,9 +350,11 @@ pub struct VectorBatch {
 pub const BATCH_VECTORS: usize = 4;
 
 impl VectorBatch {
-    /// An empty batch run by the AVX2 kernel if `avx2` (as [`ResonatorBank::uses_avx2`]).
+    /// An empty batch run by the AVX2 kernel if `avx2` and the CPU has AVX2 and FMA
+    /// ([`avx2_available`], cached after [`ResonatorBank::new`]'s first call).
     pub fn new(avx2: bool) -> Self {
         let z = [0.0; BATCH_VECTORS * LANES];
+        let avx2 = avx2 && avx2_available();
         VectorBatch { re: z, im: z, pr: z, pi: z, from: [(0, 0); BATCH_VECTORS], len: 0, avx2 }
     }
 
@@ -389,9 +391,9 @@ impl VectorBatch {
             let (re, im, pr, pi) = (&mut self.re[..m], &mut self.im[..m], &self.pr[..m], &self.pi[..m]);
             #[cfg(target_arch = "x86_64")]
             let done = if self.avx2 {
-                // SAFETY: `avx2` is only set where AVX2 and FMA were detected
-                // (`ResonatorBank::uses_avx2`); the slices hold `m` floats, a multiple of LANES,
-                // and `acc` holds n × LANES.
+                // SAFETY: `avx2` is only set where AVX2 and FMA were detected (`new` checks
+                // `avx2_available`); the slices hold `m` floats, a multiple of LANES, and `acc`
+                // holds n × LANES.
                 unsafe { avx2::run(re, im, pr, pi, None, acc, n) };
                 true
             } else {

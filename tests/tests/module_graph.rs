@@ -43,82 +43,136 @@ fn modules(src: &Path) -> BTreeMap<String, String> {
     out
 }
 
-/// The source without comments and without a trailing `#[cfg(test)] mod tests { … }`.
+/// The source without comments and without its `#[cfg(test)] mod tests { … }` (from that
+/// attribute on; other `#[cfg(test)]` items stay).
 fn code(text: &str) -> String {
-    let body = match text.find("#[cfg(test)]") {
-        Some(i) if text[i..].contains("mod tests") => &text[..i],
-        _ => text,
-    };
-    body.lines().map(|l| l.split("//").next().unwrap_or("")).collect::<Vec<_>>().join("\n")
+    let lines: Vec<&str> = text.lines().map(|l| l.split("//").next().unwrap_or("")).collect();
+    let mut end = lines.len();
+    for (i, l) in lines.iter().enumerate() {
+        if l.trim() == "#[cfg(test)]" {
+            let next = lines[i + 1..].iter().map(|l| l.trim()).find(|l| !l.is_empty() && !l.starts_with("#["));
+            if next.is_some_and(|n| n.starts_with("mod tests")) {
+                end = i;
+                break;
+            }
+        }
+    }
+    lines[..end].join("\n")
 }
 
-/// Paths starting with `crate`, `super` or `self` in `src`, as lists of segments; `{a, b}`
-/// groups give one path per name.
-fn paths(src: &str) -> Vec<(String, Vec<String>)> {
-    let bytes: Vec<char> = src.chars().collect();
+/// The paths of a `use` tree or expression starting at `chars[i]` (just after a `::`), each
+/// as segments appended to `prefix`: `a::b`, `{a, b::{c, d}}`, `*` (the module itself).
+fn tree(chars: &[char], i: &mut usize, prefix: &[String], out: &mut Vec<Vec<String>>) {
+    let ident = |c: char| c.is_alphanumeric() || c == '_';
+    let skip_ws = |i: &mut usize| {
+        while *i < chars.len() && chars[*i].is_whitespace() {
+            *i += 1;
+        }
+    };
+    skip_ws(i);
+    if *i < chars.len() && chars[*i] == '{' {
+        *i += 1;
+        loop {
+            skip_ws(i);
+            if *i >= chars.len() || chars[*i] == '}' {
+                *i += 1;
+                return;
+            }
+            tree(chars, i, prefix, out);
+            skip_ws(i);
+            // Skip `as name` and anything else up to the next item or the group's end.
+            let mut depth = 0;
+            while *i < chars.len() && !(depth == 0 && (chars[*i] == ',' || chars[*i] == '}')) {
+                match chars[*i] {
+                    '{' => depth += 1,
+                    '}' => depth -= 1,
+                    _ => {}
+                }
+                *i += 1;
+            }
+            if *i < chars.len() && chars[*i] == ',' {
+                *i += 1;
+            }
+        }
+    }
+    if *i < chars.len() && chars[*i] == '*' {
+        *i += 1;
+        out.push(prefix.to_vec());
+        return;
+    }
+    let s = *i;
+    while *i < chars.len() && ident(chars[*i]) {
+        *i += 1;
+    }
+    let mut path = prefix.to_vec();
+    if *i > s {
+        path.push(chars[s..*i].iter().collect());
+    }
+    if *i + 1 < chars.len() && chars[*i] == ':' && chars[*i + 1] == ':' {
+        *i += 2;
+        tree(chars, i, &path, out);
+    } else {
+        out.push(path);
+    }
+}
+
+/// Paths in `src` that start with `crate`, `super`, `self` or one of `children` (the
+/// module's own submodules), as (head, segments).
+fn paths(src: &str, children: &[String]) -> Vec<(String, Vec<String>)> {
+    let chars: Vec<char> = src.chars().collect();
     let ident = |c: char| c.is_alphanumeric() || c == '_';
     let mut out = Vec::new();
     let mut i = 0;
-    while i < bytes.len() {
-        if !ident(bytes[i]) || (i > 0 && (ident(bytes[i - 1]) || bytes[i - 1] == ':')) {
+    while i < chars.len() {
+        if !ident(chars[i]) || (i > 0 && (ident(chars[i - 1]) || chars[i - 1] == ':')) {
             i += 1;
             continue;
         }
         let start = i;
-        while i < bytes.len() && ident(bytes[i]) {
+        while i < chars.len() && ident(chars[i]) {
             i += 1;
         }
-        let head: String = bytes[start..i].iter().collect();
-        if !matches!(head.as_str(), "crate" | "super" | "self") {
+        let head: String = chars[start..i].iter().collect();
+        let known = matches!(head.as_str(), "crate" | "super" | "self") || children.contains(&head);
+        if !(known && i + 1 < chars.len() && chars[i] == ':' && chars[i + 1] == ':') {
             continue;
         }
-        let mut segs = Vec::new();
-        loop {
-            if i + 1 < bytes.len() && bytes[i] == ':' && bytes[i + 1] == ':' {
-                i += 2;
-                if i < bytes.len() && bytes[i] == '{' {
-                    let end = bytes[i..].iter().position(|&c| c == '}').map_or(bytes.len(), |e| i + e);
-                    let group: String = bytes[i + 1..end].iter().collect();
-                    for name in group.split(',') {
-                        let name: String = name.trim().chars().take_while(|&c| ident(c)).collect();
-                        if !name.is_empty() {
-                            let mut p = segs.clone();
-                            p.push(name);
-                            out.push((head.clone(), p));
-                        }
-                    }
-                    i = end;
-                    segs.clear();
-                    break;
-                }
-                let s = i;
-                while i < bytes.len() && ident(bytes[i]) {
-                    i += 1;
-                }
-                segs.push(bytes[s..i].iter().collect());
+        i += 2;
+        let mut found = Vec::new();
+        tree(&chars, &mut i, &[], &mut found);
+        for segs in found {
+            if children.contains(&head) {
+                let mut p = vec![head.clone()];
+                p.extend(segs);
+                out.push(("self".to_string(), p));
             } else {
-                break;
+                out.push((head.clone(), segs));
             }
-        }
-        if !segs.is_empty() {
-            out.push((head, segs));
         }
     }
     out
 }
 
-/// Module → modules it uses.
+/// Module → modules it uses. A path to a module's item is an edge to that module (`super::X`
+/// to the parent); edges to the crate root are not counted (it declares every module).
 fn graph(mods: &BTreeMap<String, String>) -> BTreeMap<String, BTreeSet<String>> {
     let mut edges: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
     for (m, text) in mods {
         let parent = m.rsplit_once("::").map_or("crate", |(p, _)| p).to_string();
-        for (head, segs) in paths(&code(text)) {
-            let mut path = match head.as_str() {
+        let children: Vec<String> = mods
+            .keys()
+            .filter_map(|k| k.strip_prefix(&format!("{m}::")))
+            .filter(|rest| !rest.contains("::"))
+            .map(str::to_string)
+            .collect();
+        for (head, segs) in paths(&code(text), &children) {
+            let base = match head.as_str() {
                 "crate" => "crate".to_string(),
                 "super" => parent.clone(),
                 _ => m.clone(),
             };
-            let mut target = None;
+            let mut path = base.clone();
+            let mut target = mods.contains_key(&base).then(|| base.clone());
             for s in &segs {
                 path = format!("{path}::{s}");
                 if mods.contains_key(&path) {
@@ -190,6 +244,35 @@ fn the_checker_finds_a_cycle_it_is_shown() {
     let mut acyclic = mods.clone();
     acyclic.insert("crate::c".into(), "fn f() {}".into());
     assert_eq!(find_cycle(&graph(&acyclic)), None);
+    // A parent using its child and the child using the parent's item; a nested group; a
+    // glob; test modules do not count, other `#[cfg(test)]` items do.
+    let parent_child: BTreeMap<String, String> = [
+        ("crate", "mod p;"),
+        ("crate::p", "mod q;\npub use q::Thing;\npub struct Item;"),
+        ("crate::p::q", "use super::Item;\npub struct Thing;"),
+    ]
+    .into_iter()
+    .map(|(k, v)| (k.to_string(), v.to_string()))
+    .collect();
+    assert!(find_cycle(&graph(&parent_child)).is_some(), "{:?}", graph(&parent_child));
+    let nested: BTreeMap<String, String> = [
+        ("crate", "mod a; mod b; mod c;"),
+        ("crate::a", "use crate::{b::{self, X}, c};"),
+        ("crate::b", "fn f() {}"),
+        ("crate::c", "#[cfg(test)]\nfn helper() { crate::a::g() }\n#[cfg(test)]\nmod tests { use super::*; }"),
+    ]
+    .into_iter()
+    .map(|(k, v)| (k.to_string(), v.to_string()))
+    .collect();
+    let g = graph(&nested);
+    assert_eq!(g.get("crate::a").map(|e| e.len()), Some(2), "{g:?}");
+    assert!(find_cycle(&g).is_some(), "c's test helper uses a, which uses c: {g:?}");
+    let glob: BTreeMap<String, String> =
+        [("crate", "mod a; mod b;"), ("crate::a", "use super::b::*;"), ("crate::b", "use crate::a::*;")]
+            .into_iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect();
+    assert!(find_cycle(&graph(&glob)).is_some(), "{:?}", graph(&glob));
 }
 
 #[test]

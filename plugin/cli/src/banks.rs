@@ -224,9 +224,6 @@ fn progress() -> impl Fn(&str, f32) {
     }
 }
 
-/// Runs a `struck bank` command.
-///
-/// # Errors
 /// The build options of a tuned bank: the resolution the tuner used (its modes were fitted
 /// on that mesh), modes up to 20 kHz.
 fn tuned_build_options(modes: usize, resolution: usize, points: usize) -> BuildOptions {
@@ -239,6 +236,9 @@ fn tuned_build_options(modes: usize, resolution: usize, points: usize) -> BuildO
     }
 }
 
+/// Runs a `struck bank` command.
+///
+/// # Errors
 /// A one-line reason (bad arguments, unreadable mesh, solver failure, unwritable output).
 pub fn run(cmd: BankCommand) -> Result<(), String> {
     match cmd {

@@ -960,9 +960,11 @@ impl Bodies {
         };
         let outer: Vec<bool> = (0..pieces)
             .map(|p| {
+                // A piece whose probe gives no clean answer counts as a body of its own (then
+                // it is only dropped if it lies apart, see `keep_largest_body`).
                 pieces == 1
-                    || probe(p).is_some_and(|x| {
-                        inside_by_rays_of(s, grid, x, &|t| orientation.piece[t as usize] as usize != p) == Some(false)
+                    || probe(p).is_none_or(|x| {
+                        inside_by_rays_of(s, grid, x, &|t| orientation.piece[t as usize] as usize != p) != Some(true)
                     })
             })
             .collect();
@@ -992,6 +994,27 @@ impl Bodies {
             return;
         };
         let total: f64 = body_volume.iter().sum();
+        // Bodies whose bounding boxes touch or overlap (shells sharing a face, interlocked
+        // parts) are kept together, as before: the voxeliser joins what touches.
+        let mut boxes = vec![([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]); self.volume.len()];
+        for t in 0..s.triangles.len() {
+            let b = &mut boxes[self.body_of[orientation.piece[t] as usize]];
+            for v in s.corners(t) {
+                for a in 0..3 {
+                    b.0[a] = b.0[a].min(v[a]);
+                    b.1[a] = b.1[a].max(v[a]);
+                }
+            }
+        }
+        let bodies: Vec<usize> = (0..boxes.len()).filter(|&b| boxes[b].0[0].is_finite()).collect();
+        let apart = |a: usize, b: usize| (0..3).any(|k| boxes[a].1[k] < boxes[b].0[k] || boxes[b].1[k] < boxes[a].0[k]);
+        if bodies.iter().any(|&a| bodies.iter().any(|&b| a < b && !apart(a, b))) {
+            rep.warnings.push(format!(
+                "the surface has {} closed shells not inside one another whose boxes touch or overlap: kept together as one object (if they are separate bodies, export each to its own file)",
+                self.count
+            ));
+            return;
+        }
         let mut t = 0;
         s.triangles.retain(|_| {
             let kept = self.body_of[orientation.piece[t] as usize] == keep;

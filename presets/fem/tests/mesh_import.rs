@@ -528,8 +528,9 @@ fn automatic_resolution_fits_the_vertex_budget() {
     );
 }
 
-/// Separate bodies are named: of a surface, the largest is kept with a warning that says so
-/// (two spheres side by side; a ball loose in a hollow ball's cavity: nested shells, but two
+/// Separate bodies are named: of a surface whose bodies lie apart, the largest is kept with a
+/// warning that says so (two spheres side by side); bodies whose boxes overlap are kept
+/// together with a warning (a ball loose in a hollow ball's cavity: nested shells, two
 /// bodies); a tetrahedral mesh of two blocks sharing no node is refused before the solve. One
 /// hollow ball is one body.
 #[test]
@@ -538,7 +539,7 @@ fn separate_bodies_are_named_not_solved() {
     sphere_tris(0.02, [0.0; 3], false, &mut two);
     sphere_tris(0.02, [0.1, 0.0, 0.0], false, &mut two);
     assert_eq!(fem::check_surface(&mut two.clone()).unwrap().bodies, 2);
-    // Equal bodies: the first is kept, with a warning naming both and the way out; the mesh
+    // Equal bodies: one is kept, with a warning naming both and the way out; the mesh
     // is one sphere (the volume check does not mistake the other for a thin part).
     let imp = import_surface(two, "test", &ImportOptions { resolution: Some(12), ..ImportOptions::default() }, &quiet)
         .unwrap();
@@ -556,11 +557,14 @@ fn separate_bodies_are_named_not_solved() {
     sphere_tris(0.01, [0.005, 0.0, 0.0], false, &mut rattle);
     let rep = fem::check_surface(&mut rattle).unwrap();
     assert_eq!((rep.pieces, rep.bodies), (3, 2), "{rep:?}");
-    // The hollow ball (outer wall and cavity) is the larger body and is kept whole.
-    let mut shell = TriSurface::default();
-    sphere_tris(0.05, [0.0; 3], false, &mut shell);
-    sphere_tris(0.04, [0.0; 3], true, &mut shell);
-    assert!((rep.volume / shell.signed_volume() - 1.0).abs() < 1e-9, "{} vs {}", rep.volume, shell.signed_volume());
+    // Bodies whose boxes overlap are kept together (as shells that touch must be), with a
+    // warning: the hollow ball and the ball inside.
+    assert!(rep.warnings.iter().any(|w| w.contains("kept together")), "{:?}", rep.warnings);
+    let mut parts = TriSurface::default();
+    sphere_tris(0.05, [0.0; 3], false, &mut parts);
+    sphere_tris(0.04, [0.0; 3], true, &mut parts);
+    sphere_tris(0.01, [0.005, 0.0, 0.0], false, &mut parts);
+    assert!((rep.volume / parts.signed_volume() - 1.0).abs() < 1e-9, "{} vs {}", rep.volume, parts.signed_volume());
 
     let block = fem::mesh_shape(&Shape::Block { length: 0.02, width: 0.02, height: 0.02 }, 4).unwrap();
     let mut pair = block.clone();

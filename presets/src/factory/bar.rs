@@ -8,7 +8,7 @@
 //! strike normal to the top face excites; in-plane bending and longitudinal modes are not
 //! excited by a normal strike and are left out.
 
-use super::{assemble, BankInfo, Mode};
+use super::analytic::{assemble, BankInfo, Mode, FACTORY_MAX_FREQ_HZ};
 use crate::DrawSurface;
 use crate::{Bank, BankReference, StrikePoint};
 
@@ -89,7 +89,7 @@ pub fn bar_bank() -> Bank {
         })
         .collect();
 
-    let lambda_max = (2.0 * std::f64::consts::PI * super::FACTORY_MAX_FREQ_HZ).powi(2);
+    let lambda_max = (2.0 * std::f64::consts::PI * FACTORY_MAX_FREQ_HZ).powi(2);
     let mut modes = Vec::new();
     // Bending: λ = β⁴ EI/(ρA); mass-normalised shape φ/sqrt(ρAL) since ∫φ² = L.
     let bend_norm = 1.0 / (rho * area * l).sqrt();
@@ -148,7 +148,7 @@ pub fn bar_bank() -> Bank {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::factory::simpson;
+    use crate::factory::analytic::simpson;
 
     #[test]
     fn beta_l_roots_match_the_tables() {

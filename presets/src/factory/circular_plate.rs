@@ -12,8 +12,8 @@
 //! θ = 0 axis (θ₀ = 0.04 rad), so high-m modes are hit slightly off their antinode, as a
 //! real strike on a slightly imperfect plate would.
 
+use super::analytic::{assemble, simpson, BankInfo, Mode, FACTORY_MAX_FREQ_HZ};
 use super::bessel::{bessel_i_scaled, bessel_j};
-use super::{assemble, simpson, BankInfo, Mode};
 use crate::DrawSurface;
 use crate::{Bank, BankReference, StrikePoint};
 
@@ -147,7 +147,7 @@ pub fn circular_plate_bank() -> Bank {
     let (e, rho, nu, a, h) = (PLATE_E, PLATE_RHO, PLATE_NU, PLATE_RADIUS, PLATE_THICKNESS);
     let flexural = e * h * h * h / (12.0 * (1.0 - nu * nu)); // D, N·m
     let kappa = (flexural / (rho * h)).sqrt(); // sqrt(D/(ρh)), m²/s
-    let omega_max = 2.0 * std::f64::consts::PI * super::FACTORY_MAX_FREQ_HZ;
+    let omega_max = 2.0 * std::f64::consts::PI * FACTORY_MAX_FREQ_HZ;
     let x_max = a * (omega_max / kappa).sqrt();
     let roots = free_circular_plate_roots(nu, x_max);
 

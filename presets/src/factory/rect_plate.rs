@@ -5,7 +5,7 @@
 //! sin(mπx/a) sin(nπy/b); exact within Kirchhoff theory. Mass-normalised shape:
 //! 2/sqrt(ρ h a b) · sin · sin.
 
-use super::{assemble, BankInfo, Mode};
+use super::analytic::{assemble, BankInfo, Mode, FACTORY_MAX_FREQ_HZ};
 use crate::DrawSurface;
 use crate::{Bank, BankReference, StrikePoint};
 
@@ -33,7 +33,7 @@ pub fn rect_plate_bank() -> Bank {
     let (e, rho, nu, a, b, h) = (RECT_E, RECT_RHO, RECT_NU, RECT_A, RECT_B, RECT_THICKNESS);
     let flexural = e * h * h * h / (12.0 * (1.0 - nu * nu));
     let kappa = (flexural / (rho * h)).sqrt();
-    let omega_max = 2.0 * std::f64::consts::PI * super::FACTORY_MAX_FREQ_HZ;
+    let omega_max = 2.0 * std::f64::consts::PI * FACTORY_MAX_FREQ_HZ;
     let pi = std::f64::consts::PI;
 
     let uv: Vec<[f64; 2]> = (0..N_POINTS)
