@@ -470,5 +470,10 @@ fn the_automatic_resolution_keeps_torsion_in_tune_and_cubes_solvable() {
     let mesh = fem::mesh_shape(&cube, r).unwrap();
     assert!(r >= 8 && 3 * mesh.nodes.len() <= fem::AUTO_DOFS, "cube at resolution {r}: {} nodes", mesh.nodes.len());
     let bytes = fem::eigen::factor_bytes_estimate(&mesh).unwrap();
+    println!(
+        "cube: resolution {r}, {} DOFs, factor estimate {:.2} GiB",
+        3 * mesh.nodes.len(),
+        bytes / f64::from(1 << 30)
+    );
     assert!(bytes <= fem::eigen::MAX_FACTOR_BYTES as f64, "{:.2} GiB", bytes / f64::from(1 << 30));
 }
