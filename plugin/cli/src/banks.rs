@@ -6,51 +6,132 @@ use fem::{BuildOptions, Shape};
 use presets::Bank;
 use std::path::{Path, PathBuf};
 
-/// A `struck bank` command (mirrors the command-line arguments). Built once per run, so the
+/// A `struck bank` command, as parsed from the command line. Parsed once per run, so the
 /// size difference between its variants does not matter.
-#[allow(missing_docs, clippy::large_enum_variant)]
+#[allow(clippy::large_enum_variant)]
+#[derive(clap::Subcommand)]
 pub enum BankCommand {
+    /// Modal analysis (10-node tetrahedra) of a built-in shape or a mesh file into a bank.
+    #[command(allow_negative_numbers = true)]
     Build {
+        /// Built-in shape: bar, plate, block, circular-plate, tube, bowl, cup, bell, sphere-shell.
+        #[arg(long, conflicts_with = "mesh", required_unless_present = "mesh")]
         shape: Option<String>,
+        /// The shape's dimensions in metres, comma separated, in the order given by
+        /// `struck bank shapes` (e.g. bar: length,width,thickness).
+        #[arg(long, requires = "shape", allow_hyphen_values = true)]
         dims: Option<String>,
+        /// A mesh file: Gmsh .msh 2.2/4.1 ASCII tetrahedra, or a closed surface in .obj or
+        /// .stl (ASCII or binary), which is voxelised (see --resolution).
+        #[arg(long)]
         mesh: Option<PathBuf>,
-        /// Mesh file units to metres (`None`: 1; only with `mesh`).
+        /// Factor from the mesh file's units to metres (e.g. 0.001 for millimetres; default 1).
+        #[arg(long, requires = "mesh")]
         scale: Option<f64>,
+        /// Number of modes (above the six rigid ones).
+        #[arg(long, default_value_t = 100)]
         modes: usize,
+        /// Keep only modes below this frequency (Hz).
+        #[arg(long)]
         max_freq: Option<f64>,
+        /// Young's modulus, Pa.
+        #[arg(long, default_value_t = 200e9)]
         young: f64,
+        /// Density, kg/m³.
+        #[arg(long, default_value_t = 7850.0)]
         density: f64,
+        /// Poisson's ratio.
+        #[arg(long, default_value_t = 0.3)]
         poisson: f64,
-        /// `None`: chosen by the build budget for shapes ([`fem::choose_resolution`]), by
-        /// [`fem::voxel::auto_resolution`] for surfaces.
+        /// Mesh resolution: elements along the largest dimension (built-in shapes; default: the
+        /// finest within the build budget of about 100,000 DOFs and a 1.5 GiB factor, e.g. 95
+        /// for a 0.4 m bar, 15 for a cube), or voxels along the longest side (.obj/.stl; default:
+        /// the highest giving about 3000 vertices, e.g. 16 for a sphere, 60 for a rod of length 10
+        /// diameters).
+        #[arg(long)]
         resolution: Option<usize>,
+        /// Number of strike points.
+        #[arg(long, default_value_t = 64)]
         points: usize,
+        /// Bank id (kebab-case; default from the output file name).
+        #[arg(long)]
         id: Option<String>,
+        /// Display name (default: the id).
+        #[arg(long)]
         name: Option<String>,
+        /// Output bank JSON.
+        #[arg(long)]
         out: PathBuf,
     },
+    /// Tune a bar or a tube so that its bending modes stand at --ratios, then build its bank.
+    /// A bar without --vary gets an undercut (thin-beam start, then Newton's method on the
+    /// FEM); with --vary, or a tube, the named dimensions are fitted (Gauss–Newton on the FEM).
+    #[command(allow_negative_numbers = true)]
     Tune {
+        /// The shape to tune: bar (an undercut is cut from its underside unless --vary is
+        /// given) or tube.
+        #[arg(long, default_value = "bar")]
         shape: String,
+        /// The shape's dimensions in metres (`struck bank shapes`): for the undercut, the bar
+        /// before it (length,width,thickness); otherwise the start of the fit.
+        #[arg(long)]
         dims: String,
+        /// Target ratios of successive bending modes to the first, e.g. 1,4,10 (marimba,
+        /// vibraphone) or 1,3,6 (xylophone); an undercut takes three, --vary two or more.
+        #[arg(long)]
         ratios: String,
+        /// Dimensions to fit instead of cutting an undercut, by name (e.g. thickness for a
+        /// glockenspiel bar; outer_radius or length,outer_radius for a tube; default for a
+        /// tube: outer_radius).
+        #[arg(long)]
         vary: Option<String>,
+        /// The bending mode (1 = lowest) the ratios are of: 1,r2,… are modes K, K+1, ….
+        #[arg(long, default_value_t = 1)]
         first_mode: usize,
+        /// With --vary (or a tube): fail if a ratio stays further than this from its target,
+        /// cents.
+        #[arg(long, default_value_t = 5.0)]
         tolerance: f64,
+        /// Flatness of the undercut's bottom: thickness ∝ 1 − depth·(1 − |u|^exponent).
+        #[arg(long, default_value_t = 4.0)]
         exponent: f64,
+        /// Number of modes of the bank.
+        #[arg(long, default_value_t = 100)]
         modes: usize,
+        /// Young's modulus, Pa.
+        #[arg(long, default_value_t = 200e9)]
         young: f64,
+        /// Density, kg/m³.
+        #[arg(long, default_value_t = 7850.0)]
         density: f64,
+        /// Poisson's ratio.
+        #[arg(long, default_value_t = 0.3)]
         poisson: f64,
+        /// Mesh resolution: elements along the length.
+        #[arg(long, default_value_t = 40)]
         resolution: usize,
+        /// Number of strike points.
+        #[arg(long, default_value_t = 64)]
         points: usize,
+        /// Bank id (kebab-case; default from the output file name).
+        #[arg(long)]
         id: Option<String>,
+        /// Display name (default: the id).
+        #[arg(long)]
         name: Option<String>,
+        /// Output bank JSON.
+        #[arg(long)]
         out: PathBuf,
     },
+    /// Summarise a bank JSON file (validates it).
     Info {
+        /// Bank JSON file.
         bank: PathBuf,
+        /// Machine-readable output.
+        #[arg(long)]
         json: bool,
     },
+    /// List the built-in shapes and their dimension order.
     Shapes,
 }
 
