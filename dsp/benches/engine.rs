@@ -73,6 +73,26 @@ fn engine_16_voices(c: &mut Criterion) {
         })
     });
 
+    // Issue 13's target: 64 voices of 250 modes at 48 kHz in ≤ 25 % of one core.
+    let mut e = Engine::new(vec![object(250)], 64, SR);
+    e.set_params(quiet_params());
+    e.reset();
+    for v in 0..64u8 {
+        e.note_on(
+            NoteId { voice_id: None, channel: 0, key: 30 + v },
+            Strike { velocity: 1.0, position: f32::from(v) / 64.0, lambda_factor: 1.0 },
+        );
+    }
+    e.render(&mut out);
+    assert_eq!(e.active_modes(), 16_000);
+    g.throughput(Throughput::Elements(16_000 * 512));
+    g.bench_function("64 voices x 250 modes, 512-sample block", |b| {
+        b.iter(|| {
+            out.fill(0.0);
+            e.render(black_box(&mut out));
+        })
+    });
+
     // Worst-case block: 32 note-ons in one 512-sample block, each striking 1000 modes.
     g.throughput(Throughput::Elements(1));
     g.bench_function("block with a burst of 32 note-ons (1000 modes each)", |b| {

@@ -127,7 +127,6 @@ enum Command {
     },
 }
 
-
 #[derive(clap::Args)]
 struct SoundArgs {
     /// Object id, name or index (`struck objects`), or a bank JSON file (`struck bank build`).
@@ -208,7 +207,6 @@ fn run(cli: Cli) -> Result<(), String> {
         }
     }
 }
-
 
 fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
