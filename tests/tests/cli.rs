@@ -157,7 +157,7 @@ fn box_obj() -> String {
 
 #[test]
 fn bank_build_from_an_obj_surface_then_render_it() {
-    use struck_cli::banks::{run, BankCommand};
+    use struck_cli::banks::{run, BankCommand, BankOutput, MaterialArgs};
     let dir = std::env::temp_dir();
     let pid = std::process::id();
     let obj = dir.join(format!("struck-cli-box-{pid}.obj"));
@@ -170,14 +170,9 @@ fn bank_build_from_an_obj_surface_then_render_it() {
         scale: None,
         modes: 12,
         max_freq: None,
-        young: 200e9,
-        density: 7850.0,
-        poisson: 0.3,
+        material: MaterialArgs { young: 200e9, density: 7850.0, poisson: 0.3 },
         resolution: Some(40),
-        points: 64,
-        id: None,
-        name: None,
-        out: bank_file.clone(),
+        output: BankOutput { points: 64, id: None, name: None, out: bank_file.clone() },
     };
     run(build(obj.clone())).unwrap();
     let bank = presets::Bank::load(&bank_file).unwrap();

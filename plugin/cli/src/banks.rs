@@ -6,6 +6,57 @@ use fem::{BuildOptions, Shape};
 use presets::Bank;
 use std::path::{Path, PathBuf};
 
+/// The material of a bank build.
+#[derive(clap::Args, Clone, Copy, Debug)]
+pub struct MaterialArgs {
+    /// Young's modulus, Pa.
+    #[arg(long, default_value_t = 200e9)]
+    pub young: f64,
+    /// Density, kg/m³.
+    #[arg(long, default_value_t = 7850.0)]
+    pub density: f64,
+    /// Poisson's ratio.
+    #[arg(long, default_value_t = 0.3)]
+    pub poisson: f64,
+}
+
+impl MaterialArgs {
+    /// The FEM material, validated.
+    fn material(self) -> Result<fem::Material, String> {
+        let m = fem::Material { young: self.young, density: self.density, poisson: self.poisson };
+        m.validate().map_err(|e| e.to_string())?;
+        Ok(m)
+    }
+}
+
+/// Where a built bank goes and what it is called.
+#[derive(clap::Args, Clone, Debug)]
+pub struct BankOutput {
+    /// Number of strike points.
+    #[arg(long, default_value_t = 64)]
+    pub points: usize,
+    /// Bank id (kebab-case; default from the output file name).
+    #[arg(long)]
+    pub id: Option<String>,
+    /// Display name (default: the id).
+    #[arg(long)]
+    pub name: Option<String>,
+    /// Output bank JSON.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+impl BankOutput {
+    /// The bank's id (`--id`, else the output file's stem, in kebab-case) and name (`--name`,
+    /// else the id).
+    fn id_and_name(&self) -> (String, String) {
+        let stem = self.out.file_stem().and_then(|s| s.to_str()).unwrap_or("bank");
+        let id = kebab(self.id.as_deref().unwrap_or(stem));
+        let name = self.name.clone().unwrap_or_else(|| id.clone());
+        (id, name)
+    }
+}
+
 /// A `struck bank` command, as parsed from the command line. Parsed once per run, so the
 /// size difference between its variants does not matter.
 #[allow(clippy::large_enum_variant)]
@@ -34,15 +85,9 @@ pub enum BankCommand {
         /// Keep only modes below this frequency (Hz).
         #[arg(long)]
         max_freq: Option<f64>,
-        /// Young's modulus, Pa.
-        #[arg(long, default_value_t = 200e9)]
-        young: f64,
-        /// Density, kg/m³.
-        #[arg(long, default_value_t = 7850.0)]
-        density: f64,
-        /// Poisson's ratio.
-        #[arg(long, default_value_t = 0.3)]
-        poisson: f64,
+        /// The material (--young, --density, --poisson).
+        #[command(flatten)]
+        material: MaterialArgs,
         /// Mesh resolution: elements along the largest dimension (built-in shapes; default: the
         /// finest within the build budget of about 100,000 DOFs and a 1.5 GiB factor, e.g. 95
         /// for a 0.4 m bar, 15 for a cube), or voxels along the longest side (.obj/.stl; default:
@@ -50,18 +95,9 @@ pub enum BankCommand {
         /// diameters).
         #[arg(long)]
         resolution: Option<usize>,
-        /// Number of strike points.
-        #[arg(long, default_value_t = 64)]
-        points: usize,
-        /// Bank id (kebab-case; default from the output file name).
-        #[arg(long)]
-        id: Option<String>,
-        /// Display name (default: the id).
-        #[arg(long)]
-        name: Option<String>,
-        /// Output bank JSON.
-        #[arg(long)]
-        out: PathBuf,
+        /// Strike points and where the bank goes (--points, --id, --name, --out).
+        #[command(flatten)]
+        output: BankOutput,
     },
     /// Tune a bar or a tube so that its bending modes stand at --ratios, then build its bank.
     /// A bar without --vary gets an undercut (thin-beam start, then Newton's method on the
@@ -98,30 +134,15 @@ pub enum BankCommand {
         /// Number of modes of the bank.
         #[arg(long, default_value_t = 100)]
         modes: usize,
-        /// Young's modulus, Pa.
-        #[arg(long, default_value_t = 200e9)]
-        young: f64,
-        /// Density, kg/m³.
-        #[arg(long, default_value_t = 7850.0)]
-        density: f64,
-        /// Poisson's ratio.
-        #[arg(long, default_value_t = 0.3)]
-        poisson: f64,
+        /// The material (--young, --density, --poisson).
+        #[command(flatten)]
+        material: MaterialArgs,
         /// Mesh resolution: elements along the length.
         #[arg(long, default_value_t = 40)]
         resolution: usize,
-        /// Number of strike points.
-        #[arg(long, default_value_t = 64)]
-        points: usize,
-        /// Bank id (kebab-case; default from the output file name).
-        #[arg(long)]
-        id: Option<String>,
-        /// Display name (default: the id).
-        #[arg(long)]
-        name: Option<String>,
-        /// Output bank JSON.
-        #[arg(long)]
-        out: PathBuf,
+        /// Strike points and where the bank goes (--points, --id, --name, --out).
+        #[command(flatten)]
+        output: BankOutput,
     },
     /// Summarise a bank JSON file (validates it).
     Info {
@@ -161,16 +182,12 @@ fn tune_dimensions(
     vary: &str,
     first_mode: usize,
     tolerance: f64,
-    young: f64,
-    density: f64,
-    poisson: f64,
+    material: MaterialArgs,
     opts: BuildOptions,
-    id: Option<String>,
-    name: Option<String>,
-    out: &std::path::Path,
+    output: &BankOutput,
 ) -> Result<(), String> {
-    let material = fem::Material { young, density, poisson };
-    material.validate().map_err(|e| e.to_string())?;
+    let material = material.material()?;
+    let out = output.out.as_path();
     let shape = parse_shape(kind, dims)?;
     let targets = parse_ratios(ratios)?;
     let names = shape.field_names();
@@ -213,9 +230,7 @@ fn tune_dimensions(
             fitted.join(", ")
         ));
     }
-    let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("bank");
-    let id = kebab(id.as_deref().unwrap_or(stem));
-    let name = name.unwrap_or_else(|| id.clone());
+    let (id, name) = output.id_and_name();
     let (mut bank, _) =
         fem::build_bank(&id, &name, &tuned.shape, &material, &opts, &progress()).map_err(|e| e.to_string())?;
     bank.description = format!(
@@ -339,27 +354,21 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
             tolerance,
             exponent,
             modes,
-            young,
-            density,
-            poisson,
+            material,
             resolution,
-            points,
-            id,
-            name,
-            out,
+            output,
         } => {
+            let points = output.points;
             if shape != "bar" && shape != "tube" {
                 return Err(format!("--shape {shape}: only a bar can be tuned (an undercut, or --vary), or a tube"));
             }
             if shape == "tube" || vary.is_some() {
                 let vary = vary.unwrap_or_else(|| "outer_radius".into());
                 let opts = tuned_build_options(modes, resolution, points);
-                return tune_dimensions(
-                    &shape, &dims, &ratios, &vary, first_mode, tolerance, young, density, poisson, opts, id, name, &out,
-                );
+                return tune_dimensions(&shape, &dims, &ratios, &vary, first_mode, tolerance, material, opts, &output);
             }
-            let material = fem::Material { young, density, poisson };
-            material.validate().map_err(|e| e.to_string())?;
+            let material = material.material()?;
+            let out = &output.out;
             let Shape::Bar { length, width, thickness } = parse_shape("bar", &dims)? else {
                 return Err("--dims: length,width,thickness".into());
             };
@@ -370,7 +379,7 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
             if !(1..=presets::MAX_BANK_MODES).contains(&modes) || !(1..=presets::MAX_BANK_POINTS).contains(&points) {
                 return Err("--modes or --points out of range".into());
             }
-            presets::output::check_output(&out, &[]).map_err(|e| e.to_string())?;
+            presets::output::check_output(out, &[]).map_err(|e| e.to_string())?;
             let tuned = fem::tune::tune_undercut_bar(
                 length,
                 width,
@@ -382,9 +391,7 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
                 &|line| eprintln!("{line}"),
             )
             .map_err(|e| e.to_string())?;
-            let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("bank");
-            let id = kebab(id.as_deref().unwrap_or(stem));
-            let name = name.unwrap_or_else(|| id.clone());
+            let (id, name) = output.id_and_name();
             let opts = tuned_build_options(modes, resolution, points);
             let (mut bank, _) =
                 fem::build_bank(&id, &name, &tuned.shape, &material, &opts, &progress()).map_err(|e| e.to_string())?;
@@ -393,7 +400,7 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
                 "{} Tuned by `struck bank tune` to bending ratios 1:{}:{}: {:.2} : {:.2} : {:.2} Hz ({:+.2}, {:+.2} cents).",
                 bank.description, targets[0], targets[1], f[0], f[1], f[2], tuned.cents[0], tuned.cents[1]
             );
-            bank.save(&out).map_err(|e| e.to_string())?;
+            bank.save(out).map_err(|e| e.to_string())?;
             end_progress_line();
             let dims = tuned.shape.dimensions();
             eprintln!(
@@ -413,24 +420,9 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
             );
             Ok(())
         }
-        BankCommand::Build {
-            shape,
-            dims,
-            mesh,
-            scale,
-            modes,
-            max_freq,
-            young,
-            density,
-            poisson,
-            resolution,
-            points,
-            id,
-            name,
-            out,
-        } => {
-            let material = fem::Material { young, density, poisson };
-            material.validate().map_err(|e| e.to_string())?;
+        BankCommand::Build { shape, dims, mesh, scale, modes, max_freq, material, resolution, output } => {
+            let material = material.material()?;
+            let (points, out) = (output.points, &output.out);
             if modes == 0 || modes > presets::MAX_BANK_MODES {
                 return Err(format!("--modes must be 1..={}", presets::MAX_BANK_MODES));
             }
@@ -439,7 +431,7 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
             }
             // The output is checked before the (long) solve: writable, and not the mesh read.
             let inputs: Vec<&Path> = mesh.iter().map(PathBuf::as_path).collect();
-            presets::output::check_output(&out, &inputs).map_err(|e| e.to_string())?;
+            presets::output::check_output(out, &inputs).map_err(|e| e.to_string())?;
             let opts = BuildOptions {
                 max_modes: modes,
                 max_freq_hz: max_freq,
@@ -448,9 +440,7 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
                 // Without --resolution a shape's mesh is chosen by the build budget.
                 auto_resolution: resolution.is_none(),
             };
-            let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("bank");
-            let id = kebab(id.as_deref().unwrap_or(stem));
-            let name = name.unwrap_or_else(|| id.clone());
+            let (id, name) = output.id_and_name();
             let (bank, report) = match (shape, mesh) {
                 (Some(_), None) if scale.is_some() => {
                     return Err("--scale applies to --mesh files only; give --dims in metres".into())
@@ -478,7 +468,7 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
                 }
                 _ => return Err("give either --shape with --dims, or --mesh".into()),
             };
-            bank.save(&out).map_err(|e| e.to_string())?;
+            bank.save(out).map_err(|e| e.to_string())?;
             end_progress_line();
             eprintln!(
                 "wrote {}: {} modes ({:.1}–{:.0} Hz), {} strike points; {} vertices, {} elements, {} DOFs; {:.1} s, peak memory {}",
