@@ -347,6 +347,11 @@ impl Voice {
     fn forced(&self) -> bool {
         self.contact_pos < self.contact_len || self.noise_left > 0
     }
+
+    /// Samples until the force pulse and the noise burst have both ended (0 when free).
+    fn forced_left(&self) -> usize {
+        (self.contact_len - self.contact_pos.min(self.contact_len)).max(self.noise_left)
+    }
 }
 
 /// Complex numbers as (re, im) pairs, for the control-rate pulse math.
@@ -496,39 +501,66 @@ fn mode_pole(lambda: f64, damping: &Damping, support_c: f64, extra_d: f64, sampl
     Some((d, omega))
 }
 
-/// Renders the active voices into the lane accumulator `lanes`, in voice order: a free-running
-/// voice runs its whole kernel groups in place and its last vectors through one
-/// [`VectorBatch`] shared with the next voices (four independent chains per kernel group
-/// however few modes each voice has); a voice in contact is
-/// rendered on its own ([`render_voice`]) after the batch before it has run, so every sample
-/// adds the voices in the same order whatever the block size.
-fn render_voices(voices: &mut [Voice], buf: &mut [Vec<f32>; 3], avx2: bool, lanes: &mut [f32]) {
-    let mut batch = VectorBatch::new(avx2);
-    for v in 0..voices.len() {
-        if !voices[v].active {
-            continue;
-        }
+/// Renders the active voices into the lane accumulator `lanes`, in voice order, in spans
+/// split where a voice's strike stops forcing it ([`render_span`]).
+fn render_voices(
+    voices: &mut [Voice],
+    live: &[usize],
+    buf: &mut [Vec<f32>; 3],
+    batch: &mut VectorBatch,
+    lanes: &mut [f32],
+) {
+    let n = lanes.len() / LANES;
+    let mut i = 0;
+    while i < n {
+        // Over each span every voice stays forced or free: it ends where the first forced
+        // voice's pulse and burst end (a sample fixed by the clock, not by the block size),
+        // so a voice's modes take the same lanes at a given sample whatever the blocks.
+        let left = live.iter().map(|&v| &voices[v]).filter(|v| v.forced()).map(Voice::forced_left).min();
+        let m = left.unwrap_or(n).min(n - i);
+        render_span(voices, live, buf, batch, &mut lanes[i * LANES..(i + m) * LANES]);
+        i += m;
+    }
+}
+
+/// [`render_voices`] over a span in which no voice changes between forced and free. Free
+/// voices run their whole kernel groups in place and their remaining modes packed lane by
+/// lane into one [`VectorBatch`] shared with the next voices (full lanes and four independent
+/// chains per kernel group however few modes each voice has); a voice in contact is rendered
+/// on its own ([`render_voice`]) after the batch before it has run. The order of the additions
+/// into each lane is a fixed function of the voices' mode counts: the same at a sample
+/// whatever the block size.
+fn render_span(
+    voices: &mut [Voice],
+    live: &[usize],
+    buf: &mut [Vec<f32>; 3],
+    batch: &mut VectorBatch,
+    lanes: &mut [f32],
+) {
+    debug_assert!(batch.is_empty());
+    for &v in live {
         if voices[v].forced() {
-            batch.run(lanes, |v, k, re, im| voices[v].bank.store_vector(k, re, im));
+            batch.run(lanes, |v, k, re, im| voices[v].bank.store_modes(k, re, im));
             render_voice(&mut voices[v], buf, lanes);
             continue;
         }
-        // Whole kernel groups run in place (after the vectors already waiting); the rest
-        // wait in the batch for the next voices'.
-        let vectors = voices[v].bank.vectors();
-        let whole = vectors / BATCH_VECTORS * BATCH_VECTORS;
+        // Whole kernel groups run in place (after the modes already waiting); the rest wait
+        // in the batch for the next voices'.
+        let len = voices[v].bank.len();
+        let whole = len / (BATCH_VECTORS * LANES) * BATCH_VECTORS;
         if whole > 0 {
-            batch.run(lanes, |v, k, re, im| voices[v].bank.store_vector(k, re, im));
+            batch.run(lanes, |v, k, re, im| voices[v].bank.store_modes(k, re, im));
             voices[v].bank.process_first_vectors_lanes(whole, lanes);
         }
-        for k in whole..vectors {
-            batch.push(v, &voices[v].bank, k);
+        let mut first = whole * LANES;
+        while first < len {
+            first += batch.push_modes(v, &voices[v].bank, first, len - first);
             if batch.is_full() {
-                batch.run(lanes, |v, k, re, im| voices[v].bank.store_vector(k, re, im));
+                batch.run(lanes, |v, k, re, im| voices[v].bank.store_modes(k, re, im));
             }
         }
     }
-    batch.run(lanes, |v, k, re, im| voices[v].bank.store_vector(k, re, im));
+    batch.run(lanes, |v, k, re, im| voices[v].bank.store_modes(k, re, im));
 }
 
 /// Renders `voice` into the lane accumulator `lanes` ([`LANES`] floats per sample, at most one
@@ -753,8 +785,14 @@ pub struct Engine {
     drive_buf: [Vec<f32>; 3],
     /// The voices' shared lane accumulator ([`MAX_KERNEL_BLOCK`] × [`LANES`]).
     lanes: Vec<f32>,
+    /// Indices of the active voices in voice order (the audio loops walk these, not the
+    /// pool), rebuilt when `live_stale`.
+    live: Vec<usize>,
+    /// A voice started or ended since `live` was built.
+    live_stale: bool,
     /// Whether the voices' banks run the AVX2 kernel (the same choice for all).
-    avx2: bool,
+    /// The free voices' modes packed for the kernel ([`render_span`]); empty between calls.
+    batch: VectorBatch,
     /// Mode coefficients recomputed by control-rate rebuilds since construction.
     rebuilt_modes: u64,
     variation_rng: Noise,
@@ -790,7 +828,9 @@ impl Engine {
             heard: vec![0.0; max_modes],
             drive_buf: [vec![0.0; MAX_KERNEL_BLOCK], vec![0.0; MAX_KERNEL_BLOCK], vec![0.0; MAX_KERNEL_BLOCK]],
             lanes: vec![0.0; MAX_KERNEL_BLOCK * LANES],
-            avx2: crate::resonator::avx2_available(),
+            live: Vec::with_capacity(max_voices.max(1)),
+            live_stale: true,
+            batch: VectorBatch::new(true),
             rebuilt_modes: 0,
             variation_rng: Noise::new(VARIATION_SEED),
             terminated: [Terminated { note: NoteId { voice_id: None, channel: 0, key: 0 }, offset: 0 }; MAX_TERMINATED],
@@ -824,6 +864,7 @@ impl Engine {
         for v in &mut self.voices {
             v.clear();
         }
+        self.live_stale = true;
         self.clock = 0;
         self.strikes = 0;
         self.variation_rng = Noise::new(VARIATION_SEED);
@@ -918,6 +959,7 @@ impl Engine {
             i
         };
         let object = self.object;
+        self.live_stale = true;
         let voice = &mut self.voices[v];
         if !voice.active {
             voice.clear();
@@ -953,6 +995,7 @@ impl Engine {
             if self.voices[i].matches(&note) {
                 let n = self.voices[i].note;
                 self.voices[i].clear();
+                self.live_stale = true;
                 self.push_terminated(n, self.rendered_in_call);
             }
         }
@@ -1146,10 +1189,9 @@ impl Engine {
             self.params.damping = damping;
             self.params.support_c = support;
         }
-        for v in 0..self.voices.len() {
-            if !self.voices[v].active {
-                continue;
-            }
+        self.update_live();
+        for i in 0..self.live.len() {
+            let v = self.live[i];
             if global || self.voices[v].dirty {
                 self.rebuild(v);
             }
@@ -1158,6 +1200,7 @@ impl Engine {
             if voice.pending.is_none() && !voice.forced() && voice.energy < SILENCE_ENERGY {
                 let note = voice.note;
                 voice.clear();
+                self.live_stale = true;
                 self.push_terminated(note, self.rendered_in_call);
             }
         }
@@ -1173,9 +1216,13 @@ impl Engine {
             if phase == 0 {
                 self.control_tick();
             }
-            // Pending strikes happen at this sample, after all events sent for it.
-            for v in 0..self.voices.len() {
-                if let Some(vel) = self.voices[v].pending.take() {
+            self.update_live();
+            // Pending strikes happen at this sample, after all events sent for it (only
+            // active voices have them).
+            for i in 0..self.live.len() {
+                let v = self.live[i];
+                if let Some(vel) = self.voices[v].pending {
+                    self.voices[v].pending = None;
                     self.strike(v, vel);
                 }
             }
@@ -1183,16 +1230,29 @@ impl Engine {
             let chunk = &mut out[pos..pos + n];
             // Every voice adds into one lane accumulator, summed once (see
             // `ResonatorBank::process_lanes`).
-            let lanes = &mut self.lanes[..n * LANES];
-            lanes.fill(0.0);
-            render_voices(&mut self.voices, &mut self.drive_buf, self.avx2, lanes);
-            reduce_lanes(lanes, chunk);
+            // Silence adds nothing: an idle engine only keeps its clock and controls.
+            if !self.live.is_empty() {
+                let lanes = &mut self.lanes[..n * LANES];
+                lanes.fill(0.0);
+                render_voices(&mut self.voices, &self.live, &mut self.drive_buf, &mut self.batch, lanes);
+                reduce_lanes(lanes, chunk);
+            }
             pos += n;
             self.clock += n as u64;
             self.rendered_in_call = pos as u32;
         }
         // Steals and chokes before the next call happen at that call's first sample.
         self.rendered_in_call = 0;
+    }
+
+    /// Rebuilds the list of active voices if one started or ended. Realtime-safe (`live`
+    /// holds room for every voice).
+    fn update_live(&mut self) {
+        if self.live_stale {
+            self.live.clear();
+            self.live.extend(self.voices.iter().enumerate().filter(|(_, v)| v.active).map(|(i, _)| i));
+            self.live_stale = false;
+        }
     }
 
     /// Maximum modes per voice.

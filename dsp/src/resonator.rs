@@ -128,11 +128,16 @@ impl ResonatorBank {
         portable::run(re, im, pr, pi, None, acc, n);
     }
 
-    /// Sets the state of vector `k` (what a [`VectorBatch`] hands back).
-    pub fn store_vector(&mut self, k: usize, re: &[f32], im: &[f32]) {
-        let o = k * LANES;
-        self.re[o..o + LANES].copy_from_slice(&re[..LANES]);
-        self.im[o..o + LANES].copy_from_slice(&im[..LANES]);
+    /// Sets the state of the slots from `first` on (what a [`VectorBatch`] hands back).
+    pub fn store_modes(&mut self, first: usize, re: &[f32], im: &[f32]) {
+        let c = re.len().min(im.len());
+        let (dr, di) = (&mut self.re[first..first + c], &mut self.im[first..first + c]);
+        // One loop: a few slots each (see `VectorBatch::push_modes`).
+        #[allow(clippy::manual_memcpy)]
+        for j in 0..c {
+            dr[j] = re[j];
+            di[j] = im[j];
+        }
     }
 
     /// True when no mode is in use.
@@ -328,20 +333,29 @@ impl ResonatorBank {
     }
 }
 
-/// Vectors ([`LANES`] modes each) of several banks advanced together: up to [`BATCH_VECTORS`]
-/// free-running vectors, whatever bank they come from, in one kernel group, so that voices of
-/// a few modes fill the kernel's independent chains instead of each running one alone (a
-/// single vector's recurrence is latency-bound). Per sample the vectors add into the lane
-/// accumulator in the order they were pushed, so a batch of vectors pushed in voice order
-/// gives bit for bit what each bank's [`ResonatorBank::process_lanes`] in that order gives.
+/// Modes of several banks advanced together: up to [`BATCH_VECTORS`] × [`LANES`] free-running
+/// modes, whatever bank they come from, packed lane by lane into one kernel group, so that
+/// voices of a few modes fill the kernel's lanes and its independent chains instead of each
+/// running a part-empty vector alone (a single vector's recurrence is latency-bound).
+///
+/// Each mode's state advances exactly as in its own bank (the recurrence is per mode), so the
+/// states handed back are bit for bit the bank's own. The lane a mode adds into depends on
+/// the packing: whole vectors pushed at a vector boundary keep their lanes (a batch of only
+/// those gives bit for bit each bank's [`ResonatorBank::process_lanes`] in turn); packed
+/// ranges change which modes share a lane sum, so the output differs from the banks in turn
+/// by rounding only, and is a fixed function of what was pushed in which order.
 /// Realtime-safe (fixed-size arrays).
+#[derive(Clone, Debug)]
 pub struct VectorBatch {
     re: [f32; BATCH_VECTORS * LANES],
     im: [f32; BATCH_VECTORS * LANES],
     pr: [f32; BATCH_VECTORS * LANES],
     pi: [f32; BATCH_VECTORS * LANES],
-    /// (owner, vector index in its bank) of each pushed vector; the owner is the caller's.
-    from: [(usize, usize); BATCH_VECTORS],
+    /// (owner, first slot in its bank, first lane in the batch, modes) of each pushed range;
+    /// the owner is the caller's.
+    from: [(usize, usize, usize, usize); BATCH_VECTORS * LANES],
+    ranges: usize,
+    /// Lanes filled.
     len: usize,
     avx2: bool,
 }
@@ -355,38 +369,65 @@ impl VectorBatch {
     pub fn new(avx2: bool) -> Self {
         let z = [0.0; BATCH_VECTORS * LANES];
         let avx2 = avx2 && avx2_available();
-        VectorBatch { re: z, im: z, pr: z, pi: z, from: [(0, 0); BATCH_VECTORS], len: 0, avx2 }
+        let from = [(0, 0, 0, 0); BATCH_VECTORS * LANES];
+        VectorBatch { re: z, im: z, pr: z, pi: z, from, ranges: 0, len: 0, avx2 }
     }
 
-    /// Whether no vector is waiting.
+    /// Whether no mode is waiting.
     pub fn is_empty(&self) -> bool {
         self.len == 0
     }
 
     /// Whether the batch is full (run it).
     pub fn is_full(&self) -> bool {
-        self.len == BATCH_VECTORS
+        self.len == BATCH_VECTORS * LANES
     }
 
-    /// Adds vector `k` of `bank` (state and pole), remembering `owner`.
+    /// Adds vector `k` of `bank` (state and pole of its [`LANES`] slots), remembering `owner`.
     pub fn push(&mut self, owner: usize, bank: &ResonatorBank, k: usize) {
-        debug_assert!(!self.is_full() && k < bank.vectors());
-        let (o, d) = (k * LANES, self.len * LANES);
-        self.re[d..d + LANES].copy_from_slice(&bank.re[o..o + LANES]);
-        self.im[d..d + LANES].copy_from_slice(&bank.im[o..o + LANES]);
-        self.pr[d..d + LANES].copy_from_slice(&bank.pr[o..o + LANES]);
-        self.pi[d..d + LANES].copy_from_slice(&bank.pi[o..o + LANES]);
-        self.from[self.len] = (owner, k);
-        self.len += 1;
+        debug_assert!(self.len % LANES == 0 && k < bank.vectors());
+        let taken = self.push_modes(owner, bank, k * LANES, LANES);
+        debug_assert_eq!(taken, LANES);
     }
 
-    /// Advances the pushed vectors by `acc.len() / LANES` samples (at most
-    /// [`MAX_KERNEL_BLOCK`]) adding into the lane accumulator `acc`, then hands each vector's
-    /// new state back through `store(owner, k, re, im)` and empties the batch.
+    /// Adds slots `first..first + count` of `bank` (state and pole) at the next free lanes,
+    /// as many as there is room for; returns how many were taken (run the batch when it is
+    /// full, then push the rest).
+    pub fn push_modes(&mut self, owner: usize, bank: &ResonatorBank, first: usize, count: usize) -> usize {
+        let c = count.min(BATCH_VECTORS * LANES - self.len).min(bank.capacity().saturating_sub(first));
+        if c == 0 {
+            return 0;
+        }
+        let (o, d) = (first, self.len);
+        // One loop over the four arrays: a few lanes each, where library copies cost more
+        // than the copying.
+        let src = (&bank.re[o..o + c], &bank.im[o..o + c], &bank.pr[o..o + c], &bank.pi[o..o + c]);
+        let (re, im) = (&mut self.re[d..d + c], &mut self.im[d..d + c]);
+        let (pr, pi) = (&mut self.pr[d..d + c], &mut self.pi[d..d + c]);
+        #[allow(clippy::manual_memcpy)]
+        for j in 0..c {
+            re[j] = src.0[j];
+            im[j] = src.1[j];
+            pr[j] = src.2[j];
+            pi[j] = src.3[j];
+        }
+        self.from[self.ranges] = (owner, first, d, c);
+        self.ranges += 1;
+        self.len += c;
+        c
+    }
+
+    /// Advances the pushed modes by `acc.len() / LANES` samples (at most
+    /// [`MAX_KERNEL_BLOCK`]) adding into the lane accumulator `acc`, then hands each pushed
+    /// range's new state back through `store(owner, first, re, im)` and empties the batch.
     pub fn run(&mut self, acc: &mut [f32], mut store: impl FnMut(usize, usize, &[f32], &[f32])) {
         let n = (acc.len() / LANES).min(MAX_KERNEL_BLOCK);
-        let m = self.len * LANES;
+        let m = self.len.div_ceil(LANES) * LANES;
         if m > 0 && n > 0 {
+            // The lanes after the last range run silent: zero state and pole add +0.
+            for a in [&mut self.re, &mut self.im, &mut self.pr, &mut self.pi] {
+                a[self.len..m].fill(0.0);
+            }
             let acc = &mut acc[..n * LANES];
             let (re, im, pr, pi) = (&mut self.re[..m], &mut self.im[..m], &self.pr[..m], &self.pi[..m]);
             #[cfg(target_arch = "x86_64")]
@@ -404,11 +445,12 @@ impl VectorBatch {
             if !done {
                 portable::run(re, im, pr, pi, None, acc, n);
             }
-            for (j, &(owner, k)) in self.from[..self.len].iter().enumerate() {
-                store(owner, k, &self.re[j * LANES..(j + 1) * LANES], &self.im[j * LANES..(j + 1) * LANES]);
+            for &(owner, first, d, c) in &self.from[..self.ranges] {
+                store(owner, first, &self.re[d..d + c], &self.im[d..d + c]);
             }
         }
         self.len = 0;
+        self.ranges = 0;
     }
 }
 
@@ -674,7 +716,11 @@ mod tests {
 
     /// Banks of 3, 10 and 17 modes (1, 2 and 3 vectors) excited with distinct amplitudes.
     fn three_banks() -> Vec<ResonatorBank> {
-        [3usize, 10, 17]
+        banks(&[3, 10, 17])
+    }
+
+    fn banks(sizes: &[usize]) -> Vec<ResonatorBank> {
+        sizes
             .iter()
             .enumerate()
             .map(|(b, &n)| {
@@ -721,7 +767,7 @@ mod tests {
                 }
                 batch.run(&mut lanes_batch, |o, k, re, im| states.push((o, k, re.to_vec(), im.to_vec())));
                 for (o, k, re, im) in &states {
-                    batched[*o].store_vector(*k, re, im);
+                    batched[*o].store_modes(*k, re, im);
                 }
                 assert_eq!(
                     lanes_own.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
@@ -731,6 +777,61 @@ mod tests {
                 for (a, b) in own.iter().zip(&batched) {
                     assert_eq!(a.re, b.re, "avx2 {avx2}");
                     assert_eq!(a.im, b.im, "avx2 {avx2}");
+                }
+            }
+        }
+    }
+
+    /// Modes packed lane by lane (a few from each bank, ranges split across two runs of the
+    /// batch) advance bit for bit as in their own banks, and the summed output equals each
+    /// bank's own within rounding (the lane a mode adds into changes, nothing else), with
+    /// either kernel, over several blocks.
+    #[test]
+    fn modes_packed_across_banks_advance_exactly_as_in_their_banks() {
+        let sizes = [3usize, 10, 17, 6, 9, 1, 13];
+        for avx2 in [false, avx2_available()] {
+            let mut own = banks(&sizes);
+            let mut packed = banks(&sizes);
+            for bank in own.iter_mut().chain(packed.iter_mut()) {
+                bank.avx2 = avx2;
+            }
+            for block in [64usize, 17, 64, 5] {
+                let mut lanes_own = vec![0.0f32; block * LANES];
+                for bank in &mut own {
+                    bank.process_lanes(&mut lanes_own);
+                }
+                let mut batch = VectorBatch::new(avx2);
+                let mut lanes_packed = vec![0.0f32; block * LANES];
+                let snapshot: Vec<ResonatorBank> = packed.clone();
+                let mut states: Vec<(usize, usize, Vec<f32>, Vec<f32>)> = Vec::new();
+                let mut runs = 0;
+                for (b, bank) in snapshot.iter().enumerate() {
+                    let mut first = 0;
+                    while first < bank.len() {
+                        first += batch.push_modes(b, bank, first, bank.len() - first);
+                        if batch.is_full() {
+                            batch.run(&mut lanes_packed, |o, k, re, im| states.push((o, k, re.to_vec(), im.to_vec())));
+                            runs += 1;
+                        }
+                    }
+                }
+                batch.run(&mut lanes_packed, |o, k, re, im| states.push((o, k, re.to_vec(), im.to_vec())));
+                assert_eq!(runs, 1, "59 modes: one full batch, the rest in a second run");
+                assert!(states.len() > sizes.len(), "a range was split across the two runs");
+                for (o, k, re, im) in &states {
+                    packed[*o].store_modes(*k, re, im);
+                }
+                for (a, b) in own.iter().zip(&packed) {
+                    assert_eq!(a.re, b.re, "avx2 {avx2}, block {block}");
+                    assert_eq!(a.im, b.im, "avx2 {avx2}, block {block}");
+                }
+                let (mut out_own, mut out_packed) = (vec![0.0f32; block], vec![0.0f32; block]);
+                reduce_lanes(&lanes_own, &mut out_own);
+                reduce_lanes(&lanes_packed, &mut out_packed);
+                let peak = out_own.iter().fold(0.0f32, |p, x| p.max(x.abs()));
+                assert!(peak > 0.1, "the modes sound: {peak}");
+                for (a, b) in out_own.iter().zip(&out_packed) {
+                    assert!((a - b).abs() <= 1e-6 * peak.max(1.0), "avx2 {avx2}, block {block}: {a} vs {b}");
                 }
             }
         }

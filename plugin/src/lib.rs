@@ -387,15 +387,36 @@ impl Plugin for Struck {
             // The editor's A/B clip, if one is playing (before the output gain, like the voices).
             self.clip_player.mix(&self.editor_shared, &mut self.mono[..len]);
             let safety = self.params.output_safety.value();
-            for i in 0..len {
-                let g = util::db_to_gain_fast(self.params.gain_db.smoothed.next());
-                let s = self.mono[i] * g;
+            let gain = &self.params.gain_db.smoothed;
+            let finish = |x: f32, g: f32| {
+                let s = x * g;
                 // Never pass NaN or infinities to the host.
                 let s = if s.is_finite() { s } else { 0.0 };
-                let s = if safety { dsp::safety::soft_clip(s) } else { s };
-                for ch in outputs.iter_mut() {
-                    ch[start + i] = s;
+                if safety {
+                    dsp::safety::soft_clip(s)
+                } else {
+                    s
                 }
+            };
+            let Some((first, rest)) = outputs.split_first_mut() else {
+                start += len;
+                continue;
+            };
+            let first = &mut first[start..start + len];
+            if gain.is_smoothing() {
+                for (o, &x) in first.iter_mut().zip(&self.mono[..len]) {
+                    *o = finish(x, util::db_to_gain_fast(gain.next()));
+                }
+            } else {
+                // A settled gain is the same value at every sample (what `next()` would
+                // return): converted once, not per sample.
+                let g = util::db_to_gain_fast(gain.next());
+                for (o, &x) in first.iter_mut().zip(&self.mono[..len]) {
+                    *o = finish(x, g);
+                }
+            }
+            for ch in rest.iter_mut() {
+                ch[start..start + len].copy_from_slice(first);
             }
             start += len;
         }
