@@ -129,12 +129,13 @@ const TUNED_BANKS: &[TunedBank] = &[
     // fitted to bending modes 1–10 of a real tubular bell (freepats' 014_Tubular_Bells,
     // measured by tests/recordings/subspace.py). The plug lowers the low modes against the
     // rest, the radius (shear and rotary inertia) flattens the high ones; a plain tube misses
-    // modes 1, 2, 9 and 10 by 17–48 cents. The 2.5 mm wall keeps the tube's shell
-    // (ovalling) modes apart from its bending modes up to 10.
+    // modes 1, 2, 9 and 10 by 17–48 cents. The 4 mm wall keeps the tube's shell
+    // (ovalling) modes above its bending mode 10 (with 2.5 mm at this radius they crowd from
+    // mode 9 up, one pair 9 cents from mode 9).
     (
         "fem-tubular-chime",
         "Tubular chime (FEM, brass, a real bell's partials)",
-        "1.0,0.0185,0.0025,0.025",
+        "1.0,0.019,0.004,0.04",
         CHIME_RATIOS,
         ("plugged-tube", "outer_radius,plug", 1),
         100e9,
