@@ -14,7 +14,9 @@ fn closed_form_volume(bank: &Bank) -> Option<f64> {
     Some(match id {
         "bar" | "rect-plate" | "fem-bar" | "fem-plate" | "fem-block" | "fem-glockenspiel-bar" => d[0] * d[1] * d[2],
         "circular-plate" | "fem-circular-plate" => PI * d[0] * d[0] * d[1],
-        "fem-tube" | "fem-tubular-chime" => PI * (d[1] * d[1] - (d[1] - d[2]).powi(2)) * d[0],
+        "fem-tube" => PI * (d[1] * d[1] - (d[1] - d[2]).powi(2)) * d[0],
+        // A plugged tube: the wall along the length, the bore filled over the plug.
+        "fem-tubular-chime" => PI * (d[1] * d[1] * d[0] - (d[1] - d[2]).powi(2) * (d[0] - d[3])),
         "fem-bowl" => shell(d[0], d[1], 2.0),
         "fem-sphere-shell" => shell(d[0], d[1], 4.0),
         // Undercut: ∫(1 − |u|^p) du over [−1, 1] = 2p/(p + 1) on half-length cut·L/2.

@@ -124,16 +124,20 @@ const TUNED_BANKS: &[TunedBank] = &[
         40,
         60,
     ),
-    // A brass tube whose radius is fitted to bending modes 3–8 of a real tubular bell
-    // (freepats' 014_Tubular_Bells, measured by tests/recordings/subspace.py): the strike-note
-    // group 4, 5, 6 (≈ 2 : 3 : 4) and its neighbours. The 2.5 mm wall keeps the tube's shell
-    // (ovalling) modes above its bending mode 10 (with 1.5 mm they crowd round mode 8).
+    // A brass tube closed at its top by a plug filling the bore, as real tubular bells are
+    // (Rossing, Science of Percussion Instruments §5.3), whose radius and plug length are
+    // fitted to bending modes 1–10 of a real tubular bell (freepats' 014_Tubular_Bells,
+    // measured by tests/recordings/subspace.py). The plug lowers the low modes against the
+    // rest, the radius (shear and rotary inertia) flattens the high ones; a plain tube misses
+    // modes 1, 2, 9 and 10 by 17–48 cents. The 4 mm wall keeps the tube's shell
+    // (ovalling) modes above its bending mode 10 (with 2.5 mm at this radius they crowd from
+    // mode 9 up, one pair 9 cents from mode 9).
     (
         "fem-tubular-chime",
         "Tubular chime (FEM, brass, a real bell's partials)",
-        "1.0,0.016,0.0025",
+        "1.0,0.019,0.004,0.04",
         CHIME_RATIOS,
-        ("tube", "outer_radius", 3),
+        ("plugged-tube", "outer_radius,plug", 1),
         100e9,
         8500.0,
         0.34,
@@ -142,8 +146,8 @@ const TUNED_BANKS: &[TunedBank] = &[
     ),
 ];
 
-/// Bending modes 4–8 of the freepats tubular bell over its mode 3 (862.67 Hz).
-const CHIME_RATIOS: &str = "1,1.62500,2.36839,3.20870,4.12497,5.10457";
+/// Bending modes 1–10 of the freepats tubular bell over its mode 1 (159.72 Hz).
+const CHIME_RATIOS: &str = "1,2.77279,5.40114,8.77686,12.79201,17.33064,22.27955,27.57050,33.08747,38.72884";
 
 /// Regenerates `presets/factory/banks/*.json` with the FEM bank builder.
 fn banks() -> Result<(), String> {

@@ -65,7 +65,9 @@ pub enum BankCommand {
     /// Modal analysis (10-node tetrahedra) of a built-in shape or a mesh file into a bank.
     #[command(allow_negative_numbers = true)]
     Build {
-        /// Built-in shape: bar, plate, block, circular-plate, tube, bowl, cup, bell, sphere-shell.
+        /// Built-in shape: bar, plate, block, circular-plate, tube, plugged-tube (a tube whose
+        /// bore is filled over its top `plug` metres, like a tubular bell's end plug), bowl, cup,
+        /// bell, sphere-shell.
         #[arg(long, conflicts_with = "mesh", required_unless_present = "mesh")]
         shape: Option<String>,
         /// The shape's dimensions in metres, comma separated, in the order given by
@@ -101,11 +103,12 @@ pub enum BankCommand {
     },
     /// Tune a bar or a tube so that its bending modes stand at --ratios, then build its bank.
     /// A bar without --vary gets an undercut (thin-beam start, then Newton's method on the
-    /// FEM); with --vary, or a tube, the named dimensions are fitted (Gauss–Newton on the FEM).
+    /// FEM); with --vary, or a tube (plain or plugged), the named dimensions are fitted
+    /// (Gauss–Newton on the FEM).
     #[command(allow_negative_numbers = true)]
     Tune {
         /// The shape to tune: bar (an undercut is cut from its underside unless --vary is
-        /// given) or tube.
+        /// given), tube, or plugged-tube (--dims length,outer_radius,wall,plug).
         #[arg(long, default_value = "bar")]
         shape: String,
         /// The shape's dimensions in metres (`struck bank shapes`): for the undercut, the bar
@@ -117,8 +120,8 @@ pub enum BankCommand {
         #[arg(long)]
         ratios: String,
         /// Dimensions to fit instead of cutting an undercut, by name (e.g. thickness for a
-        /// glockenspiel bar; outer_radius or length,outer_radius for a tube; default for a
-        /// tube: outer_radius).
+        /// glockenspiel bar; outer_radius or length,outer_radius for a tube, outer_radius,plug
+        /// for a plugged tube; default for a tube: outer_radius).
         #[arg(long)]
         vary: Option<String>,
         /// The bending mode (1 = lowest) the ratios are of: 1,r2,… are modes K, K+1, ….
@@ -252,6 +255,7 @@ pub const SHAPES: &[(&str, &[&str], &str)] = &[
     ("block", &["length", "width", "height"], "0.2,0.08,0.05"),
     ("circular-plate", &["radius", "thickness"], "0.15,0.002"),
     ("tube", &["length", "outer_radius", "wall"], "0.6,0.016,0.0015"),
+    ("plugged-tube", &["length", "outer_radius", "wall", "plug"], "1.0,0.0185,0.0025,0.025"),
     ("bowl", &["radius", "wall"], "0.08,0.004"),
     ("cup", &["radius", "height", "wall"], "0.04,0.09,0.003"),
     ("bell", &["radius", "height", "wall"], "0.1,0.14,0.006"),
@@ -286,6 +290,7 @@ pub fn parse_shape(name: &str, dims: &str) -> Result<Shape, String> {
         "block" => Shape::Block { length: v[0], width: v[1], height: v[2] },
         "circular-plate" => Shape::CircularPlate { radius: v[0], thickness: v[1] },
         "tube" => Shape::Tube { length: v[0], outer_radius: v[1], wall: v[2] },
+        "plugged-tube" => Shape::PluggedTube { length: v[0], outer_radius: v[1], wall: v[2], plug: v[3] },
         "bowl" => Shape::Bowl { radius: v[0], wall: v[1] },
         "cup" => Shape::Cup { radius: v[0], height: v[1], wall: v[2] },
         "bell" => Shape::Bell { radius: v[0], height: v[1], wall: v[2] },
@@ -359,10 +364,13 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
             output,
         } => {
             let points = output.points;
-            if shape != "bar" && shape != "tube" {
-                return Err(format!("--shape {shape}: only a bar can be tuned (an undercut, or --vary), or a tube"));
+            let tube = shape == "tube" || shape == "plugged-tube";
+            if shape != "bar" && !tube {
+                return Err(format!(
+                    "--shape {shape}: only a bar can be tuned (an undercut, or --vary), or a tube or plugged-tube"
+                ));
             }
-            if shape == "tube" || vary.is_some() {
+            if tube || vary.is_some() {
                 let vary = vary.unwrap_or_else(|| "outer_radius".into());
                 let opts = tuned_build_options(modes, resolution, points);
                 return tune_dimensions(&shape, &dims, &ratios, &vary, first_mode, tolerance, material, opts, &output);

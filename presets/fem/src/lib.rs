@@ -119,6 +119,22 @@ pub enum Shape {
         /// Wall thickness, m.
         wall: f64,
     },
+    /// A tube closed at its top end by a solid plug filling the bore, as a tubular bell's
+    /// end plug (Rossing, *Science of Percussion Instruments* (2000), §5.3: the plug moves
+    /// the bending modes' ratios, bringing modes 4 : 5 : 6 near 2 : 3 : 4): the wall of
+    /// [`Shape::Tube`] along z ∈ [0, length], the bore filled over z ∈ [length − plug,
+    /// length] (one piece, one material); struck on the outside along a helix. A plug as long
+    /// as the tube makes a solid cylinder.
+    PluggedTube {
+        /// Length, m.
+        length: f64,
+        /// Outer radius, m.
+        outer_radius: f64,
+        /// Wall thickness, m.
+        wall: f64,
+        /// Length of the plug at the top end, m (at most `length`).
+        plug: f64,
+    },
     /// Hemispherical bowl, outer radius `radius`, pole at the origin, opening up (+z).
     Bowl {
         /// Radius, m.
@@ -164,6 +180,7 @@ impl Shape {
             Shape::Block { .. } => "block",
             Shape::CircularPlate { .. } => "circular-plate",
             Shape::Tube { .. } => "tube",
+            Shape::PluggedTube { .. } => "plugged-tube",
             Shape::Bowl { .. } => "bowl",
             Shape::Cup { .. } => "cup",
             Shape::Bell { .. } => "bell",
@@ -183,6 +200,7 @@ impl Shape {
             }
             Shape::CircularPlate { radius, thickness } => vec![radius, thickness],
             Shape::Tube { length, outer_radius, wall } => vec![length, outer_radius, wall],
+            Shape::PluggedTube { length, outer_radius, wall, plug } => vec![length, outer_radius, wall, plug],
             Shape::Bowl { radius, wall } | Shape::SphereShell { radius, wall } => vec![radius, wall],
             Shape::Cup { radius, height, wall } | Shape::Bell { radius, height, wall } => {
                 vec![radius, height, wall]
@@ -211,6 +229,9 @@ impl Shape {
             Shape::Block { .. } => Shape::Block { length: v[0], width: v[1], height: v[2] },
             Shape::CircularPlate { .. } => Shape::CircularPlate { radius: v[0], thickness: v[1] },
             Shape::Tube { .. } => Shape::Tube { length: v[0], outer_radius: v[1], wall: v[2] },
+            Shape::PluggedTube { .. } => {
+                Shape::PluggedTube { length: v[0], outer_radius: v[1], wall: v[2], plug: v[3] }
+            }
             Shape::Bowl { .. } => Shape::Bowl { radius: v[0], wall: v[1] },
             Shape::Cup { .. } => Shape::Cup { radius: v[0], height: v[1], wall: v[2] },
             Shape::Bell { .. } => Shape::Bell { radius: v[0], height: v[1], wall: v[2] },
@@ -226,6 +247,7 @@ impl Shape {
             Shape::UndercutBar { .. } => &["length", "width", "thickness", "depth", "cut", "exponent"],
             Shape::CircularPlate { .. } => &["radius", "thickness"],
             Shape::Tube { .. } => &["length", "outer_radius", "wall"],
+            Shape::PluggedTube { .. } => &["length", "outer_radius", "wall", "plug"],
             Shape::Bowl { .. } | Shape::SphereShell { .. } => &["radius", "wall"],
             Shape::Cup { .. } | Shape::Bell { .. } => &["radius", "height", "wall"],
         }
@@ -237,7 +259,9 @@ impl Shape {
             Shape::CircularPlate { radius, .. } | Shape::Bowl { radius, .. } | Shape::SphereShell { radius, .. } => {
                 2.0 * radius
             }
-            Shape::Tube { length, outer_radius, .. } => length.max(2.0 * outer_radius),
+            Shape::Tube { length, outer_radius, .. } | Shape::PluggedTube { length, outer_radius, .. } => {
+                length.max(2.0 * outer_radius)
+            }
             Shape::Cup { radius, height, .. } | Shape::Bell { radius, height, .. } => (2.0 * radius).max(height),
             Shape::UndercutBar { length, width, thickness, .. } => length.max(width).max(thickness),
             _ => self.dimensions().into_iter().fold(0.0, f64::max),
@@ -259,6 +283,15 @@ impl Shape {
         }
         let wall_ok = match *self {
             Shape::Tube { outer_radius, wall, .. } => wall < outer_radius,
+            Shape::PluggedTube { length, outer_radius, wall, plug } => {
+                if plug > length {
+                    return Err(FemError::InvalidShape {
+                        shape: self.kind(),
+                        reason: format!("the plug ({plug} m) must not be longer than the tube ({length} m)"),
+                    });
+                }
+                wall < outer_radius
+            }
             Shape::Bowl { radius, wall } | Shape::SphereShell { radius, wall } => wall < 0.5 * radius,
             Shape::Cup { radius, height, wall } => wall < 0.25 * radius && wall < 0.25 * height,
             Shape::Bell { radius, height, wall } => wall < 0.25 * radius && wall < 0.25 * height,
@@ -474,7 +507,7 @@ pub enum FemError {
         reason: String,
     },
     /// The shape is not supported by this builder.
-    #[error("the shape `{0}` is not supported yet; use bar, plate, block, circular-plate, tube, bowl, cup, bell or sphere-shell, or import a mesh")]
+    #[error("the shape `{0}` is not supported yet; use bar, plate, block, circular-plate, tube, plugged-tube, bowl, cup, bell or sphere-shell, or import a mesh")]
     UnsupportedShape(String),
     /// A material constant is invalid.
     #[error("invalid material: {0}")]

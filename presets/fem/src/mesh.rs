@@ -402,6 +402,24 @@ pub(crate) fn mesh_with_geometry(shape: &Shape, resolution: usize) -> Result<(Te
             let around = divisions(2.0 * PI * outer_radius, h).max(12);
             revolve(rev, divisions(length, h), around, divisions(wall, h), 0.0, false)
         }
+        Shape::PluggedTube { length, outer_radius, wall, plug } => {
+            // The meridian section (the wall's strip, and the bore over the plug) in a
+            // structured grid of the tube's element size, swept about the axis; the element
+            // counts of the wall (along, around, through) are the plain tube's.
+            let h = length.max(2.0 * outer_radius) / res;
+            let bore = outer_radius - wall;
+            let open = length - plug;
+            let mut rs = levels(0.0, bore, divisions(bore, h));
+            rs.extend(levels(bore, outer_radius, divisions(wall, h)).into_iter().skip(1));
+            let mut zs = if open > 1e-9 * length { levels(0.0, open, divisions(open, h)) } else { vec![0.0] };
+            zs.extend(levels(open, length, divisions(plug, h)).into_iter().skip(1));
+            let solid = |r: f64, z: f64| r > bore || z > open;
+            let (points, tris) = grid_section(&rs, &zs, &solid);
+            let around = divisions(2.0 * PI * outer_radius, h).max(12);
+            let mesh = revolve_section(&points, &tris, around)?;
+            let rev = Revolution::new(Box::new(move |u| [outer_radius, u * length]), wall);
+            Ok((mesh, Geometry::Revolution { rev, outer_t: 0.0, top_view: false }))
+        }
         Shape::Bowl { radius, wall } => {
             // Hemisphere, outer radius `radius`, opening up, pole at the bottom (z = 0).
             let rev = Revolution::new(
@@ -476,6 +494,113 @@ pub(crate) fn mesh_with_geometry(shape: &Shape, resolution: usize) -> Result<(Te
             revolve(rev, segs, around, divisions(wall, h), 1.0, false)
         }
     }
+}
+
+/// `n` + 1 equally spaced values from `a` to `b`.
+fn levels(a: f64, b: f64, n: usize) -> Vec<f64> {
+    (0..=n).map(|i| a + (b - a) * i as f64 / n as f64).collect()
+}
+
+/// A meridian section on the grid `rs` × `zs` (r ≥ 0 rising from the axis, z rising): the
+/// cells whose centre is `inside`, each split into two triangles with alternating diagonals.
+/// Returns the (r, z) nodes the cells use and the triangles.
+fn grid_section(rs: &[f64], zs: &[f64], inside: &dyn Fn(f64, f64) -> bool) -> (Vec<[f64; 2]>, Vec<[u32; 3]>) {
+    let (nr, nz) = (rs.len(), zs.len());
+    let mut id = vec![u32::MAX; nr * nz];
+    let mut points = Vec::new();
+    let mut tris = Vec::new();
+    let mut node = |i: usize, j: usize, points: &mut Vec<[f64; 2]>| {
+        let k = j * nr + i;
+        if id[k] == u32::MAX {
+            id[k] = points.len() as u32;
+            points.push([rs[i], zs[j]]);
+        }
+        id[k]
+    };
+    for j in 0..nz - 1 {
+        for i in 0..nr - 1 {
+            if !inside(0.5 * (rs[i] + rs[i + 1]), 0.5 * (zs[j] + zs[j + 1])) {
+                continue;
+            }
+            let a = node(i, j, &mut points);
+            let b = node(i + 1, j, &mut points);
+            let c = node(i + 1, j + 1, &mut points);
+            let d = node(i, j + 1, &mut points);
+            if (i + j) % 2 == 0 {
+                tris.extend([[a, b, c], [a, c, d]]);
+            } else {
+                tris.extend([[a, b, d], [b, c, d]]);
+            }
+        }
+    }
+    (points, tris)
+}
+
+/// A solid of revolution: the triangulated meridian section `points` (r, z), r ≥ 0 (r = 0
+/// on the axis), `tris`, swept about the z axis in `around` equal sectors. Each triangle
+/// sweeps a prism per sector, split into three tetrahedra by the minimum-index rule like the
+/// layered meshes (its triangular faces lie in meridian planes and are shared as they are);
+/// a triangle with a corner on the axis sweeps a pyramid, whose quadrilateral is split by
+/// the same rule (the diagonal through its least index) into two tetrahedra, and one with
+/// an edge on the axis a single tetrahedron. Node parameters are (θ, r, z), θ NaN on the
+/// axis; mid-edge nodes are placed on the swept geometry (exact on cylinders and planes).
+///
+/// # Errors
+/// [`FemError::Mesh`] for a degenerate element (a section triangle of no area).
+pub(crate) fn revolve_section(points: &[[f64; 2]], tris: &[[u32; 3]], around: usize) -> Result<TetMesh, FemError> {
+    let scale = points.iter().fold(0.0f64, |m, p| m.max(p[0].abs()).max(p[1].abs()));
+    let on_axis = |p: [f64; 2]| p[0] <= 1e-12 * scale;
+    let mut params = Vec::new();
+    // First node of each section point: one node on the axis, `around` off it.
+    let first: Vec<u32> = points
+        .iter()
+        .map(|&p| {
+            let start = params.len() as u32;
+            if on_axis(p) {
+                params.push([f64::NAN, 0.0, p[1]]);
+            } else {
+                params.extend((0..around).map(|j| [2.0 * PI * j as f64 / around as f64, p[0], p[1]]));
+            }
+            start
+        })
+        .collect();
+    let at = |p: u32, j: usize| -> u32 {
+        if on_axis(points[p as usize]) {
+            first[p as usize]
+        } else {
+            first[p as usize] + (j % around) as u32
+        }
+    };
+    let mut tets = Vec::with_capacity(3 * tris.len() * around);
+    for t in tris {
+        // Corners on the axis first.
+        let mut t = *t;
+        t.sort_by_key(|&p| !on_axis(points[p as usize]));
+        let axis = t.iter().filter(|&&p| on_axis(points[p as usize])).count();
+        for j in 0..around {
+            let (a, b, c) = (t[0], t[1], t[2]);
+            match axis {
+                0 => split_prism([at(a, j), at(b, j), at(c, j), at(a, j + 1), at(b, j + 1), at(c, j + 1)], &mut tets),
+                1 => {
+                    let apex = at(a, j);
+                    let q = [at(b, j), at(c, j), at(c, j + 1), at(b, j + 1)];
+                    let min = (0..4).min_by_key(|&k| q[k]).unwrap_or(0);
+                    if min % 2 == 0 {
+                        tets.extend([[apex, q[0], q[1], q[2]], [apex, q[0], q[2], q[3]]]);
+                    } else {
+                        tets.extend([[apex, q[0], q[1], q[3]], [apex, q[1], q[2], q[3]]]);
+                    }
+                }
+                2 => tets.push([at(a, j), at(b, j), at(c, j), at(c, j + 1)]),
+                _ => return Err(FemError::Mesh("a section triangle lies on the axis".into())),
+            }
+        }
+    }
+    let map = |q: [f64; 3]| {
+        let th = if q[0].is_nan() { 0.0 } else { q[0] };
+        [q[1] * th.cos(), q[1] * th.sin(), q[2]]
+    };
+    promote(params, &tets, &map, &Revolution::mid)
 }
 
 fn rev_len_quarter(r: f64) -> f64 {
