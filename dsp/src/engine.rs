@@ -785,12 +785,13 @@ pub struct Engine {
     drive_buf: [Vec<f32>; 3],
     /// The voices' shared lane accumulator ([`MAX_KERNEL_BLOCK`] × [`LANES`]).
     lanes: Vec<f32>,
-    /// Indices of the active voices in voice order (the audio loops walk these, not the
-    /// pool), rebuilt when `live_stale`.
+    /// Indices of the active voices in voice order in `live[..live_len]` (the audio loops
+    /// walk these, not the pool), rebuilt when `live_stale`. As long as the pool, so that
+    /// rebuilding it never allocates (a clone keeps its length).
     live: Vec<usize>,
+    live_len: usize,
     /// A voice started or ended since `live` was built.
     live_stale: bool,
-    /// Whether the voices' banks run the AVX2 kernel (the same choice for all).
     /// The free voices' modes packed for the kernel ([`render_span`]); empty between calls.
     batch: VectorBatch,
     /// Mode coefficients recomputed by control-rate rebuilds since construction.
@@ -828,7 +829,8 @@ impl Engine {
             heard: vec![0.0; max_modes],
             drive_buf: [vec![0.0; MAX_KERNEL_BLOCK], vec![0.0; MAX_KERNEL_BLOCK], vec![0.0; MAX_KERNEL_BLOCK]],
             lanes: vec![0.0; MAX_KERNEL_BLOCK * LANES],
-            live: Vec::with_capacity(max_voices.max(1)),
+            live: vec![0; max_voices],
+            live_len: 0,
             live_stale: true,
             batch: VectorBatch::new(true),
             rebuilt_modes: 0,
@@ -1190,7 +1192,7 @@ impl Engine {
             self.params.support_c = support;
         }
         self.update_live();
-        for i in 0..self.live.len() {
+        for i in 0..self.live_len {
             let v = self.live[i];
             if global || self.voices[v].dirty {
                 self.rebuild(v);
@@ -1219,7 +1221,7 @@ impl Engine {
             self.update_live();
             // Pending strikes happen at this sample, after all events sent for it (only
             // active voices have them).
-            for i in 0..self.live.len() {
+            for i in 0..self.live_len {
                 let v = self.live[i];
                 if let Some(vel) = self.voices[v].pending {
                     self.voices[v].pending = None;
@@ -1231,10 +1233,16 @@ impl Engine {
             // Every voice adds into one lane accumulator, summed once (see
             // `ResonatorBank::process_lanes`).
             // Silence adds nothing: an idle engine only keeps its clock and controls.
-            if !self.live.is_empty() {
+            if self.live_len > 0 {
                 let lanes = &mut self.lanes[..n * LANES];
                 lanes.fill(0.0);
-                render_voices(&mut self.voices, &self.live, &mut self.drive_buf, &mut self.batch, lanes);
+                render_voices(
+                    &mut self.voices,
+                    &self.live[..self.live_len],
+                    &mut self.drive_buf,
+                    &mut self.batch,
+                    lanes,
+                );
                 reduce_lanes(lanes, chunk);
             }
             pos += n;
@@ -1249,8 +1257,14 @@ impl Engine {
     /// holds room for every voice).
     fn update_live(&mut self) {
         if self.live_stale {
-            self.live.clear();
-            self.live.extend(self.voices.iter().enumerate().filter(|(_, v)| v.active).map(|(i, _)| i));
+            let mut n = 0;
+            for (i, v) in self.voices.iter().enumerate() {
+                if v.active {
+                    self.live[n] = i;
+                    n += 1;
+                }
+            }
+            self.live_len = n;
             self.live_stale = false;
         }
     }

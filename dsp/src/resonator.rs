@@ -383,11 +383,11 @@ impl VectorBatch {
         self.len == BATCH_VECTORS * LANES
     }
 
-    /// Adds vector `k` of `bank` (state and pole of its [`LANES`] slots), remembering `owner`.
-    pub fn push(&mut self, owner: usize, bank: &ResonatorBank, k: usize) {
-        debug_assert!(self.len % LANES == 0 && k < bank.vectors());
-        let taken = self.push_modes(owner, bank, k * LANES, LANES);
-        debug_assert_eq!(taken, LANES);
+    /// Adds vector `k` of `bank` (state and pole of its [`LANES`] slots), remembering `owner`,
+    /// at the next free lanes; returns how many were taken (fewer than [`LANES`] only when
+    /// the batch had less room: see [`push_modes`](Self::push_modes)).
+    pub fn push(&mut self, owner: usize, bank: &ResonatorBank, k: usize) -> usize {
+        self.push_modes(owner, bank, k * LANES, LANES)
     }
 
     /// Adds slots `first..first + count` of `bank` (state and pole) at the next free lanes,
@@ -759,7 +759,7 @@ mod tests {
                 let mut states: Vec<(usize, usize, Vec<f32>, Vec<f32>)> = Vec::new();
                 for (b, bank) in snapshot.iter().enumerate() {
                     for k in 0..bank.vectors() {
-                        batch.push(b, bank, k);
+                        assert_eq!(batch.push(b, bank, k), LANES);
                         if batch.is_full() {
                             batch.run(&mut lanes_batch, |o, k, re, im| states.push((o, k, re.to_vec(), im.to_vec())));
                         }
