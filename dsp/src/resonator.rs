@@ -714,11 +714,26 @@ mod avx2 {
 mod tests {
     use super::*;
 
-    /// Banks of 3, 10 and 17 modes (1, 2 and 3 vectors) excited with distinct amplitudes.
-    fn three_banks() -> Vec<ResonatorBank> {
-        banks(&[3, 10, 17])
+    /// Two identical sets of banks of `sizes` modes run by the chosen kernel: one to run each
+    /// bank on its own, one to run through a [`VectorBatch`].
+    fn twin_banks(sizes: &[usize], avx2: bool) -> (Vec<ResonatorBank>, Vec<ResonatorBank>) {
+        let mut own = banks(sizes);
+        for bank in &mut own {
+            bank.avx2 = avx2;
+        }
+        (own.clone(), own)
     }
 
+    /// Each bank's own `process_lanes` in turn over `block` samples: the lane sums.
+    fn lanes_of_each_in_turn(banks: &mut [ResonatorBank], block: usize) -> Vec<f32> {
+        let mut lanes = vec![0.0f32; block * LANES];
+        for bank in banks {
+            bank.process_lanes(&mut lanes);
+        }
+        lanes
+    }
+
+    /// Banks of `sizes` modes excited with distinct amplitudes.
     fn banks(sizes: &[usize]) -> Vec<ResonatorBank> {
         sizes
             .iter()
@@ -742,16 +757,9 @@ mod tests {
     #[test]
     fn a_batch_across_banks_is_bit_identical_to_each_bank_in_turn() {
         for avx2 in [false, avx2_available()] {
-            let mut own = three_banks();
-            let mut batched = three_banks();
-            for bank in own.iter_mut().chain(batched.iter_mut()) {
-                bank.avx2 = avx2;
-            }
+            let (mut own, mut batched) = twin_banks(&[3, 10, 17], avx2);
             for block in [64usize, 17, 64, 5] {
-                let mut lanes_own = vec![0.0f32; block * LANES];
-                for bank in &mut own {
-                    bank.process_lanes(&mut lanes_own);
-                }
+                let lanes_own = lanes_of_each_in_turn(&mut own, block);
                 let mut batch = VectorBatch::new(avx2);
                 let mut lanes_batch = vec![0.0f32; block * LANES];
                 // The batch holds copies: states are handed back after the pass.
@@ -790,16 +798,9 @@ mod tests {
     fn modes_packed_across_banks_advance_exactly_as_in_their_banks() {
         let sizes = [3usize, 10, 17, 6, 9, 1, 13];
         for avx2 in [false, avx2_available()] {
-            let mut own = banks(&sizes);
-            let mut packed = banks(&sizes);
-            for bank in own.iter_mut().chain(packed.iter_mut()) {
-                bank.avx2 = avx2;
-            }
+            let (mut own, mut packed) = twin_banks(&sizes, avx2);
             for block in [64usize, 17, 64, 5] {
-                let mut lanes_own = vec![0.0f32; block * LANES];
-                for bank in &mut own {
-                    bank.process_lanes(&mut lanes_own);
-                }
+                let lanes_own = lanes_of_each_in_turn(&mut own, block);
                 let mut batch = VectorBatch::new(avx2);
                 let mut lanes_packed = vec![0.0f32; block * LANES];
                 let snapshot: Vec<ResonatorBank> = packed.clone();
