@@ -1,7 +1,7 @@
 //! `struck bank build | info | shapes`: the FEM bank builder on the command line.
 
 use crate::cli::{end_progress_line, outln, show_progress, warn};
-use fem::import::{build_bank_from_import, import_mesh_file, ImportOptions};
+use fem::import::{build_bank_from_import, import_mesh_file, ImportOptions, SurfaceMesher};
 use fem::{BuildOptions, Shape};
 use presets::Bank;
 use std::path::{Path, PathBuf};
@@ -75,12 +75,17 @@ pub enum BankCommand {
         #[arg(long, requires = "shape", allow_hyphen_values = true)]
         dims: Option<String>,
         /// A mesh file: Gmsh .msh 2.2/4.1 ASCII tetrahedra, or a closed surface in .obj or
-        /// .stl (ASCII or binary), which is voxelised (see --resolution).
+        /// .stl (ASCII or binary), which is meshed through its wall if it is thin-walled (a
+        /// bowl, bell, cup, glass, tube) and voxelised otherwise (see --mesher, --resolution).
         #[arg(long)]
         mesh: Option<PathBuf>,
         /// Factor from the mesh file's units to metres (e.g. 0.001 for millimetres; default 1).
         #[arg(long, requires = "mesh")]
         scale: Option<f64>,
+        /// How a .obj/.stl surface becomes tetrahedra: auto (through the wall when the object
+        /// is thin-walled, else voxels), shell (through the wall, or an error) or voxel.
+        #[arg(long, requires = "mesh")]
+        mesher: Option<String>,
         /// Number of modes (above the six rigid ones).
         #[arg(long, default_value_t = 100)]
         modes: usize,
@@ -92,9 +97,10 @@ pub enum BankCommand {
         material: MaterialArgs,
         /// Mesh resolution: elements along the largest dimension (built-in shapes; default: the
         /// finest within the build budget of about 100,000 DOFs and a 1.5 GiB factor, e.g. 95
-        /// for a 0.4 m bar, 15 for a cube), or voxels along the longest side (.obj/.stl; default:
-        /// the highest giving about 3000 vertices, e.g. 16 for a sphere, 60 for a rod of length 10
-        /// diameters).
+        /// for a 0.4 m bar, 15 for a cube); for a thin-walled .obj/.stl, elements along its
+        /// longest side (default: by the same DOF budget); for a voxelised one, voxels along
+        /// the longest side (default: the highest giving about 3000 vertices, e.g. 16 for a
+        /// sphere, 60 for a rod of length 10 diameters).
         #[arg(long)]
         resolution: Option<usize>,
         /// Strike points and where the bank goes (--points, --id, --name, --out).
@@ -428,7 +434,7 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
             );
             Ok(())
         }
-        BankCommand::Build { shape, dims, mesh, scale, modes, max_freq, material, resolution, output } => {
+        BankCommand::Build { shape, dims, mesh, scale, mesher, modes, max_freq, material, resolution, output } => {
             let material = material.material()?;
             let (points, out) = (output.points, &output.out);
             if modes == 0 || modes > presets::MAX_BANK_MODES {
@@ -459,7 +465,9 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
                     fem::build_bank(&id, &name, &shape, &material, &opts, &progress()).map_err(|e| e.to_string())?
                 }
                 (None, Some(path)) => {
-                    let iopts = ImportOptions { scale: scale.unwrap_or(1.0), resolution, snap: true };
+                    let mesher =
+                        SurfaceMesher::parse(mesher.as_deref().unwrap_or("auto")).map_err(|e| e.to_string())?;
+                    let iopts = ImportOptions { scale: scale.unwrap_or(1.0), resolution, snap: true, mesher };
                     let show = progress();
                     let imported =
                         import_mesh_file(&path, &iopts, &show).map_err(|e| format!("{}: {e}", path.display()))?;

@@ -13,6 +13,7 @@
 //! close (the plugin interpolates along that order). Drawing coordinates project the points
 //! on the bounding box's two largest axes.
 
+use super::shell::{find_thin_wall, mesh_thin_wall, ShellOptions};
 use super::surface::{check_surface, read_obj, read_stl, TriGrid, TriSurface};
 use super::voxel::{auto_resolution, voxelise, VoxelOptions, DEFAULT_VERTEX_BUDGET};
 use super::{
@@ -37,11 +38,40 @@ pub struct ImportOptions {
     pub resolution: Option<usize>,
     /// Move voxel boundary vertices onto the surface (surfaces only; see [`super::voxel`]).
     pub snap: bool,
+    /// How a surface becomes tetrahedra.
+    pub mesher: SurfaceMesher,
 }
 
 impl Default for ImportOptions {
     fn default() -> Self {
-        ImportOptions { scale: 1.0, resolution: None, snap: true }
+        ImportOptions { scale: 1.0, resolution: None, snap: true, mesher: SurfaceMesher::Auto }
+    }
+}
+
+/// How a closed surface becomes tetrahedra.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SurfaceMesher {
+    /// Through the wall ([`super::shell`]) when the surface is thin-walled, else voxels.
+    #[default]
+    Auto,
+    /// Through the wall; an error if the surface is not thin-walled.
+    Shell,
+    /// Voxels ([`super::voxel`]), whatever the shape.
+    Voxel,
+}
+
+impl SurfaceMesher {
+    /// The mesher named `name` (`auto`, `shell`, `voxel`).
+    ///
+    /// # Errors
+    /// [`FemError::InvalidOptions`] for another name.
+    pub fn parse(name: &str) -> Result<SurfaceMesher, FemError> {
+        match name.trim().to_ascii_lowercase().as_str() {
+            "auto" => Ok(SurfaceMesher::Auto),
+            "shell" => Ok(SurfaceMesher::Shell),
+            "voxel" => Ok(SurfaceMesher::Voxel),
+            other => Err(FemError::InvalidOptions(format!("unknown mesher '{other}': use auto, shell or voxel"))),
+        }
     }
 }
 
@@ -229,15 +259,67 @@ pub fn import_surface(
     let check = check_surface(&mut surface)?;
     let (lo, hi) = surface.bounds();
     let units = units_warning(extent(lo, hi), opts.scale);
-    let resolution = opts.resolution.unwrap_or_else(|| auto_resolution(&surface, DEFAULT_VERTEX_BUDGET));
-    let (mesh, vox) = voxelise(&surface, &VoxelOptions { resolution, snap: opts.snap }, progress)?;
     let mut warnings = check.warnings;
     warnings.extend(units);
+    let head = format!("{format} surface of {} triangles (scale {})", check.triangles, opts.scale);
+    if opts.mesher != SurfaceMesher::Voxel {
+        let (lo, hi) = surface.bounds();
+        let shell_opts =
+            ShellOptions { edge: opts.resolution.map(|r| extent(lo, hi) / r.max(1) as f64), ..ShellOptions::default() };
+        let meshed = find_thin_wall(&surface)
+            .map_err(|why| FemError::Mesh(format!("the surface is not thin-walled: {why}")))
+            .and_then(|wall| {
+                let mut shell_opts = shell_opts;
+                // By budget: fewer DOFs while the factor is estimated over 90 % of its limit.
+                for _ in 0..4 {
+                    let (mesh, rep) = mesh_thin_wall(&surface, &wall, &shell_opts, progress)?;
+                    let bytes = super::eigen::factor_bytes_estimate(&mesh)?;
+                    let limit = 0.9 * super::eigen::MAX_FACTOR_BYTES as f64;
+                    if opts.resolution.is_some() || bytes <= limit {
+                        return Ok((mesh, rep));
+                    }
+                    shell_opts.dofs = (shell_opts.dofs as f64 * 0.9 * limit / bytes) as usize;
+                }
+                Err(FemError::Mesh("the wall's mesh does not fit the build's memory budget".into()))
+            });
+        match meshed {
+            Ok((mesh, rep)) => {
+                let summary = format!(
+                    "{head}, thin-walled ({} wall{}, {:.0} % of the surface): meshed through the wall, {} layers of prisms under a side of {} triangles refined to {} (edge {:.3e} m{}), wall {:.3e}-{:.3e} m (median {:.3e}), smallest dihedral angle {:.1} deg, largest aspect {:.1}; volume {:.4e} m^3 vs {:.4e} m^3 enclosed",
+                    rep.walls,
+                    if rep.walls == 1 { "" } else { "s" },
+                    100.0 * rep.cover,
+                    rep.layers,
+                    rep.side_triangles[0],
+                    rep.side_triangles[1],
+                    rep.edge,
+                    if opts.resolution.is_none() { ", chosen for the DOF budget" } else { "" },
+                    rep.thickness[0],
+                    rep.thickness[2],
+                    rep.thickness[1],
+                    rep.min_dihedral_deg,
+                    rep.max_aspect,
+                    rep.mesh_volume,
+                    rep.surface_volume
+                );
+                return Ok(ImportedMesh { mesh, surface: Some(surface), warnings, summary });
+            }
+            Err(e) if opts.mesher == SurfaceMesher::Shell => return Err(e),
+            Err(e) => {
+                let why = e.to_string();
+                // Not thin-walled is the usual case for a solid: no warning. A thin wall that
+                // could not be meshed through is worth one.
+                if !why.contains("not thin-walled") {
+                    warnings.push(format!("the thin wall could not be meshed through ({why}); voxelised instead"));
+                }
+            }
+        }
+    }
+    let resolution = opts.resolution.unwrap_or_else(|| auto_resolution(&surface, DEFAULT_VERTEX_BUDGET));
+    let (mesh, vox) = voxelise(&surface, &VoxelOptions { resolution, snap: opts.snap }, progress)?;
     warnings.extend(vox.warnings.iter().cloned());
     let summary = format!(
-        "{format} surface of {} triangles (scale {}), voxelised at resolution {}{} (h = {:.3e} m, {} x {} x {} grid, {} voxels, 5 tetrahedra each; boundary vertices moved onto the surface: {} fully, {} partly); volume {:.4e} m^3 vs {:.4e} m^3 enclosed",
-        check.triangles,
-        opts.scale,
+        "{head}, voxelised at resolution {}{} (h = {:.3e} m, {} x {} x {} grid, {} voxels, 5 tetrahedra each; boundary vertices moved onto the surface: {} fully, {} partly); volume {:.4e} m^3 vs {:.4e} m^3 enclosed",
         resolution,
         if opts.resolution.is_none() { ", chosen for the vertex budget" } else { "" },
         vox.h,

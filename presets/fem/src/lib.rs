@@ -32,6 +32,8 @@ pub mod geom;
 pub mod gmsh;
 pub mod import;
 pub mod mesh;
+pub mod remesh;
+pub mod shell;
 pub mod strike;
 pub mod surface;
 pub mod tune;
@@ -634,6 +636,16 @@ pub fn mesh_shape(shape: &Shape, resolution: usize) -> Result<TetMesh, FemError>
     Ok(mesh::mesh_with_geometry(shape, resolution)?.0)
 }
 
+/// [`mesh_shape`] with at least `min_layers` elements through the wall of the shells of
+/// revolution (tube, bowl, sphere shell, cup, bell), for reference solves finer than the
+/// default meshes.
+///
+/// # Errors
+/// As [`mesh_shape`].
+pub fn mesh_shape_layers(shape: &Shape, resolution: usize, min_layers: usize) -> Result<TetMesh, FemError> {
+    Ok(mesh::mesh_with_layers(shape, resolution, min_layers.max(1))?.0)
+}
+
 /// Number of rigid-body modes of a free solid.
 const RIGID: usize = 6;
 /// Lanczos block size.
@@ -656,6 +668,21 @@ pub fn analyse(
     opts: &BuildOptions,
     progress: &dyn Fn(&str, f32),
 ) -> Result<Modes, FemError> {
+    analyse_within(mesh, material, opts, eigen::MAX_FACTOR_BYTES, progress)
+}
+
+/// [`analyse`] with another limit on the sparse factor (bytes): for reference solves larger
+/// than a bank build may take.
+///
+/// # Errors
+/// As [`analyse`].
+pub fn analyse_within(
+    mesh: &TetMesh,
+    material: &Material,
+    opts: &BuildOptions,
+    max_factor_bytes: usize,
+    progress: &dyn Fn(&str, f32),
+) -> Result<Modes, FemError> {
     material.validate()?;
     opts.validate()?;
     let t0 = Instant::now();
@@ -676,7 +703,7 @@ pub fn analyse(
         tol: 1e-8,
         max_basis: SLICE_BASIS,
         slice: SLICE,
-        max_factor_bytes: eigen::MAX_FACTOR_BYTES,
+        max_factor_bytes,
     };
     progress("factorise", 0.0);
     let res = eigen::solve(&sys, &eopts, progress)?;

@@ -112,7 +112,7 @@ pub(crate) fn promote(
 
 /// Splits the prism with bottom (p0, p1, p2) and top (p3, p4, p5) (p3 above p0, …) into three
 /// tetrahedra; Dompierre et al. 1999, Table 2 and §3.2.
-fn split_prism(p: [u32; 6], out: &mut Vec<[u32; 4]>) {
+pub(crate) fn split_prism(p: [u32; 6], out: &mut Vec<[u32; 4]>) {
     const ROT: [[usize; 6]; 6] = [
         [0, 1, 2, 3, 4, 5],
         [1, 2, 0, 4, 5, 3],
@@ -355,6 +355,16 @@ fn divisions(len: f64, h: f64) -> usize {
 
 /// Meshes `shape` and returns the geometry used to place strike points.
 pub(crate) fn mesh_with_geometry(shape: &Shape, resolution: usize) -> Result<(TetMesh, Geometry), FemError> {
+    mesh_with_layers(shape, resolution, 1)
+}
+
+/// [`mesh_with_geometry`] with at least `min_layers` elements through the wall of the shells
+/// of revolution (tube, bowl, sphere shell, cup, bell): for reference solves.
+pub(crate) fn mesh_with_layers(
+    shape: &Shape,
+    resolution: usize,
+    min_layers: usize,
+) -> Result<(TetMesh, Geometry), FemError> {
     shape.validate()?;
     if resolution < 2 {
         return Err(FemError::InvalidOptions(format!(
@@ -400,7 +410,7 @@ pub(crate) fn mesh_with_geometry(shape: &Shape, resolution: usize) -> Result<(Te
             let rev = Revolution::new(Box::new(move |u| [outer_radius, u * length]), wall);
             let h = length.max(2.0 * outer_radius) / res;
             let around = divisions(2.0 * PI * outer_radius, h).max(12);
-            revolve(rev, divisions(length, h), around, divisions(wall, h), 0.0, false)
+            revolve(rev, divisions(length, h), around, divisions(wall, h).max(min_layers), 0.0, false)
         }
         Shape::PluggedTube { length, outer_radius, wall, plug } => {
             // The meridian section (the wall's strip, and the bore over the plug) in a
@@ -431,7 +441,14 @@ pub(crate) fn mesh_with_geometry(shape: &Shape, resolution: usize) -> Result<(Te
             );
             let h = 2.0 * radius / res;
             let around = divisions(2.0 * PI * radius, h).max(12);
-            revolve(rev, divisions(rev_len_quarter(radius), h).max(3), around, divisions(wall, h), 0.0, true)
+            revolve(
+                rev,
+                divisions(rev_len_quarter(radius), h).max(3),
+                around,
+                divisions(wall, h).max(min_layers),
+                0.0,
+                true,
+            )
         }
         Shape::SphereShell { radius, wall } => {
             let rev = Revolution::new(
@@ -443,7 +460,7 @@ pub(crate) fn mesh_with_geometry(shape: &Shape, resolution: usize) -> Result<(Te
             );
             let h = 2.0 * radius / res;
             let around = divisions(2.0 * PI * radius, h).max(12);
-            revolve(rev, divisions(PI * radius, h).max(4), around, divisions(wall, h), 0.0, false)
+            revolve(rev, divisions(PI * radius, h).max(4), around, divisions(wall, h).max(min_layers), 0.0, false)
         }
         Shape::Cup { radius, height, wall } => {
             // Flat bottom, rounded corner (fillet radius f), straight wall; outer surface.
@@ -467,7 +484,7 @@ pub(crate) fn mesh_with_geometry(shape: &Shape, resolution: usize) -> Result<(Te
             let h = (2.0 * radius).max(height) / res;
             let around = divisions(2.0 * PI * radius, h).max(12);
             let segs = divisions(total, h).max(4);
-            revolve(rev, segs, around, divisions(wall, h), 0.0, false)
+            revolve(rev, segs, around, divisions(wall, h).max(min_layers), 0.0, false)
         }
         Shape::Bell { radius, height, wall } => {
             // Simplified bell: elliptic crown (shoulder radius 0.55 R, 12 % of the height), then a
@@ -491,7 +508,7 @@ pub(crate) fn mesh_with_geometry(shape: &Shape, resolution: usize) -> Result<(Te
             let around = divisions(2.0 * PI * radius, h).max(12);
             let segs = divisions(rev.len, h).max(4);
             // The curve is the inner surface here (N points outward), so strikes go at t = 1.
-            revolve(rev, segs, around, divisions(wall, h), 1.0, false)
+            revolve(rev, segs, around, divisions(wall, h).max(min_layers), 1.0, false)
         }
     }
 }

@@ -503,6 +503,81 @@ impl TriGrid {
         &self.items[self.start[c] as usize..self.start[c + 1] as usize]
     }
 
+    /// The first triangle of `s` (among those the grid holds, `skip` left out) that the ray
+    /// o + t·d meets with t in (`t_min`, `t_max`): (t, triangle). The cells are walked in the
+    /// ray's order (Amanatides & Woo 1987, "A fast voxel traversal algorithm"), each
+    /// triangle tested by Möller & Trumbore (1997) with its edges included, so a ray through
+    /// a shared edge is not lost between the two triangles.
+    pub fn first_hit(
+        &self,
+        s: &TriSurface,
+        o: [f64; 3],
+        d: [f64; 3],
+        (t_min, t_max): (f64, f64),
+        skip: &dyn Fn(u32) -> bool,
+    ) -> Option<(f64, u32)> {
+        // Clip the ray to the grid's box.
+        let (mut t0, mut t1) = (t_min.max(0.0), t_max);
+        for i in 0..3 {
+            let hi = self.lo[i] + self.h * self.dims[i] as f64;
+            if d[i] == 0.0 {
+                if o[i] < self.lo[i] || o[i] > hi {
+                    return None;
+                }
+                continue;
+            }
+            let (a, b) = ((self.lo[i] - o[i]) / d[i], (hi - o[i]) / d[i]);
+            t0 = t0.max(a.min(b));
+            t1 = t1.min(a.max(b));
+        }
+        if !(t0 <= t1) {
+            return None;
+        }
+        let p0: [f64; 3] = std::array::from_fn(|i| o[i] + t0 * d[i]);
+        let mut c = Self::cell_of(self.lo, self.h, self.dims, p0);
+        let mut next = [f64::INFINITY; 3];
+        let mut delta = [f64::INFINITY; 3];
+        for i in 0..3 {
+            if d[i] > 0.0 {
+                next[i] = (self.lo[i] + (c[i] + 1) as f64 * self.h - o[i]) / d[i];
+                delta[i] = self.h / d[i];
+            } else if d[i] < 0.0 {
+                next[i] = (self.lo[i] + c[i] as f64 * self.h - o[i]) / d[i];
+                delta[i] = -self.h / d[i];
+            }
+        }
+        let mut best: Option<(f64, u32)> = None;
+        loop {
+            for &t in self.cell(c[0], c[1], c[2]) {
+                if skip(t) {
+                    continue;
+                }
+                if let Some(th) = ray_triangle(o, d, s.corners(t as usize)) {
+                    if th > t_min && th < t_max && best.is_none_or(|(b, _)| th < b) {
+                        best = Some((th, t));
+                    }
+                }
+            }
+            let axis = (0..3).min_by(|&a, &b| next[a].total_cmp(&next[b])).unwrap_or(0);
+            let exit = next[axis];
+            if best.is_some_and(|(b, _)| b <= exit) || exit > t1 {
+                return best;
+            }
+            if d[axis] > 0.0 {
+                if c[axis] + 1 >= self.dims[axis] {
+                    return best;
+                }
+                c[axis] += 1;
+            } else {
+                if c[axis] == 0 {
+                    return best;
+                }
+                c[axis] -= 1;
+            }
+            next[axis] += delta[axis];
+        }
+    }
+
     /// The closest point of the surface to `p` among triangles within `radius` (m): the
     /// point, its distance and the triangle.
     pub fn closest(&self, s: &TriSurface, p: [f64; 3], radius: f64) -> Option<([f64; 3], f64, usize)> {
@@ -525,6 +600,30 @@ impl TriGrid {
         }
         best
     }
+}
+
+/// Where the ray o + t·d meets triangle (a, b, c), edges included (relative margin 10⁻⁹):
+/// t, or `None` if it misses or runs parallel. Möller & Trumbore (1997).
+pub(crate) fn ray_triangle(o: [f64; 3], d: [f64; 3], [a, b, c]: [[f64; 3]; 3]) -> Option<f64> {
+    let (e1, e2) = (sub(b, a), sub(c, a));
+    let p = cross(d, e2);
+    let det = dot(e1, p);
+    if det.abs() <= 1e-300 || !det.is_finite() {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = sub(o, a);
+    let u = dot(s, p) * inv;
+    const EPS: f64 = 1e-9;
+    if !(-EPS..=1.0 + EPS).contains(&u) {
+        return None;
+    }
+    let q = cross(s, e1);
+    let v = dot(d, q) * inv;
+    if v < -EPS || u + v > 1.0 + EPS {
+        return None;
+    }
+    Some(dot(e2, q) * inv)
 }
 
 /// Whether segment p→q crosses the interior of triangle (a, b, c), away from its edges and

@@ -1,7 +1,9 @@
 //! Mesh import: Gmsh 2.2/4.1 readers, OBJ/STL surfaces, their checks, voxelisation, and the
 //! modes of voxelised solids against the built-in mesher and beam theory.
 
-use fem::import::{build_bank_from_import, import_mesh_file, import_surface, ImportOptions, MeshFileKind};
+use fem::import::{
+    build_bank_from_import, import_mesh_file, import_surface, ImportOptions, MeshFileKind, SurfaceMesher,
+};
 use fem::{self, BuildOptions, FemError, Material, Shape, TetMesh, TriSurface};
 use std::f64::consts::PI;
 use std::fmt::Write as _;
@@ -383,8 +385,13 @@ fn orientation_is_repaired_and_cavities_point_inward() {
     let want = outer.signed_volume() - inner.signed_volume();
     assert!((rep.volume / want - 1.0).abs() < 1e-9, "{} vs {want}", rep.volume);
     // The voxeliser leaves the cavity empty: volume within a few % at resolution 20.
-    let imp =
-        import_surface(s, "test", &ImportOptions { resolution: Some(20), ..ImportOptions::default() }, &quiet).unwrap();
+    let imp = import_surface(
+        s,
+        "test",
+        &ImportOptions { resolution: Some(20), mesher: SurfaceMesher::Voxel, ..ImportOptions::default() },
+        &quiet,
+    )
+    .unwrap();
     let v = imp.mesh.volume();
     println!("hollow sphere: mesh {v:.4e} m^3, surface {want:.4e} m^3; {}", imp.summary);
     assert!((v / want - 1.0).abs() < 0.05, "voxel volume {v} vs {want}");
@@ -393,7 +400,7 @@ fn orientation_is_repaired_and_cavities_point_inward() {
 #[test]
 fn voxel_limits_and_thin_objects() {
     let s = obj(&box_obj(1.0, 0.5, 0.5));
-    let o = |r| ImportOptions { resolution: Some(r), ..ImportOptions::default() };
+    let o = |r| ImportOptions { resolution: Some(r), mesher: SurfaceMesher::Voxel, ..ImportOptions::default() };
     let e = mesh_err(import_surface(s.clone(), "t", &o(1), &quiet));
     assert!(e.contains("at least 2"), "{e}");
     let e = mesh_err(import_surface(s.clone(), "t", &o(300), &quiet));
@@ -438,8 +445,12 @@ fn voxelised_box_bar_matches_the_built_in_bar() {
     let path = dir.join("bar.OBJ");
     // In millimetres, read with scale 0.001.
     std::fs::write(&path, box_obj(1000.0 * l, 1000.0 * w, 1000.0 * t)).unwrap();
-    let imp =
-        import_mesh_file(&path, &ImportOptions { scale: 1e-3, resolution: Some(30), snap: true }, &quiet).unwrap();
+    let imp = import_mesh_file(
+        &path,
+        &ImportOptions { scale: 1e-3, resolution: Some(30), ..ImportOptions::default() },
+        &quiet,
+    )
+    .unwrap();
     let _ = std::fs::remove_dir_all(&dir);
     assert!((imp.mesh.volume() / (l * w * t) - 1.0).abs() < 1e-9);
     let direct = fem::mesh_shape(&Shape::Bar { length: l, width: w, thickness: t }, 30).unwrap();
