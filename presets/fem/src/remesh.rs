@@ -262,6 +262,8 @@ fn flip_edges(v: &[[f64; 3]], tris: &mut [[u32; 3]]) -> usize {
         (dot(u, w) / (norm(u) * norm(w)).max(f64::MIN_POSITIVE)).clamp(-1.0, 1.0).acos()
     };
     let mut touched = vec![false; tris.len()];
+    // Edges made by this pass's flips (`uses` is the pass's start).
+    let mut made: HashSet<Edge> = HashSet::new();
     let mut done = 0;
     let mut list: Vec<(&Edge, &Vec<usize>)> = uses.iter().collect();
     list.sort_unstable_by_key(|(e, _)| **e);
@@ -278,7 +280,7 @@ fn flip_edges(v: &[[f64; 3]], tris: &mut [[u32; 3]]) -> usize {
         }
         let c = tris[t1].iter().copied().find(|&w| w != a && w != b).unwrap_or(a);
         let d = tris[t2].iter().copied().find(|&w| w != a && w != b).unwrap_or(a);
-        if c == d || uses.contains_key(&key(c, d)) {
+        if c == d || uses.contains_key(&key(c, d)) || made.contains(&key(c, d)) {
             continue;
         }
         if angle(c, a, b) + angle(d, b, a) <= std::f64::consts::PI + 1e-9 {
@@ -296,6 +298,7 @@ fn flip_edges(v: &[[f64; 3]], tris: &mut [[u32; 3]]) -> usize {
         }
         tris[t1] = n1;
         tris[t2] = n2;
+        made.insert(key(c, d));
         touched[t1] = true;
         touched[t2] = true;
         done += 1;
