@@ -240,11 +240,13 @@ fn validate_scale(scale: f64) -> Result<(), FemError> {
     Ok(())
 }
 
-/// Scales, checks ([`check_surface`]) and voxelises ([`voxelise`]) a triangle surface
-/// (`format` names it in the summary).
+/// Scales and checks ([`check_surface`]) a triangle surface (`format` names it in the
+/// summary), then meshes it through its wall if it is thin-walled ([`super::shell`], per
+/// `opts.mesher`) or voxelises it ([`voxelise`]).
 ///
 /// # Errors
-/// As [`check_surface`] and [`voxelise`]; [`FemError::InvalidOptions`] for a bad scale.
+/// As [`check_surface`], [`super::shell::mesh_thin_wall`] (with `SurfaceMesher::Shell`) and
+/// [`voxelise`]; [`FemError::InvalidOptions`] for a bad scale.
 pub fn import_surface(
     mut surface: TriSurface,
     format: &str,

@@ -23,20 +23,21 @@
 //!    meet the other. The surface is thin-walled when the sides of its walls cover at least
 //!    [`WALL_COVER`] of its area and every wall's mean thickness is at most [`MAX_THINNESS`]
 //!    times the square root of its larger side's area.
-//! 2. **Refinement.** The larger side of every wall (the side extruded) is refined by
-//!    splitting every edge longer than the target edge at its midpoint (red–green templates),
-//!    until none is; new vertices lie on the input surface. The target comes from the DOF
-//!    budget or from `--resolution` (elements along the longest side).
+//! 2. **Remeshing.** The larger side of every wall (the side extruded; with the triangles
+//!    whose rays found no wall but which it surrounds) is remeshed to even triangles of the
+//!    target edge ([`super::remesh`]); free vertices are projected back onto the input. The
+//!    target comes from the DOF budget or from `--resolution` (elements along the longest side).
 //! 3. **Thickness.** Each vertex casts a ray against its angle-weighted normal to the first
 //!    triangle not on the extruded side (the wall's other side, or a rim). The distance is kept
-//!    when it lies within ½–2× the thickness its triangles measured in step 1, otherwise (a
-//!    vertex on a rim edge whose ray leaves the wall) their mean is used.
+//!    when it lies within ½–2× the thickness the nearest input triangle of the side measured in
+//!    step 1, otherwise (a vertex on a rim edge whose ray leaves the wall) that thickness is used.
 //! 4. **Layers.** Node l of vertex v: v − (l/L)·thickness·normal, l = 0…L ([`ShellOptions::layers`],
 //!    2 by default: 2 quadratic elements through the wall); prisms split into tetrahedra;
-//!    10-node elements with straight edges.
+//!    10-node elements whose mid-edge nodes along the side lie on the input surface, offset by
+//!    their layer's share of the thickness there (straight again where that would invert one).
 //! 5. **Checks.** Every tetrahedron must keep the orientation of the majority (a concave side
 //!    whose offset crosses itself folds elements over: refused), the mesh's volume must lie
-//!    within [`MAX_VOLUME_ERROR`] of the enclosed volume; the smallest dihedral angle and the
+//!    within [`MAX_VOLUME_ERROR`] of the enclosed volume, the mesh one body; the smallest dihedral angle and the
 //!    largest aspect (longest edge over the smallest height) are reported.
 
 use std::collections::HashMap;
@@ -115,7 +116,7 @@ pub struct ShellReport {
     pub layers: usize,
     /// Thickness at the vertices (m): minimum, median, maximum.
     pub thickness: [f64; 3],
-    /// Vertices whose own ray left the wall (their thickness is their triangles' mean).
+    /// Vertices whose own ray left the wall (their thickness is the nearest input triangle's).
     pub thickness_fallbacks: usize,
     /// Smallest dihedral angle of any element, degrees.
     pub min_dihedral_deg: f64,
@@ -263,7 +264,39 @@ pub fn find_thin_wall(s: &TriSurface) -> Result<ThinWall, String> {
             100.0 * WALL_COVER
         ));
     }
-    let extruded: Vec<bool> = sheet.iter().map(|s| s.is_some_and(|s| extruded_sheets.contains(&s))).collect();
+    let mut extruded: Vec<bool> = sheet.iter().map(|s| s.is_some_and(|s| extruded_sheets.contains(&s))).collect();
+    // A triangle whose own ray found no wall (a CAD sliver of no area, a T-junction) but
+    // whose neighbours across two or three edges are on the extruded side joins it, so the
+    // side has no holes.
+    let mut neighbours: HashMap<(u32, u32), Vec<usize>> = HashMap::with_capacity(3 * n / 2);
+    for (t, tri) in s.triangles.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            neighbours.entry((a.min(b), a.max(b))).or_default().push(t);
+        }
+    }
+    for _ in 0..4 {
+        let mut grew = false;
+        for t in 0..n {
+            if extruded[t] || hits[t].is_some() {
+                continue;
+            }
+            let tri = s.triangles[t];
+            let around = (0..3)
+                .filter(|&k| {
+                    let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                    neighbours.get(&(a.min(b), a.max(b))).is_some_and(|u| u.iter().any(|&u| u != t && extruded[u]))
+                })
+                .count();
+            if around >= 2 {
+                extruded[t] = true;
+                grew = true;
+            }
+        }
+        if !grew {
+            break;
+        }
+    }
     // Thickness of the extruded side: only rays that met the other side of their wall.
     let mut thickness = vec![f64::NAN; n];
     let mut weighted: Vec<(f64, f64)> = Vec::new();
@@ -393,6 +426,13 @@ pub fn mesh_thin_wall(
     }
     progress("shell", 0.3);
     let nv = verts.len();
+    if (opts.layers + 1) * nv > super::MAX_IMPORT_VERTICES {
+        return Err(FemError::Mesh(format!(
+            "the wall's mesh would have {} corner vertices, over the limit of {}: use a lower --resolution",
+            (opts.layers + 1) * nv,
+            super::MAX_IMPORT_VERTICES
+        )));
+    }
     // Angle-weighted vertex normals of the extruded side.
     let mut vn = vec![[0.0f64; 3]; nv];
     for tri in &tris {
@@ -502,11 +542,28 @@ pub fn mesh_thin_wall(
             let d = grid
                 .first_hit(s, on, n.map(|x| -x), (1e-6 * mean, 2.0 * mean), &|u| wall.extruded[u as usize])
                 .map(|(d, _)| d)
-                .filter(|&d| d >= 0.5 * mean)
+                .filter(|&d| (0.8 * mean..=1.25 * mean).contains(&d))
                 .unwrap_or(mean);
             mesh.nodes[m] = std::array::from_fn(|c| on[c] - f * d * n[c]);
         }
     }
+    // An element the curving inverts anywhere (det J ≤ 0 at a quadrature point) gets its
+    // straight edges back.
+    let kit = super::element::ElementKit::new();
+    let (mut ke, mut me) = ([[0.0; 30]; 30], [[0.0; 10]; 10]);
+    for k in 0..mesh.tets.len() {
+        let t = mesh.tets[k];
+        let x: [[f64; 3]; 10] = std::array::from_fn(|i| mesh.nodes[t[i] as usize]);
+        if kit.matrices(&x, 1.0, 1.0, 1.0, &mut ke, &mut me).is_none() {
+            for (e, &(i, j)) in EDGES.iter().enumerate() {
+                let (a, b) = (mesh.nodes[t[i] as usize], mesh.nodes[t[j] as usize]);
+                mesh.nodes[t[4 + e] as usize] = std::array::from_fn(|c| 0.5 * (a[c] + b[c]));
+            }
+        }
+    }
+    // One object: two walls joined only through solid parts (a goblet's bowl and foot) would
+    // come out as pieces; the caller voxelises instead.
+    super::import::check_one_body(&mesh)?;
     progress("shell", 0.9);
     let surface_volume = s.signed_volume();
     let mesh_volume = mesh.volume();

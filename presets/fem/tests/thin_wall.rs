@@ -59,7 +59,7 @@ fn a_free_square_plates_surface_rings_like_kirchhoffs_plate() {
 #[test]
 fn a_thin_walled_bowl_surface_rings_as_the_built_in_bowl() {
     // The glass bowl (R 0.08 m, wall 4 mm, flat rim) as a faceted surface, meshed
-    // coarsely (16 mm edges... 160 mm / 16) against the built-in revolved mesh with two
+    // coarsely (edges of 160 mm / 18 ≈ 9 mm) against the built-in revolved mesh with two
     // layers; the default budget's figures (0.15 %) are the example's.
     let (r, w) = (0.08, 0.004);
     let glass = Material { young: 63e9, density: 2500.0, poisson: 0.22 };
