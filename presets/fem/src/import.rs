@@ -304,6 +304,12 @@ pub fn import_surface(
                     rep.mesh_volume,
                     rep.surface_volume
                 );
+                if rep.cover < 0.95 {
+                    warnings.push(format!(
+                        "{:.0} % of the surface is not part of a thin wall (rims, ends, or small solid parts such as a thin handle, which the wall mesh leaves out); if that part matters, use --mesher voxel",
+                        100.0 * (1.0 - rep.cover)
+                    ));
+                }
                 return Ok(ImportedMesh { mesh, surface: Some(surface), warnings, summary });
             }
             Err(e) if opts.mesher == SurfaceMesher::Shell => return Err(e),

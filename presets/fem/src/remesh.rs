@@ -23,6 +23,9 @@ pub const CREASE_DEG: f64 = 35.0;
 pub const MAX_TURN_DEG: f64 = 30.0;
 /// Rounds of split, collapse, flip and smooth.
 pub const ROUNDS: usize = 5;
+/// No split round starts on more triangles than this (a file of long slivers would otherwise
+/// grow by its length over the target edge per sliver).
+pub const MAX_TRIANGLES: usize = 4_000_000;
 
 type Edge = (u32, u32);
 
@@ -359,9 +362,10 @@ fn smooth(v: &mut [[f64; 3]], tris: &[[u32; 3]], target: &TriSurface, grid: &Tri
 /// `h`, keeping it on `target`'s triangles held by `grid`; unreferenced vertices are dropped.
 pub(crate) fn remesh(v: &mut Vec<[f64; 3]>, tris: &mut Vec<[u32; 3]>, h: f64, target: &TriSurface, grid: &TriGrid) {
     for _ in 0..ROUNDS {
-        // Splits may not go on forever on a slivered input: each round halves the longest.
+        // Splits may not go on forever on a slivered input: each round halves the longest,
+        // and none starts past MAX_TRIANGLES.
         for _ in 0..8 {
-            if split_long(v, tris, 4.0 / 3.0 * h) == 0 {
+            if tris.len() > MAX_TRIANGLES || split_long(v, tris, 4.0 / 3.0 * h) == 0 {
                 break;
             }
         }

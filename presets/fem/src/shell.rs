@@ -191,6 +191,35 @@ pub fn find_thin_wall(s: &TriSurface) -> Result<ThinWall, String> {
             }
         }
     }
+    // A sliver of no area (a CAD T-junction) has no normal and no ray: the sheets on its
+    // sides are joined through it.
+    let mut neighbours: HashMap<(u32, u32), Vec<usize>> = HashMap::with_capacity(3 * n / 2);
+    for (t, tri) in s.triangles.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            neighbours.entry((a.min(b), a.max(b))).or_default().push(t);
+        }
+    }
+    for (t, tri) in s.triangles.iter().enumerate() {
+        if normals[t] != [0.0; 3] {
+            continue;
+        }
+        let across: Vec<usize> = (0..3)
+            .flat_map(|k| {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                neighbours.get(&(a.min(b), a.max(b))).into_iter().flatten().copied()
+            })
+            .filter(|&u| u != t && hits[u].is_some())
+            .collect();
+        for (i, &u) in across.iter().enumerate() {
+            for &w in &across[i + 1..] {
+                if dot(normals[u], normals[w]) > cos_fold {
+                    let (ru, rw) = (find(&mut parent, u), find(&mut parent, w));
+                    parent[ru] = rw;
+                }
+            }
+        }
+    }
     let sheet: Vec<Option<usize>> = (0..n).map(|t| hits[t].map(|_| find(&mut parent, t))).collect();
     // 3. Pairs: where each sheet's rays land, by area.
     let mut sheet_area: HashMap<usize, f64> = HashMap::new();
@@ -268,13 +297,6 @@ pub fn find_thin_wall(s: &TriSurface) -> Result<ThinWall, String> {
     // A triangle whose own ray found no wall (a CAD sliver of no area, a T-junction) but
     // whose neighbours across two or three edges are on the extruded side joins it, so the
     // side has no holes.
-    let mut neighbours: HashMap<(u32, u32), Vec<usize>> = HashMap::with_capacity(3 * n / 2);
-    for (t, tri) in s.triangles.iter().enumerate() {
-        for k in 0..3 {
-            let (a, b) = (tri[k], tri[(k + 1) % 3]);
-            neighbours.entry((a.min(b), a.max(b))).or_default().push(t);
-        }
-    }
     for _ in 0..4 {
         let mut grew = false;
         for t in 0..n {
@@ -348,6 +370,42 @@ fn extruded_side(s: &TriSurface, wall: &ThinWall) -> (Vec<[f64; 3]>, Vec<[u32; 3
     (verts, tris, src)
 }
 
+/// Mends the side's T-junctions: a triangle of (nearly) no area whose corner R lies on its
+/// longest edge P–Q (a CAD export's sliver) is removed and the triangle across P–Q split at R,
+/// so the side has no crack there. A sliver with nothing across P–Q is just removed.
+fn heal_slivers(v: &[[f64; 3]], tris: &mut Vec<[u32; 3]>) {
+    let flat = |t: [u32; 3]| -> Option<usize> {
+        let p = t.map(|i| v[i as usize]);
+        let edge = |k: usize| norm(sub(p[(k + 1) % 3], p[k]));
+        let long = (0..3).max_by(|&a, &b| edge(a).total_cmp(&edge(b))).unwrap_or(0);
+        let area2 = norm(cross(sub(p[1], p[0]), sub(p[2], p[0])));
+        // Twice the area under 10⁻⁶ of the longest edge squared: height < 10⁻⁶ of its length.
+        (area2 <= 1e-6 * edge(long) * edge(long)).then_some(long)
+    };
+    // Each mend removes one sliver and makes none (R lies off the line through the other
+    // triangle's edges unless that one is a sliver too, which is mended in turn).
+    let mut budget = tris.len() + 1;
+    let mut t = 0;
+    while t < tris.len() && budget > 0 {
+        let Some(k) = flat(tris[t]) else {
+            t += 1;
+            continue;
+        };
+        budget -= 1;
+        let tri = tris[t];
+        let (p, q, r) = (tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]);
+        tris.swap_remove(t);
+        // The triangle across P–Q runs Q → P.
+        if let Some(u) = tris.iter().position(|w| (0..3).any(|j| w[j] == q && w[(j + 1) % 3] == p)) {
+            let w = tris[u];
+            let j = (0..3).find(|&j| w[j] == q).unwrap_or(0);
+            let x = w[(j + 2) % 3];
+            tris[u] = [q, r, x];
+            tris.push([r, p, x]);
+        }
+    }
+}
+
 /// Target edge for about `dofs` DOFs on a side of area `area` with `layers` layers: a side of
 /// V vertices (≈ 3V edges) extruded in L layers has (L + 1)V corners, 3(L + 1)V in-layer,
 /// LV vertical and 3LV diagonal mid-edge nodes, (8L + 4)V nodes; equilateral triangles of
@@ -389,6 +447,7 @@ pub fn mesh_thin_wall(
     }
     progress("shell", 0.0);
     let (mut verts, mut tris, src) = extruded_side(s, wall);
+    heal_slivers(&verts, &mut tris);
     let side_area: f64 = tris
         .iter()
         .map(|t| {

@@ -133,3 +133,63 @@ fn solids_go_to_voxels_and_the_wall_mesher_says_why_not() {
     .to_string();
     assert!(e.contains("thinner than a voxel"), "{e}");
 }
+
+#[test]
+fn a_cad_sliver_in_a_walls_face_leaves_no_crack() {
+    // The plate's top face with a T-junction as CAD exports leave them: a vertex R at the
+    // middle of the face's diagonal, the triangle on one side split at R, and a sliver of no
+    // area (A, R, C) closing the surface. The sliver's own ray finds no wall; the side must
+    // take it in and mend it, or the wall would have a crack along the diagonal.
+    let (a, h) = (0.2, 0.002);
+    let mut s = cuboid(a, a, h);
+    // Top face (z = h): triangles [4, 5, 7] and [4, 7, 6] over the diagonal 4–7.
+    let r = s.vertices.len() as u32;
+    s.vertices.push([a / 2.0, a / 2.0, h]);
+    let k = s.triangles.iter().position(|t| *t == [4, 5, 7]).unwrap();
+    s.triangles[k] = [4, 5, r];
+    s.triangles.extend([[r, 5, 7], [4, r, 7]]);
+    // The same on the bottom face (z = 0: [0, 2, 3] and [0, 3, 1] over the diagonal 0–3), so
+    // the side extruded, whichever it is, has its sliver.
+    let r2 = s.vertices.len() as u32;
+    s.vertices.push([a / 2.0, a / 2.0, 0.0]);
+    let k = s.triangles.iter().position(|t| *t == [0, 2, 3]).unwrap();
+    s.triangles[k] = [0, 2, r2];
+    s.triangles.extend([[r2, 2, 3], [0, r2, 3]]);
+    let imp = import_surface(
+        s,
+        "test",
+        &ImportOptions { resolution: Some(20), mesher: SurfaceMesher::Shell, ..ImportOptions::default() },
+        &quiet,
+    )
+    .unwrap();
+    println!("{}\n{:?}", imp.summary, imp.warnings);
+    // The side took the sliver in: its 3 triangles and the sliver, mended into 4.
+    assert!(imp.summary.contains("under a side of 4 triangles"), "{}", imp.summary);
+    assert!((imp.mesh.volume() / (a * a * h) - 1.0).abs() < 1e-9, "{}", imp.mesh.volume());
+    // No crack: every boundary face of the mesh lies on the plate's outer surface (a crack
+    // would put boundary faces inside it, away from the top, bottom and edges).
+    let mut count: std::collections::HashMap<[u32; 3], u32> = std::collections::HashMap::new();
+    for t in &imp.mesh.tets {
+        for f in [[t[0], t[1], t[2]], [t[0], t[1], t[3]], [t[0], t[2], t[3]], [t[1], t[2], t[3]]] {
+            let mut f = f;
+            f.sort_unstable();
+            *count.entry(f).or_default() += 1;
+        }
+    }
+    let on_outside = |p: [f64; 3]| {
+        let e = 1e-9;
+        p[2].abs() < e
+            || (p[2] - h).abs() < e
+            || p[0].abs() < e
+            || (p[0] - a).abs() < e
+            || p[1].abs() < e
+            || (p[1] - a).abs() < e
+    };
+    for (f, &c) in &count {
+        if c == 1 {
+            let n = f.map(|i| imp.mesh.nodes[i as usize]);
+            let centre: [f64; 3] = std::array::from_fn(|i| (n[0][i] + n[1][i] + n[2][i]) / 3.0);
+            assert!(on_outside(centre), "a boundary face inside the plate at {centre:?}");
+        }
+    }
+}
