@@ -272,9 +272,22 @@ pub fn import_surface(
             .map_err(|why| FemError::Mesh(format!("the surface is not thin-walled: {why}")))
             .and_then(|wall| {
                 let mut shell_opts = shell_opts;
-                // By budget: fewer DOFs while the factor is estimated over 90 % of its limit.
+                // By budget: fewer DOFs while the factor is estimated over 90 % of its limit;
+                // a fold (a few elements squeezed at a sharp inner corner) is tried once or
+                // twice more on a coarser remeshing, whose triangles fall elsewhere.
+                let mut first_fold = None;
                 for _ in 0..4 {
-                    let (mesh, rep) = mesh_thin_wall(&surface, &wall, &shell_opts, progress)?;
+                    let (mesh, rep) = match mesh_thin_wall(&surface, &wall, &shell_opts, progress) {
+                        Err(FemError::Mesh(m)) if m.contains("folds over") && opts.resolution.is_none() => {
+                            if first_fold.is_some_and(|n: usize| n >= 2) {
+                                return Err(FemError::Mesh(m));
+                            }
+                            first_fold = Some(first_fold.unwrap_or(0) + 1);
+                            shell_opts.dofs = (shell_opts.dofs as f64 * 0.8) as usize;
+                            continue;
+                        }
+                        r => r?,
+                    };
                     let bytes = super::eigen::factor_bytes_estimate(&mesh)?;
                     let limit = 0.9 * super::eigen::MAX_FACTOR_BYTES as f64;
                     if opts.resolution.is_some() || bytes <= limit {
@@ -304,6 +317,12 @@ pub fn import_surface(
                     rep.mesh_volume,
                     rep.surface_volume
                 );
+                if rep.min_dihedral_deg < 2.0 || rep.max_aspect > 100.0 {
+                    warnings.push(format!(
+                        "some elements of the wall are badly shaped (smallest dihedral angle {:.1} deg, largest aspect {:.0}), typically beside a sharp inner corner; the modes may be off there: compare with --mesher voxel or another --resolution",
+                        rep.min_dihedral_deg, rep.max_aspect
+                    ));
+                }
                 if rep.cover < 0.95 {
                     warnings.push(format!(
                         "{:.0} % of the surface is not part of a thin wall (rims, ends, or small solid parts such as a thin handle, which the wall mesh leaves out); if that part matters, use --mesher voxel",

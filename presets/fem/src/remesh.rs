@@ -91,6 +91,21 @@ fn features(v: &[[f64; 3]], tris: &[[u32; 3]]) -> (HashSet<Edge>, Vec<u8>) {
     (lines, level)
 }
 
+/// The creases of a surface: edges between two triangles whose normals are more than
+/// [`CREASE_DEG`] apart (boundary edges are not creases).
+pub(crate) fn crease_edges(v: &[[f64; 3]], tris: &[[u32; 3]]) -> Vec<Edge> {
+    let (lines, _) = features(v, tris);
+    let mut uses: HashMap<Edge, u32> = HashMap::new();
+    for tri in tris {
+        for k in 0..3 {
+            *uses.entry(key(tri[k], tri[(k + 1) % 3])).or_default() += 1;
+        }
+    }
+    let mut out: Vec<Edge> = lines.into_iter().filter(|e| uses.get(e) == Some(&2)).collect();
+    out.sort_unstable();
+    out
+}
+
 /// Splits every edge longer than `h` at its midpoint with red (three edges) and green (one or
 /// two) templates that keep each triangle's orientation; returns the number of edges split.
 pub(crate) fn split_long(v: &mut Vec<[f64; 3]>, tris: &mut Vec<[u32; 3]>, h: f64) -> usize {
@@ -142,16 +157,100 @@ pub(crate) fn split_long(v: &mut Vec<[f64; 3]>, tris: &mut Vec<[u32; 3]>, h: f64
     mid.len()
 }
 
+/// Vertex-to-triangle lists and the state of a round of collapses.
+struct Collapses {
+    around: Vec<Vec<u32>>,
+    dead: Vec<bool>,
+    touched: Vec<bool>,
+}
+
+impl Collapses {
+    fn new(nv: usize, tris: &[[u32; 3]]) -> Collapses {
+        let mut around: Vec<Vec<u32>> = vec![Vec::new(); nv];
+        for (t, tri) in tris.iter().enumerate() {
+            for &x in tri {
+                around[x as usize].push(t as u32);
+            }
+        }
+        Collapses { around, dead: vec![false; tris.len()], touched: vec![false; nv] }
+    }
+
+    /// Moves vertex `x` onto its neighbour `y` (their shared triangles go) if that keeps the
+    /// surface a manifold (link condition), turns no triangle by more than [`MAX_TURN_DEG`],
+    /// makes no sliver and no edge of `hi` or longer; returns whether it did.
+    fn try_collapse(&mut self, v: &[[f64; 3]], tris: &mut [[u32; 3]], x: u32, y: u32, hi: f64) -> bool {
+        if self.touched[x as usize] || self.touched[y as usize] {
+            return false;
+        }
+        let dead = &self.dead;
+        let tx: Vec<u32> = self.around[x as usize].iter().copied().filter(|&t| !dead[t as usize]).collect();
+        let shared: Vec<u32> = tx.iter().copied().filter(|&t| tris[t as usize].contains(&y)).collect();
+        if shared.is_empty() || shared.len() > 2 {
+            return false;
+        }
+        // Link condition: x and y share no neighbour but the shared triangles' third corners.
+        let ring = |z: u32| -> HashSet<u32> {
+            self.around[z as usize]
+                .iter()
+                .filter(|&&t| !dead[t as usize])
+                .flat_map(|&t| tris[t as usize])
+                .filter(|&w| w != z)
+                .collect()
+        };
+        let (rx, ry) = (ring(x), ring(y));
+        let opposite: HashSet<u32> =
+            shared.iter().flat_map(|&t| tris[t as usize]).filter(|&w| w != x && w != y).collect();
+        if rx.intersection(&ry).any(|w| !opposite.contains(w)) {
+            return false;
+        }
+        let cos_turn = MAX_TURN_DEG.to_radians().cos();
+        let moved: Vec<u32> = tx.iter().copied().filter(|t| !shared.contains(t)).collect();
+        let ok = moved.iter().all(|&t| {
+            let old = tris[t as usize];
+            let new = old.map(|w| if w == x { y } else { w });
+            match (unit_normal(v, old), unit_normal(v, new)) {
+                (Some(no), Some(nn)) => {
+                    dot(no, nn) > cos_turn && new.iter().all(|&w| w == y || len(v, y, w) < hi) && quality(v, new) > 0.05
+                }
+                _ => false,
+            }
+        });
+        if !ok {
+            return false;
+        }
+        for &t in &shared {
+            self.dead[t as usize] = true;
+        }
+        for &t in &moved {
+            for w in tris[t as usize].iter_mut() {
+                if *w == x {
+                    *w = y;
+                }
+            }
+        }
+        self.around[y as usize].extend(moved);
+        for z in rx.iter().chain(ry.iter()).chain([&x, &y]) {
+            self.touched[*z as usize] = true;
+        }
+        true
+    }
+
+    /// Drops the collapsed triangles from `tris`.
+    fn finish(self, tris: &mut Vec<[u32; 3]>) {
+        let mut k = 0;
+        tris.retain(|_| {
+            k += 1;
+            !self.dead[k - 1]
+        });
+    }
+}
+
 /// Collapses edges shorter than `lo` (shortest first) where the result keeps the surface's
-/// shape; returns the number collapsed. Dead vertices stay in `v` unreferenced.
+/// shape; returns the number collapsed. A free vertex may go onto any neighbour, one on a
+/// line only along it onto another vertex of a line, a corner never. Dead vertices stay in `v`
+/// unreferenced.
 fn collapse_short(v: &[[f64; 3]], tris: &mut Vec<[u32; 3]>, lo: f64, hi: f64) -> usize {
     let (lines, level) = features(v, tris);
-    let mut around: Vec<Vec<u32>> = vec![Vec::new(); v.len()];
-    for (t, tri) in tris.iter().enumerate() {
-        for &x in tri {
-            around[x as usize].push(t as u32);
-        }
-    }
     let mut edges: Vec<(f64, Edge)> = Vec::new();
     let mut seen = HashSet::new();
     for tri in tris.iter() {
@@ -164,81 +263,110 @@ fn collapse_short(v: &[[f64; 3]], tris: &mut Vec<[u32; 3]>, lo: f64, hi: f64) ->
         }
     }
     edges.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let cos_turn = MAX_TURN_DEG.to_radians().cos();
-    let mut dead = vec![false; tris.len()];
-    let mut touched = vec![false; v.len()];
+    let mut c = Collapses::new(v.len(), tris);
     let mut done = 0;
     for &(_, (a, b)) in &edges {
-        if touched[a as usize] || touched[b as usize] {
-            continue;
-        }
         for (x, y) in [(a, b), (b, a)] {
             let (lx, ly) = (level[x as usize], level[y as usize]);
-            let on_line = lines.contains(&key(x, y));
-            if !(lx == 0 || (lx == 1 && ly >= 1 && on_line)) {
+            if !(lx == 0 || (lx == 1 && ly >= 1 && lines.contains(&key(x, y)))) {
                 continue;
             }
-            let tx: Vec<u32> = around[x as usize].iter().copied().filter(|&t| !dead[t as usize]).collect();
-            let shared: Vec<u32> = tx.iter().copied().filter(|&t| tris[t as usize].contains(&y)).collect();
-            if shared.is_empty() || shared.len() > 2 {
+            if c.try_collapse(v, tris, x, y, hi) {
+                done += 1;
+                break;
+            }
+        }
+    }
+    c.finish(tris);
+    done
+}
+
+/// The point of the segment a–b closest to `p`.
+fn closest_on_segment(p: [f64; 3], a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    let ab = sub(b, a);
+    let t = (dot(sub(p, a), ab) / dot(ab, ab).max(f64::MIN_POSITIVE)).clamp(0.0, 1.0);
+    [a[0] + t * ab[0], a[1] + t * ab[1], a[2] + t * ab[2]]
+}
+
+/// Distance from `p` to the segment a–b.
+fn to_segment(p: [f64; 3], a: [f64; 3], b: [f64; 3]) -> f64 {
+    norm(sub(p, closest_on_segment(p, a, b)))
+}
+
+/// Collapses every free vertex closer than `clearance` to a crease (not a boundary) onto the
+/// crease vertex it neighbours, or where no collapse keeps the surface sound moves it away to
+/// that distance, so no element is squeezed between a crease and a vertex beside it when the
+/// surface is offset by `clearance` (a wall's thickness: the inside of a cup's bottom edge).
+/// Returns the number collapsed or moved.
+pub(crate) fn clear_creases(v: &mut [[f64; 3]], tris: &mut Vec<[u32; 3]>, clearance: f64) -> usize {
+    let mut total = 0;
+    for _ in 0..6 {
+        let (_, level) = features(v, tris);
+        let creases = crease_edges(v, tris);
+        let mut on_crease: Vec<Vec<u32>> = vec![Vec::new(); v.len()];
+        for &(a, b) in &creases {
+            on_crease[a as usize].push(b);
+            on_crease[b as usize].push(a);
+        }
+        let mut c = Collapses::new(v.len(), tris);
+        let mut done = 0;
+        for x in 0..v.len() as u32 {
+            if level[x as usize] != 0 || c.around[x as usize].is_empty() {
                 continue;
             }
-            // Link condition: x and y share no neighbour but the shared triangles' third corners.
-            let ring = |z: u32| -> HashSet<u32> {
-                around[z as usize]
+            let ring: HashSet<u32> =
+                c.around[x as usize].iter().flat_map(|&t| tris[t as usize]).filter(|&w| w != x).collect();
+            let mut near: Vec<(f64, u32)> = ring
+                .iter()
+                .filter(|&&y| !on_crease[y as usize].is_empty())
+                .map(|&y| {
+                    let d = on_crease[y as usize]
+                        .iter()
+                        .map(|&z| to_segment(v[x as usize], v[y as usize], v[z as usize]))
+                        .fold(f64::INFINITY, f64::min);
+                    (d, y)
+                })
+                .filter(|&(d, _)| d < clearance)
+                .collect();
+            near.sort_by(|a, b| len(v, x, a.1).total_cmp(&len(v, x, b.1)));
+            if near.iter().any(|&(_, y)| c.try_collapse(v, tris, x, y, f64::INFINITY)) {
+                done += 1;
+            } else if let Some(&(_, y)) = near.first() {
+                // No collapse keeps the surface sound: move the vertex straight away from the
+                // crease to the clearance instead, if no triangle around it turns or thins.
+                let (q, _) = on_crease[y as usize]
                     .iter()
-                    .filter(|&&t| !dead[t as usize])
-                    .flat_map(|&t| tris[t as usize])
-                    .filter(|&w| w != z)
-                    .collect()
-            };
-            let (rx, ry) = (ring(x), ring(y));
-            let opposite: HashSet<u32> =
-                shared.iter().flat_map(|&t| tris[t as usize]).filter(|&w| w != x && w != y).collect();
-            if rx.intersection(&ry).any(|w| !opposite.contains(w)) {
-                continue;
-            }
-            // The triangles that move: no fold, no sliver, no long edge.
-            let ok = tx.iter().filter(|t| !shared.contains(t)).all(|&t| {
-                let old = tris[t as usize];
-                let new = old.map(|w| if w == x { y } else { w });
-                match (unit_normal(v, old), unit_normal(v, new)) {
-                    (Some(no), Some(nn)) => {
-                        dot(no, nn) > cos_turn
-                            && new.iter().all(|&w| w == y || len(v, y, w) < hi)
-                            && quality(v, new) > 0.05
-                    }
-                    _ => false,
-                }
-            });
-            if !ok {
-                continue;
-            }
-            for &t in &shared {
-                dead[t as usize] = true;
-            }
-            let moved: Vec<u32> = tx.iter().copied().filter(|t| !shared.contains(t)).collect();
-            for &t in &moved {
-                for w in tris[t as usize].iter_mut() {
-                    if *w == x {
-                        *w = y;
+                    .map(|&z| closest_on_segment(v[x as usize], v[y as usize], v[z as usize]))
+                    .map(|q| (q, norm(sub(v[x as usize], q))))
+                    .fold(([0.0; 3], f64::INFINITY), |b, c| if c.1 < b.1 { c } else { b });
+                let away = sub(v[x as usize], q);
+                let l = norm(away);
+                if l > 0.0 {
+                    let target: [f64; 3] = std::array::from_fn(|i| q[i] + away[i] / l * 1.05 * clearance);
+                    let ts: Vec<u32> = c.around[x as usize].iter().copied().filter(|&t| !c.dead[t as usize]).collect();
+                    let old: Vec<Option<[f64; 3]>> = ts.iter().map(|&t| unit_normal(v, tris[t as usize])).collect();
+                    let keep = v[x as usize];
+                    v[x as usize] = target;
+                    let cos_turn = MAX_TURN_DEG.to_radians().cos();
+                    let ok = ts.iter().zip(&old).all(|(&t, o)| match (o, unit_normal(v, tris[t as usize])) {
+                        (Some(o), Some(m)) => dot(*o, m) > cos_turn && quality(v, tris[t as usize]) > 0.02,
+                        _ => false,
+                    });
+                    if ok {
+                        done += 1;
+                    } else {
+                        v[x as usize] = keep;
                     }
                 }
             }
-            around[y as usize].extend(moved);
-            for z in rx.iter().chain(ry.iter()).chain([&x, &y]) {
-                touched[*z as usize] = true;
-            }
-            done += 1;
+        }
+        c.finish(tris);
+        total += done;
+        if done == 0 {
             break;
         }
     }
-    let mut k = 0;
-    tris.retain(|_| {
-        k += 1;
-        !dead[k - 1]
-    });
-    done
+    total
 }
 
 /// Shape quality of a triangle: 4√3·area / (sum of squared edges), 1 for equilateral.
@@ -381,7 +509,11 @@ pub(crate) fn remesh(v: &mut Vec<[f64; 3]>, tris: &mut Vec<[u32; 3]>, h: f64, ta
         }
         smooth(v, tris, target, grid, h);
     }
-    // Drop unreferenced vertices.
+    compact(v, tris);
+}
+
+/// Drops the vertices no triangle uses, renumbering the triangles.
+pub(crate) fn compact(v: &mut Vec<[f64; 3]>, tris: &mut [[u32; 3]]) {
     let mut index = vec![u32::MAX; v.len()];
     let mut out = Vec::new();
     for t in tris.iter_mut() {

@@ -45,7 +45,7 @@ use std::collections::HashMap;
 use super::element::EDGES;
 use super::geom::{cross, dot, norm, signed_volume, sub};
 use super::mesh::{split_prism, TetMesh};
-use super::remesh::remesh;
+use super::remesh::{clear_creases, compact, crease_edges, remesh};
 use super::surface::{TriGrid, TriSurface};
 use super::FemError;
 
@@ -477,6 +477,10 @@ pub fn mesh_thin_wall(
     for attempt in 0..3 {
         (verts, tris) = (v0.clone(), t0.clone());
         remesh(&mut verts, &mut tris, edge, s, &side_grid);
+        // A margin of 30 %: the inner corner of a faceted surface lies a little off the offset of its
+        // outer edge.
+        clear_creases(&mut verts, &mut tris, 1.3 * wall.thickness_range[2]);
+        compact(&mut verts, &mut tris);
         let dofs = shell_dofs(verts.len(), &tris, opts.layers);
         if opts.edge.is_some() || dofs as f64 <= 1.1 * opts.dofs as f64 || attempt == 2 {
             break;
@@ -512,8 +516,7 @@ pub fn mesh_thin_wall(
     let all: Vec<u32> = (0..s.triangles.len() as u32).collect();
     let grid = TriGrid::new(s, &all, 0.0);
     let median = wall.thickness_range[1];
-    let mut fallbacks = 0;
-    let mut thick = vec![0.0; nv];
+    let mut local = vec![median; nv];
     for v in 0..nv {
         let l = norm(vn[v]);
         if !(l > 0.0) {
@@ -521,23 +524,97 @@ pub fn mesh_thin_wall(
         }
         vn[v] = vn[v].map(|x| x / l);
         // The thickness the nearest input triangle of the side measured.
-        let local = side_grid
-            .closest(s, verts[v], 2.0 * edge)
-            .map(|(_, _, t)| wall.thickness[t])
-            .filter(|d| d.is_finite())
-            .unwrap_or(median);
+        if let Some(d) = side_grid.closest(s, verts[v], 2.0 * edge).map(|(_, _, t)| wall.thickness[t]) {
+            if d.is_finite() {
+                local[v] = d;
+            }
+        }
+    }
+    let mut fallbacks = 0;
+    let mut thick = vec![0.0; nv];
+    for v in 0..nv {
         let d = vn[v].map(|x| -x);
         let hit = grid
-            .first_hit(s, verts[v], d, (1e-6 * local, 2.0 * local), &|t| wall.extruded[t as usize])
+            .first_hit(s, verts[v], d, (1e-6 * local[v], 2.0 * local[v]), &|t| wall.extruded[t as usize])
             .map(|(t, _)| t)
-            .filter(|&t| t >= 0.5 * local);
+            .filter(|&t| t >= 0.5 * local[v]);
         thick[v] = match hit {
             Some(t) => t,
             None => {
                 fallbacks += 1;
-                local
+                local[v]
             }
         };
+    }
+    // A vertex on a sharp crease (a cup's bottom edge) goes to the inner corner itself: the
+    // point a wall's thickness inside both faces, measured on each (x = a·n₁ + b·n₂ with
+    // n₁·x = t₁, n₂·x = t₂), not where one ray happens to land beside it.
+    let creases = crease_edges(&verts, &tris);
+    let mut crease_ends: Vec<Vec<u32>> = vec![Vec::new(); nv];
+    for &(a, b) in &creases {
+        crease_ends[a as usize].push(b);
+        crease_ends[b as usize].push(a);
+    }
+    let mut around: Vec<Vec<[f64; 3]>> = vec![Vec::new(); nv];
+    for t in &tris {
+        let p = t.map(|i| verts[i as usize]);
+        let f = cross(sub(p[1], p[0]), sub(p[2], p[0]));
+        let l = norm(f);
+        if l > 0.0 {
+            for &i in t {
+                around[i as usize].push(f.map(|x| x / l));
+            }
+        }
+    }
+    for v in 0..nv {
+        if crease_ends[v].len() != 2 {
+            continue;
+        }
+        // The two faces' normals: the most different pair around the vertex.
+        let ns = &around[v];
+        let mut pair = None;
+        let mut lowest = f64::INFINITY;
+        for i in 0..ns.len() {
+            for j in i + 1..ns.len() {
+                let c = dot(ns[i], ns[j]);
+                if c < lowest {
+                    lowest = c;
+                    pair = Some((ns[i], ns[j]));
+                }
+            }
+        }
+        let Some((na, nb)) = pair else { continue };
+        // Each face's normal: the mean of the normals around the vertex nearer to its end of
+        // the pair (single triangles of a faceted face lean by the facets' angle).
+        let mean = |of: [f64; 3], other: [f64; 3]| {
+            let mut m = [0.0; 3];
+            for n in ns.iter().filter(|&&n| dot(n, of) >= dot(n, other)) {
+                m = [m[0] + n[0], m[1] + n[1], m[2] + n[2]];
+            }
+            let l = norm(m).max(f64::MIN_POSITIVE);
+            m.map(|x| x / l)
+        };
+        let (n1, n2) = (mean(na, nb), mean(nb, na));
+        let c = dot(n1, n2);
+        if !(1.0 - c * c > 1e-3) {
+            continue;
+        }
+        let depth = |n: [f64; 3]| {
+            grid.first_hit(s, verts[v], n.map(|x| -x), (1e-6 * local[v], 2.0 * local[v]), &|t| {
+                wall.extruded[t as usize]
+            })
+            .map(|(d, _)| d)
+            .filter(|&d| d >= 0.5 * local[v])
+            .unwrap_or(local[v])
+        };
+        let (t1, t2) = (depth(n1), depth(n2));
+        let (a, b) = ((t1 - c * t2) / (1.0 - c * c), (t2 - c * t1) / (1.0 - c * c));
+        let x: [f64; 3] = std::array::from_fn(|i| a * n1[i] + b * n2[i]);
+        let l = norm(x);
+        if l > 0.0 {
+            vn[v] = x.map(|c| c / l);
+            thick[v] = l;
+        }
     }
     progress("shell", 0.5);
     // Layers of nodes and the prisms between them.
@@ -562,9 +639,18 @@ pub fn mesh_thin_wall(
     let majority_positive = 2 * positive >= vols.len();
     let folded = if majority_positive { vols.len() - positive } else { positive };
     if folded > 0 {
+        let at = tets
+            .iter()
+            .zip(&vols)
+            .find(|(_, &v)| (v > 0.0) != majority_positive)
+            .map(|(t, _)| {
+                std::array::from_fn::<f64, 3, _>(|c| t.iter().map(|&i| nodes[i as usize][c]).sum::<f64>() / 4.0)
+            })
+            .unwrap_or_default();
         return Err(FemError::Mesh(format!(
-            "the wall's offset folds over itself in {folded} of {} elements (a concave side tighter than the wall is thick)",
-            vols.len()
+            "the wall's offset folds over itself in {folded} of {} elements, one near {} (a concave side tighter than the wall is thick)",
+            vols.len(),
+            super::surface::fmt_p(at)
         )));
     }
     let mut mesh = TetMesh::from_linear(nodes, &tets)?;
