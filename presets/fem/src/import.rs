@@ -300,7 +300,7 @@ pub fn import_surface(
         match meshed {
             Ok((mesh, rep)) => {
                 let summary = format!(
-                    "{head}, thin-walled ({} wall{}, {:.0} % of the surface): meshed through the wall, {} layers of prisms under a side of {} triangles refined to {} (edge {:.3e} m{}), wall {:.3e}-{:.3e} m (median {:.3e}), smallest dihedral angle {:.1} deg, largest aspect {:.1}; volume {:.4e} m^3 vs {:.4e} m^3 enclosed",
+                    "{head}, thin-walled ({} wall{}, {:.0} % of the surface): meshed through the wall, {} layers of prisms under a side of {} triangles remeshed to {} (edge {:.3e} m{}), wall {:.3e}-{:.3e} m (median {:.3e}), smallest dihedral angle {:.1} deg, largest aspect {:.1}; volume {:.4e} m^3 vs {:.4e} m^3 enclosed",
                     rep.walls,
                     if rep.walls == 1 { "" } else { "s" },
                     100.0 * rep.cover,

@@ -108,7 +108,7 @@ pub struct ShellReport {
     pub walls: usize,
     /// Share of the surface's area on the walls' two sides.
     pub cover: f64,
-    /// Triangles of the extruded side before and after refinement.
+    /// Triangles of the extruded side before and after remeshing.
     pub side_triangles: [usize; 2],
     /// Target edge along the wall, m.
     pub edge: f64,
