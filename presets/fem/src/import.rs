@@ -288,6 +288,9 @@ pub fn import_surface(
                         }
                         r => r?,
                     };
+                    // One object: two walls joined only through solid parts (a goblet's bowl
+                    // and foot) would come out as pieces; voxels instead.
+                    check_one_body(&mesh)?;
                     let bytes = super::eigen::factor_bytes_estimate(&mesh)?;
                     let limit = 0.9 * super::eigen::MAX_FACTOR_BYTES as f64;
                     if opts.resolution.is_some() || bytes <= limit {

@@ -37,7 +37,8 @@
 //!    their layer's share of the thickness there (straight again where that would invert one).
 //! 5. **Checks.** Every tetrahedron must keep the orientation of the majority (a concave side
 //!    whose offset crosses itself folds elements over: refused), the mesh's volume must lie
-//!    within [`MAX_VOLUME_ERROR`] of the enclosed volume, the mesh one body; the smallest dihedral angle and the
+//!    within [`MAX_VOLUME_ERROR`] of the enclosed volume (and, checked by the importer, the
+//!    mesh must be one body); the smallest dihedral angle and the
 //!    largest aspect (longest edge over the smallest height) are reported.
 
 use std::collections::HashMap;
@@ -706,9 +707,6 @@ pub fn mesh_thin_wall(
             }
         }
     }
-    // One object: two walls joined only through solid parts (a goblet's bowl and foot) would
-    // come out as pieces; the caller voxelises instead.
-    super::import::check_one_body(&mesh)?;
     progress("shell", 0.9);
     let surface_volume = s.signed_volume();
     let mesh_volume = mesh.volume();
