@@ -275,14 +275,13 @@ pub fn import_surface(
                 // By budget: fewer DOFs while the factor is estimated over 90 % of its limit;
                 // a fold (a few elements squeezed at a sharp inner corner) is tried once or
                 // twice more on a coarser remeshing, whose triangles fall elsewhere.
-                let mut first_fold = None;
-                for _ in 0..4 {
+                let mut retries = 0;
+                loop {
                     let (mesh, rep) = match mesh_thin_wall(&surface, &wall, &shell_opts, progress) {
-                        Err(FemError::Mesh(m)) if m.contains("folds over") && opts.resolution.is_none() => {
-                            if first_fold.is_some_and(|n: usize| n >= 2) {
-                                return Err(FemError::Mesh(m));
-                            }
-                            first_fold = Some(first_fold.unwrap_or(0) + 1);
+                        Err(FemError::Mesh(m))
+                            if m.contains("folds over") && opts.resolution.is_none() && retries < 2 =>
+                        {
+                            retries += 1;
                             shell_opts.dofs = (shell_opts.dofs as f64 * 0.8) as usize;
                             continue;
                         }
@@ -296,9 +295,12 @@ pub fn import_surface(
                     if opts.resolution.is_some() || bytes <= limit {
                         return Ok((mesh, rep));
                     }
+                    if retries >= 4 {
+                        return Err(FemError::Mesh("the wall's mesh does not fit the build's memory budget".into()));
+                    }
+                    retries += 1;
                     shell_opts.dofs = (shell_opts.dofs as f64 * 0.9 * limit / bytes) as usize;
                 }
-                Err(FemError::Mesh("the wall's mesh does not fit the build's memory budget".into()))
             });
         match meshed {
             Ok((mesh, rep)) => {

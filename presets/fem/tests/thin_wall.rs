@@ -3,7 +3,7 @@
 //! mesher and voxels. The full-size comparisons (bowl, cup, tube at the default budget) are
 //! the `thin_wall` example; the figures are in FEM_RESULTS.md.
 
-use fem::import::{import_surface, ImportOptions, SurfaceMesher};
+use fem::import::{import_surface, ImportOptions, ImportedMesh, SurfaceMesher};
 use fem::{analyse, mesh_shape_layers, BuildOptions, Material, Shape, TriSurface};
 use std::f64::consts::PI;
 
@@ -20,6 +20,11 @@ fn cuboid(a: f64, b: f64, c: f64) -> TriSurface {
     TriSurface { vertices, triangles }
 }
 
+/// Imports `s` as a user's surface file is imported.
+fn import(s: TriSurface, resolution: Option<usize>, mesher: SurfaceMesher) -> Result<ImportedMesh, fem::FemError> {
+    import_surface(s, "test", &ImportOptions { resolution, mesher, ..ImportOptions::default() }, &quiet)
+}
+
 fn freqs(mesh: &fem::TetMesh, material: &Material, n: usize) -> Vec<f64> {
     let opts = BuildOptions { max_modes: n, ..BuildOptions::default() };
     analyse(mesh, material, &opts, &quiet).unwrap().frequencies_hz()
@@ -31,13 +36,7 @@ fn a_free_square_plates_surface_rings_like_kirchhoffs_plate() {
     // wall, the side of 2 triangles is remeshed to 10 mm edges and extruded through 2 mm.
     let (a, h) = (0.2, 0.002);
     let steel = Material::STEEL;
-    let imp = import_surface(
-        cuboid(a, a, h),
-        "test",
-        &ImportOptions { resolution: Some(20), ..ImportOptions::default() },
-        &quiet,
-    )
-    .unwrap();
+    let imp = import(cuboid(a, a, h), Some(20), SurfaceMesher::Auto).unwrap();
     println!("{}", imp.summary);
     assert!(imp.summary.contains("thin-walled") && imp.summary.contains("meshed through the wall"), "{}", imp.summary);
     // Flat faces: the volume is exact.
@@ -65,13 +64,7 @@ fn a_thin_walled_bowl_surface_rings_as_the_built_in_bowl() {
     let glass = Material { young: 63e9, density: 2500.0, poisson: 0.22 };
     let outline = join(vec![arc([0.0, r], r, 0.0, PI / 2.0, 24), arc([0.0, r], r - w, PI / 2.0, 0.0, 24)]);
     let surface = revolve(&outline, 96);
-    let imp = import_surface(
-        surface.clone(),
-        "test",
-        &ImportOptions { resolution: Some(18), ..ImportOptions::default() },
-        &quiet,
-    )
-    .unwrap();
+    let imp = import(surface.clone(), Some(18), SurfaceMesher::Auto).unwrap();
     println!("{}", imp.summary);
     assert!(imp.summary.contains("meshed through the wall"), "{}", imp.summary);
     let v = imp.mesh.volume();
@@ -88,13 +81,7 @@ fn a_thin_walled_bowl_surface_rings_as_the_built_in_bowl() {
     }
     // The voxels at their default budget cannot hold a 4 mm wall: the wall mesher is the one
     // that is in tune.
-    let vox = import_surface(
-        surface,
-        "test",
-        &ImportOptions { mesher: SurfaceMesher::Voxel, ..ImportOptions::default() },
-        &quiet,
-    )
-    .unwrap();
+    let vox = import(surface, None, SurfaceMesher::Voxel).unwrap();
     let fv = freqs(&vox.mesh, &glass, 2);
     assert!((fv[0] / rf[0] - 1.0).abs() > 2.0 * (got[0] / rf[0] - 1.0).abs(), "voxels {} vs {}", fv[0], rf[0]);
 }
@@ -103,34 +90,14 @@ fn a_thin_walled_bowl_surface_rings_as_the_built_in_bowl() {
 fn solids_go_to_voxels_and_the_wall_mesher_says_why_not() {
     // A 5 cm cube: its opposite faces are as far apart as the faces are wide.
     let cube = cuboid(0.05, 0.05, 0.05);
-    let imp = import_surface(
-        cube.clone(),
-        "test",
-        &ImportOptions { resolution: Some(6), ..ImportOptions::default() },
-        &quiet,
-    )
-    .unwrap();
+    let imp = import(cube.clone(), Some(6), SurfaceMesher::Auto).unwrap();
     assert!(imp.summary.contains("voxelised"), "{}", imp.summary);
     assert!(imp.warnings.iter().all(|w| !w.contains("thin wall")), "{:?}", imp.warnings);
-    let e = import_surface(
-        cube,
-        "test",
-        &ImportOptions { mesher: SurfaceMesher::Shell, ..ImportOptions::default() },
-        &quiet,
-    )
-    .unwrap_err()
-    .to_string();
+    let e = import(cube, None, SurfaceMesher::Shell).unwrap_err().to_string();
     assert!(e.contains("not thin-walled") && e.contains("apart"), "{e}");
     assert!(SurfaceMesher::parse("Shell").is_ok() && SurfaceMesher::parse("tets").is_err());
     // A thin plate asked for voxels gets voxels (the old path is still there).
-    let e = import_surface(
-        cuboid(1.0, 1.0, 0.001),
-        "t",
-        &ImportOptions { resolution: Some(10), mesher: SurfaceMesher::Voxel, ..ImportOptions::default() },
-        &quiet,
-    )
-    .unwrap_err()
-    .to_string();
+    let e = import(cuboid(1.0, 1.0, 0.001), Some(10), SurfaceMesher::Voxel).unwrap_err().to_string();
     assert!(e.contains("thinner than a voxel"), "{e}");
 }
 
@@ -155,13 +122,7 @@ fn a_cad_sliver_in_a_walls_face_leaves_no_crack() {
     let k = s.triangles.iter().position(|t| *t == [0, 2, 3]).unwrap();
     s.triangles[k] = [0, 2, r2];
     s.triangles.extend([[r2, 2, 3], [0, r2, 3]]);
-    let imp = import_surface(
-        s,
-        "test",
-        &ImportOptions { resolution: Some(20), mesher: SurfaceMesher::Shell, ..ImportOptions::default() },
-        &quiet,
-    )
-    .unwrap();
+    let imp = import(s, Some(20), SurfaceMesher::Shell).unwrap();
     println!("{}\n{:?}", imp.summary, imp.warnings);
     // The side took the sliver in: its 3 triangles and the sliver, mended into 4.
     assert!(imp.summary.contains("under a side of 4 triangles"), "{}", imp.summary);
