@@ -5,7 +5,8 @@
 #   software Vulkan (lavapipe, for the editor screenshots) and OpenGL (llvmpipe), and Xvfb
 #   (the CLAP host test opens the editor in a real X11 window);
 # - a Python virtual environment, target/test-venv, with pedalboard (JUCE's VST3 host) and
-#   numpy, for tests/hosts/pedalboard_host.py.
+#   numpy, for tests/hosts/pedalboard_host.py, and scipy for the FEM references
+#   (presets/fem/tests/reference/axisymmetric.py).
 # Without root, missing system packages are named in one line and the script fails.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -32,4 +33,8 @@ if ! "$venv/bin/python" -c "import pedalboard, numpy" >/dev/null 2>&1; then
   rm -rf "$venv"
   python3 -m venv "$venv"
   "$venv/bin/pip" install -q --disable-pip-version-check "pedalboard==0.9.26" "numpy>=1.24,<3"
+fi
+if ! "$venv/bin/python" -c "import scipy" >/dev/null 2>&1; then
+  echo "setup: adding scipy to $venv"
+  "$venv/bin/pip" install -q --disable-pip-version-check "scipy>=1.11,<2"
 fi

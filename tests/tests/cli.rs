@@ -173,6 +173,7 @@ fn bank_build_from_an_obj_surface_then_render_it() {
         max_freq: None,
         material: MaterialArgs { young: 200e9, density: 7850.0, poisson: 0.3 },
         resolution: Some(40),
+        accuracy: None,
         output: BankOutput { points: 64, id: None, name: None, out: bank_file.clone() },
     };
     run(build(obj.clone())).unwrap();

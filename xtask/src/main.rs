@@ -300,8 +300,9 @@ fn step(name: &str, cmd: &mut Command) -> bool {
 /// `cargo xtask test [cargo test args]`: installs what the tests need (tests/setup.sh), bundles
 /// the debug plugin into [`TEST_BUNDLES`], runs every test binary of the workspace (all of
 /// them, even when one fails), then the third-party validators (clap-validator and Steinberg's
-/// VST3 validator, `--extensive`) and the pedalboard VST3 host test on those bundles. Fails if
-/// any of these failed, after running them all.
+/// VST3 validator, `--extensive`) and the pedalboard VST3 host test on those bundles, and the
+/// check of the FEM tests' axisymmetric references. Fails if any of these failed, after
+/// running them all.
 fn test(extra: &[String]) -> Result<(), String> {
     nice_plug_xtask::chdir_workspace_root().map_err(|e| e.to_string())?;
     if !step("tests/setup.sh", Command::new("bash").arg("tests/setup.sh")) {
@@ -341,8 +342,18 @@ fn test(extra: &[String]) -> Result<(), String> {
         failed.push("pedalboard");
     }
 
+    // The FEM tests' independent references: the script checks itself against closed forms
+    // and recomputes tests/data/axisymmetric.json (scipy, about 30 s).
+    let mut refs = Command::new(root.join("target/test-venv/bin/python"));
+    refs.arg("presets/fem/tests/reference/axisymmetric.py")
+        .arg("--check")
+        .arg("presets/fem/tests/data/axisymmetric.json");
+    if !step("FEM axisymmetric references (scipy)", &mut refs) {
+        failed.push("FEM references");
+    }
+
     if failed.is_empty() {
-        eprintln!("xtask test: all passed (cargo test, validators, pedalboard)");
+        eprintln!("xtask test: all passed (cargo test, validators, pedalboard, FEM references)");
         Ok(())
     } else {
         Err(format!("failed: {}", failed.join(", ")))

@@ -538,6 +538,14 @@ fn bank_build_never_replaces_its_mesh_or_a_file_on_failure_and_checks_the_folder
     // --points outside its range is an error, not a silent clamp.
     let e = error_line(&struck(&dir, &[&small[..], &["--points", "0", "--out", out.to_str().unwrap()]].concat()));
     assert!(e.contains("--points must be 1..="), "{e}");
+    // --accuracy is a percentage in range, checked before the solve, and goes with the mesh
+    // chosen by budget only, not with --resolution.
+    let bar = ["bank", "build", "--shape", "bar", "--dims", "0.5,0.03,0.01", "--modes", "4"];
+    let e = error_line(&struck(&dir, &[&bar[..], &["--accuracy", "0", "--out", out.to_str().unwrap()]].concat()));
+    assert!(e.contains("--accuracy is a percentage in 0.01..=10"), "{e}");
+    let e = error_line(&struck(&dir, &[&small[..], &["--accuracy", "0.2", "--out", out.to_str().unwrap()]].concat()));
+    assert!(e.contains("--accuracy") && e.contains("--resolution"), "{e}");
+    assert_eq!(std::fs::read(&out).unwrap(), PRECIOUS);
 }
 
 fn read_wav(path: &Path) -> Vec<f32> {

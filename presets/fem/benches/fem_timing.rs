@@ -64,6 +64,7 @@ fn main() {
             resolution: res,
             strike_points: 64,
             auto_resolution: false,
+            accuracy: None,
         };
         let cpu0 = cpu_seconds();
         match build_bank(&name, &name, &shape, &mat, &opts, &|_, _| {}) {

@@ -598,8 +598,14 @@ mod tests {
         let shape = Shape::Bar { length: 0.3, width: 0.02, thickness: 0.008 };
         let mesh = mesh_shape(&shape, 10).unwrap();
         let mat = Material { young: 2.0e11, density: 7850.0, poisson: 0.3 };
-        let opts =
-            BuildOptions { max_modes: 8, max_freq_hz: None, resolution: 10, strike_points: 24, auto_resolution: false };
+        let opts = BuildOptions {
+            max_modes: 8,
+            max_freq_hz: None,
+            resolution: 10,
+            strike_points: 24,
+            auto_resolution: false,
+            accuracy: None,
+        };
         let (bank, report) =
             build_bank_from_mesh("imported-bar", "Imported bar", "test", &mesh, &mat, &opts, &|_, _| {}).unwrap();
         assert_eq!(bank.num_points(), 24);

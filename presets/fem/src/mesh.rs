@@ -375,7 +375,7 @@ pub(crate) fn mesh_with_layers(
     let boxed = |lx: f64, ly: f64, lz: f64, line: bool| -> Result<(TetMesh, Geometry), FemError> {
         let h = lx.max(ly).max(lz) / res;
         let (base, tris) = rect_base(lx, ly, divisions(lx, h), divisions(ly, h));
-        let lay = Layered { base, tris, layers: divisions(lz, h) };
+        let lay = Layered { base, tris, layers: divisions(lz, h).max(min_layers) };
         let mesh = lay.build(&|q| [q[0], q[1], q[2] * lz], &mid)?;
         Ok((mesh, Geometry::Box { lx, ly, lz, line }))
     };
@@ -404,7 +404,7 @@ pub(crate) fn mesh_with_layers(
             let rev = Revolution::new(Box::new(move |u| [u * radius, 0.0]), thickness);
             let h = 2.0 * radius / res;
             let segs = divisions(radius, h).max(2);
-            revolve(rev, segs, usize::MAX, divisions(thickness, h), 1.0, true)
+            revolve(rev, segs, usize::MAX, divisions(thickness, h).max(min_layers), 1.0, true)
         }
         Shape::Tube { length, outer_radius, wall } => {
             let rev = Revolution::new(Box::new(move |u| [outer_radius, u * length]), wall);

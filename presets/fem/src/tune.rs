@@ -235,7 +235,14 @@ pub fn bending_modes(
     let (mesh, _) = mesh::mesh_with_geometry(shape, resolution)?;
     // A tube's shell (ovalling) modes crowd among its bending modes: look further up.
     let max_modes = if lines.len() > 1 { 6 * count + 8 } else { 4 * count + 8 };
-    let opts = BuildOptions { max_modes, max_freq_hz: None, resolution, strike_points: 1, auto_resolution: false };
+    let opts = BuildOptions {
+        max_modes,
+        max_freq_hz: None,
+        resolution,
+        strike_points: 1,
+        auto_resolution: false,
+        accuracy: None,
+    };
     let modes = analyse(&mesh, material, &opts, &|_, _| {})?;
     let n = modes.lambdas.len();
     let f = modes.frequencies_hz();

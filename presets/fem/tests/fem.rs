@@ -181,8 +181,14 @@ fn strike_at_a_mode_node_gives_near_zero_gain() {
 
 #[test]
 fn bar_bank_is_valid() {
-    let opts =
-        BuildOptions { max_modes: 16, max_freq_hz: None, resolution: 30, strike_points: 64, auto_resolution: false };
+    let opts = BuildOptions {
+        max_modes: 16,
+        max_freq_hz: None,
+        resolution: 30,
+        strike_points: 64,
+        auto_resolution: false,
+        accuracy: None,
+    };
     let (bank, report) = fem::build_bank("fem-bar", "FEM bar", &BAR, &Material::STEEL, &opts, &quiet).unwrap();
     bank.validate().unwrap();
     assert_eq!(bank.num_modes(), 16);
@@ -202,6 +208,7 @@ fn bar_bank_is_valid() {
         resolution: 30,
         strike_points: 64,
         auto_resolution: false,
+        accuracy: None,
     };
     let (bank, _) = fem::build_bank("fem-bar", "FEM bar", &BAR, &Material::STEEL, &opts, &quiet).unwrap();
     let f = bank.frequencies_hz();
@@ -215,8 +222,14 @@ fn circular_plate_matches_kirchhoff() {
     let (a, h) = (0.1, 0.002);
     let shape = Shape::CircularPlate { radius: a, thickness: h };
     let mat = Material { young: 69e9, density: 2700.0, poisson: 0.33 };
-    let opts =
-        BuildOptions { max_modes: 9, max_freq_hz: None, resolution: 28, strike_points: 64, auto_resolution: false };
+    let opts = BuildOptions {
+        max_modes: 9,
+        max_freq_hz: None,
+        resolution: 28,
+        strike_points: 64,
+        auto_resolution: false,
+        accuracy: None,
+    };
     let mesh = fem::mesh_shape(&shape, opts.resolution).unwrap();
     let modes = fem::analyse(&mesh, &mat, &opts, &quiet).unwrap();
     let f = modes.frequencies_hz();
@@ -257,6 +270,7 @@ fn other_shapes_mesh_and_solve() {
             resolution: 10,
             strike_points: 64,
             auto_resolution: false,
+            accuracy: None,
         };
         let t = std::time::Instant::now();
         let (bank, r) =
@@ -312,8 +326,14 @@ fn gmsh_two_cubes_and_disconnected_mesh() {
     let mesh = fem::read_gmsh(&text).unwrap();
     assert_eq!(mesh.tets.len(), 5);
     assert!((mesh.volume() - 1e-3).abs() < 1e-12);
-    let opts =
-        BuildOptions { max_modes: 4, max_freq_hz: None, resolution: 2, strike_points: 8, auto_resolution: false };
+    let opts = BuildOptions {
+        max_modes: 4,
+        max_freq_hz: None,
+        resolution: 2,
+        strike_points: 8,
+        auto_resolution: false,
+        accuracy: None,
+    };
     let modes = fem::analyse(&mesh, &Material::STEEL, &opts, &quiet).unwrap();
     assert_eq!(modes.rigid_lambdas.len(), 6);
     // Two separate cubes: twelve zero eigenvalues (more than six), which must be reported.
@@ -403,8 +423,14 @@ fn chunky_block_converges_all_requested_modes() {
     assert!(p.max_rayleigh_error < 1e-9);
     // Sturm count at the last shift agrees with what was found (checked inside); and the
     // modes agree with the full build path.
-    let opts =
-        BuildOptions { max_modes: 80, max_freq_hz: None, resolution: 8, strike_points: 16, auto_resolution: false };
+    let opts = BuildOptions {
+        max_modes: 80,
+        max_freq_hz: None,
+        resolution: 8,
+        strike_points: 16,
+        auto_resolution: false,
+        accuracy: None,
+    };
     let modes = fem::analyse(&mesh, &Material::STEEL, &opts, &quiet).unwrap();
     assert_eq!(modes.lambdas.len(), 80);
     for (a, b) in modes.lambdas.iter().zip(&r.lambdas[6..]) {
