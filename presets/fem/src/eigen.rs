@@ -3,7 +3,8 @@
 //! For each shift σ the operator Op = (K − σM)⁻¹M is self-adjoint in the M inner product;
 //! its extreme eigenvalues θ = 1/(λ − σ) belong to the λ nearest σ on either side (Ericsson
 //! & Ruhe 1980, "The spectral transformation Lanczos method"). K − σM is factored as LDLᵀ
-//! (faer, supernodal, AMD ordering computed once for all shifts); by Sylvester's law of
+//! (faer, supernodal; METIS nested dissection or AMD ordering, [`crate::ordering`], computed
+//! once for all shifts); by Sylvester's law of
 //! inertia the number of negative pivots is the number of eigenvalues below σ (the Sturm
 //! count), which tells each run exactly how many eigenvalues it still has to find below its
 //! shift and proves that none was missed (Grimes, Lewis & Simon 1994, "A shifted block
@@ -27,6 +28,7 @@ use std::time::Instant;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
 use faer::linalg::matmul::matmul;
+use faer::perm::PermRef;
 use faer::sparse::linalg::cholesky::supernodal::SupernodalLdltRef;
 use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, CholeskySymbolicParams, LdltRef, SymbolicCholesky, SymbolicCholeskyRaw,
@@ -83,8 +85,10 @@ pub struct EigenResult {
 /// Phase timings (wall seconds) and counters of one [`solve`].
 #[derive(Clone, Debug, Default)]
 pub struct Profile {
-    /// Symbolic analysis (AMD ordering, supernode structure), once.
+    /// Symbolic analysis (ordering, supernode structure), once.
     pub symbolic_seconds: f64,
+    /// The fill-reducing ordering used: "nested dissection (METIS)" or "AMD".
+    pub ordering: &'static str,
     /// Numeric LDLᵀ factorisations, all shifts.
     pub numeric_seconds: f64,
     /// Triangular solves (operator applications).
@@ -134,6 +138,17 @@ pub const MAX_FACTOR_BYTES: usize = 3 << 29; // 1.5 GiB
 
 fn debug() -> bool {
     std::env::var_os("STRUCK_EIGEN_DEBUG").is_some()
+}
+
+/// The fill-reducing order of a node graph (`perm[new] = old`): METIS nested dissection
+/// ([`crate::ordering`]) from [`crate::ordering::MIN_NODES`] nodes on; `None` (faer's AMD)
+/// below, if METIS fails, or with `STRUCK_FEM_ORDERING=amd` in the environment (a
+/// diagnostic, to compare the two).
+fn node_order(adjacency: &[Vec<u32>]) -> Option<Vec<usize>> {
+    if adjacency.len() < crate::ordering::MIN_NODES || std::env::var("STRUCK_FEM_ORDERING").is_ok_and(|v| v == "amd") {
+        return None;
+    }
+    crate::ordering::nested_dissection(adjacency)
 }
 
 /// Parallelism for the numeric factorisation and the dense solver of [`dense`] (large,
@@ -270,8 +285,8 @@ struct Factor<'a> {
 }
 
 /// Bytes the sparse LDLᵀ factor of `mesh`'s stiffness matrix would take, estimated from the
-/// node graph (three DOFs per node: 9 values per node-factor entry) with the same AMD
-/// ordering, without assembling: cheap enough to choose a resolution before building.
+/// node graph (three DOFs per node: 9 values per node-factor entry) with the same ordering
+/// ([`node_order`]), without assembling: cheap enough to choose a resolution before building.
 ///
 /// # Errors
 /// [`FemError::Factorization`] if the symbolic analysis fails.
@@ -293,7 +308,18 @@ pub fn factor_bytes_estimate(mesh: &crate::TetMesh) -> Result<f64, FemError> {
         col_ptr.push(row_idx.len());
     }
     let pattern = SymbolicSparseColMatRef::new_checked(nn, nn, &col_ptr, None, &row_idx);
-    let symbolic = factorize_symbolic_cholesky(pattern, Side::Lower, SymmetricOrdering::Amd, Default::default())
+    let perm = node_order(&adj).map(|fwd| {
+        let mut inv = vec![0; fwd.len()];
+        for (new, &old) in fwd.iter().enumerate() {
+            inv[old] = new;
+        }
+        (fwd, inv)
+    });
+    let ordering = match &perm {
+        Some((fwd, inv)) => SymmetricOrdering::Custom(PermRef::new_checked(fwd, inv, nn)),
+        None => SymmetricOrdering::Amd,
+    };
+    let symbolic = factorize_symbolic_cholesky(pattern, Side::Lower, ordering, Default::default())
         .map_err(|e| FemError::Factorization(format!("symbolic analysis failed ({e:?}); out of memory?")))?;
     Ok(9.0 * symbolic.len_val() as f64 * 8.0)
 }
@@ -308,7 +334,25 @@ impl<'a> Factor<'a> {
             supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
             ..Default::default()
         };
-        let symbolic = factorize_symbolic_cholesky(pattern, Side::Lower, SymmetricOrdering::Amd, params)
+        // The node graph of the DOF pattern (full, both triangles; a node's three DOFs share
+        // one column pattern): the rows 3b of column 3a.
+        let nodes: Vec<Vec<u32>> = (0..n / 3)
+            .map(|a| {
+                sys.row_idx[sys.col_ptr[3 * a]..sys.col_ptr[3 * a + 1]]
+                    .iter()
+                    .filter(|&&r| r % 3 == 0 && r / 3 != a)
+                    .map(|&r| (r / 3) as u32)
+                    .collect()
+            })
+            .collect();
+        let perm = node_order(&nodes).map(|p| crate::ordering::dof_permutation(&p));
+        drop(nodes);
+        let ordering = match &perm {
+            Some((fwd, inv)) => SymmetricOrdering::Custom(PermRef::new_checked(fwd, inv, n)),
+            None => SymmetricOrdering::Amd,
+        };
+        prof.ordering = if perm.is_some() { "nested dissection (METIS)" } else { "AMD" };
+        let symbolic = factorize_symbolic_cholesky(pattern, Side::Lower, ordering, params)
             .map_err(|e| FemError::Factorization(format!("symbolic analysis failed ({e:?}); out of memory?")))?;
         let len = symbolic.len_val();
         prof.symbolic_seconds += t.elapsed().as_secs_f64();

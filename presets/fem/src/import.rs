@@ -562,13 +562,14 @@ fn build(
             ext[0], ext[1], ext[2], material.young, material.density, material.poisson
         ),
         provenance: format!(
-            "FEM (struck-presets fem) of {source}{}{how}{}: {} 10-node tetrahedra, {} nodes ({} corner vertices), {} DOFs; spectrum slicing with block shift-invert Lanczos and Sturm-count checks on faer sparse LDL^T factorisations; 6 rigid modes removed; built {}",
+            "FEM (struck-presets fem) of {source}{}{how}{}: {} 10-node tetrahedra, {} nodes ({} corner vertices), {} DOFs; spectrum slicing with block shift-invert Lanczos and Sturm-count checks on faer sparse LDL^T factorisations ({} ordering); 6 rigid modes removed; built {}",
             if how.is_empty() { "" } else { " (" },
             if how.is_empty() { "" } else { ")" },
             mesh.tets.len(),
             mesh.nodes.len(),
             mesh.corners,
             modes.dofs,
+            modes.ordering,
             today()
         ),
         dimensions_m: ext.to_vec(),

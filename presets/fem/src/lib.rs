@@ -32,6 +32,7 @@ pub mod geom;
 pub mod gmsh;
 pub mod import;
 pub mod mesh;
+pub mod ordering;
 pub mod remesh;
 pub mod shell;
 pub mod strike;
@@ -739,6 +740,8 @@ pub struct Modes {
     pub factor_seconds: f64,
     /// Seconds in all.
     pub seconds: f64,
+    /// The factor's fill-reducing ordering ([`eigen::Profile::ordering`]).
+    pub ordering: &'static str,
 }
 
 impl Modes {
@@ -899,6 +902,7 @@ pub fn analyse_within(
         assembly_seconds,
         factor_seconds: res.factor_seconds,
         seconds: t0.elapsed().as_secs_f64(),
+        ordering: eigen::last_profile().ordering,
     })
 }
 
@@ -1063,13 +1067,14 @@ pub fn build_bank(
         material.poisson
     );
     let provenance = format!(
-        "FEM (struck-presets fem): {} 10-node tetrahedra (Zienkiewicz et al. 2013 §6.6), {} nodes ({} corner vertices), {} DOFs, resolution {}{}; consistent mass; spectrum slicing with block shift-invert Lanczos, full reorthogonalisation and Sturm-count checks (Ericsson & Ruhe 1980; Grimes, Lewis & Simon 1994) on faer sparse LDL^T factorisations, first shift sigma = {:.4e} rad^2/s^2; 6 rigid modes removed; built {}",
+        "FEM (struck-presets fem): {} 10-node tetrahedra (Zienkiewicz et al. 2013 §6.6), {} nodes ({} corner vertices), {} DOFs, resolution {}{}; consistent mass; spectrum slicing with block shift-invert Lanczos, full reorthogonalisation and Sturm-count checks (Ericsson & Ruhe 1980; Grimes, Lewis & Simon 1994) on faer sparse LDL^T factorisations ({} ordering), first shift sigma = {:.4e} rad^2/s^2; 6 rigid modes removed; built {}",
         mesh.tets.len(),
         mesh.nodes.len(),
         mesh.corners,
         modes.dofs,
         resolution,
         if density.layers > 1 { format!(" with at least {} element layers through walls and plates", density.layers) } else { String::new() },
+        modes.ordering,
         modes.sigma,
         today()
     );
