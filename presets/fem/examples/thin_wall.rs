@@ -6,7 +6,8 @@
 //!
 //! `cargo run --release -p struck-fem --example thin_wall -- CASE [MESHER] [REF_RES REF_LAYERS [RESOLUTION]]`
 //! CASE: bowl | cup | tube; MESHER: auto (default) | voxel | none (the reference only);
-//! RESOLUTION: as `bank build --resolution` (default: by the DOF budget).
+//! RESOLUTION: as `bank build --resolution` (default: by the DOF budget). With STL_OUT=FILE in
+//! the environment it only writes the case's surface there as an ASCII STL.
 //! Prints the mesh, the time and peak memory of the import + solve, then the first 20 elastic
 //! modes against the reference (nearest frequency).
 
@@ -18,6 +19,8 @@ use fem::{analyse, analyse_within, mesh_shape_layers, BuildOptions, Material, Sh
 
 #[path = "../tests/support/outline.rs"]
 mod outline;
+#[path = "../tests/support/reference.rs"]
+mod reference;
 use outline::{arc, join, line, revolve};
 
 struct Case {
@@ -91,6 +94,21 @@ fn main() {
     let ref_layers: usize = args.get(3).and_then(|a| a.parse().ok()).unwrap_or(3);
     let resolution: Option<usize> = args.get(4).and_then(|a| a.parse().ok());
     let c = case(name);
+    if let Some(path) = std::env::var_os("STL_OUT") {
+        // The surface as a user would give it to `struck bank build --mesh` (ASCII STL, m).
+        let mut stl = String::from("solid thin_wall\n");
+        for t in &c.surface.triangles {
+            let [a, b, d] = t.map(|i| c.surface.vertices[i as usize]);
+            stl.push_str("facet normal 0 0 0\nouter loop\n");
+            for v in [a, b, d] {
+                stl.push_str(&format!("vertex {:e} {:e} {:e}\n", v[0], v[1], v[2]));
+            }
+            stl.push_str("endloop\nendfacet\n");
+        }
+        stl.push_str("endsolid thin_wall\n");
+        std::fs::write(&path, stl).expect("write STL_OUT");
+        return;
+    }
     let quiet = |_: &str, _: f32| {};
     const MODES: usize = 20;
     let opts = BuildOptions { max_modes: MODES + 4, ..BuildOptions::default() };
@@ -115,6 +133,21 @@ fn main() {
             c.surface.triangles.len()
         );
         got = Some(modes.frequencies_hz());
+    }
+    if let (Some(f), "bowl") = (&got, name) {
+        // The bowl also against the independent axisymmetric reference (the bowl in
+        // another glass: the frequencies scale with √(E/ρ) at the same ν).
+        let r = reference::reference("bowl");
+        assert_eq!((&r.shape, r.material.poisson), (&c.shape, c.material.poisson));
+        let scale = (c.material.young / c.material.density / (r.material.young / r.material.density)).sqrt();
+        let axi: Vec<f64> = r.frequencies_hz.iter().map(|x| x * scale).collect();
+        let mut e: Vec<f64> = reference::errors(&f[..MODES], &axi).iter().map(|x| 100.0 * x.abs()).collect();
+        e.sort_by(f64::total_cmp);
+        println!(
+            "{name} {mesher}: against the axisymmetric reference: max error {:.3} %, median {:.3} % over {MODES} modes",
+            e[MODES - 1],
+            e[MODES / 2]
+        );
     }
     let t0 = Instant::now();
     let mesh = mesh_shape_layers(&c.shape, ref_res, ref_layers).expect("reference mesh");
