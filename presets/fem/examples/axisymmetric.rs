@@ -2,9 +2,9 @@
 //! tests/data/axisymmetric.json, written by tests/reference/axisymmetric.py.
 //!
 //! `cargo run --release -p struck-fem --example axisymmetric -- CASE [RESOLUTION LAYERS]`
-//! CASE: disc | bowl | tube. Without RESOLUTION, the bank builder's automatic choice
+//! CASE: disc | bowl. Without RESOLUTION, the bank builder's automatic choice
 //! (`fem::choose_mesh`). Prints the mesh, time and peak memory, then the first 20 elastic
-//! modes' errors against the reference (nearest frequency) and the builder's own estimate of
+//! modes' errors against the reference (mode by mode) and the builder's own estimate of
 //! that error (`fem::discretisation_error`, two more solves).
 
 use std::time::Instant;

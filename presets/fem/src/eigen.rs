@@ -87,7 +87,8 @@ pub struct EigenResult {
 pub struct Profile {
     /// Symbolic analysis (ordering, supernode structure), once.
     pub symbolic_seconds: f64,
-    /// The fill-reducing ordering used: "nested dissection (METIS)" or "AMD".
+    /// The fill-reducing ordering used: "nested dissection (METIS)", "AMD", or "dense" (a
+    /// small system solved by the dense eigensolver).
     pub ordering: &'static str,
     /// Numeric LDLᵀ factorisations, all shifts.
     pub numeric_seconds: f64,
@@ -237,7 +238,7 @@ pub fn dense(sys: &System, opts: &EigenOptions) -> Result<EigenResult, FemError>
         basis: n,
         factor_seconds: t0.elapsed().as_secs_f64(),
         sigma,
-        profile: Profile::default(),
+        profile: Profile { ordering: "dense", ..Profile::default() },
     })
 }
 

@@ -416,7 +416,7 @@ pub const ERROR_MODES: usize = 20;
 /// One layer of quadratic tetrahedra (split prisms) is stiff in bending: measured against
 /// the independent axisymmetric references (tests/data/axisymmetric.json) at about 93k DOFs,
 /// the glass bowl was 0.55 % sharp with one layer and 0.37 % with two at the coarser
-/// resolution the same budget affords; the aluminium disc 0.39 % and 0.35 %.
+/// resolution the same budget affords; the aluminium disc 0.39 % either way.
 pub const AUTO_LAYERS: usize = 2;
 
 /// Roache's safety factor for a grid convergence index from three solves (Roache,
@@ -617,6 +617,13 @@ fn finest_within(
 
 /// Most refinements an accuracy target may ask for after the budget's solve.
 const MAX_REFINEMENTS: usize = 3;
+/// Largest step of one refinement (resolution ratio): a noisy estimate must not ask for an
+/// enormous mesh at once.
+const MAX_REFINE_STEP: f64 = 1.5;
+/// Most DOFs an accuracy target may refine to: with the factor within
+/// [`eigen::MAX_FACTOR_BYTES`], the Lanczos basis (2 × 320 vectors of 8 bytes per DOF, 1.5 GB
+/// here) keeps the build within about 4 GiB.
+pub const ACCURACY_DOFS: usize = 300_000;
 
 /// The resolution predicted to bring an estimated error `error` at `resolution` down to
 /// `target` (error ∝ h^order), with 10 % to spare.
@@ -902,7 +909,7 @@ pub fn analyse_within(
         assembly_seconds,
         factor_seconds: res.factor_seconds,
         seconds: t0.elapsed().as_secs_f64(),
-        ordering: eigen::last_profile().ordering,
+        ordering: res.profile.ordering,
     })
 }
 
@@ -952,29 +959,49 @@ fn solve_by_budget(
     let modes = analyse(&mesh, material, opts, progress)?;
     let mut prev = (density.resolution, modes.frequencies_hz());
     let mut solved = Solved { density, mesh, geom, modes, error: None, warnings: Vec::new() };
-    let Some((r1, r2)) = coarser(density.resolution) else { return Ok(solved) };
+    let no_estimate = |solved: &mut Solved, why: &str| {
+        if let Some(t) = opts.accuracy {
+            solved.warnings.push(format!(
+                "the accuracy {:.2} % could not be checked ({why}); built with the budget's mesh",
+                100.0 * t
+            ));
+        }
+    };
+    let Some((r1, r2)) = coarser(density.resolution) else {
+        no_estimate(&mut solved, "the mesh is too coarse for an error estimate");
+        return Ok(solved);
+    };
     let n = ERROR_MODES.min(prev.1.len()) + 4;
     let at = |r| solve_frequencies(shape, material, MeshDensity { resolution: r, ..density }, n);
-    let (Ok(f1), Ok(f2)) = (at(r1), at(r2)) else { return Ok(solved) };
+    let (f1, f2) = match (at(r1), at(r2)) {
+        (Ok(f1), Ok(f2)) => (f1, f2),
+        (Err(e), _) | (_, Err(e)) => {
+            no_estimate(&mut solved, &format!("a coarser solve for the error estimate failed: {e}"));
+            return Ok(solved);
+        }
+    };
     let mut error = three_grid_estimate(&[prev.clone(), (r1, f1), (r2, f2)], density.layers);
     let Some(target) = opts.accuracy else {
         solved.error = Some(error);
         return Ok(solved);
     };
-    // Refine to the resolution predicted to reach the target (error ∝ h^order, the order
-    // observed on the budget's three solves), as far as the memory allows; again if the new
-    // estimate (against the previous solve) is still over it.
+    // Refine towards the resolution predicted to reach the target (error ∝ h^order, the order
+    // observed on the budget's three solves), at most 1.5× per step, as far as the DOFs
+    // ([`ACCURACY_DOFS`]) and the factor allow; again if the new estimate (against the
+    // previous solve) is still over it. A refinement that fails keeps the previous solve.
     let fits = |r: usize| -> Result<bool, FemError> {
         let mesh = mesh_shape_layers(shape, r, density.layers)?;
-        Ok(eigen::factor_bytes_estimate(&mesh)? <= 0.9 * eigen::MAX_FACTOR_BYTES as f64)
+        Ok(3 * mesh.nodes.len() <= ACCURACY_DOFS
+            && eigen::factor_bytes_estimate(&mesh)? <= 0.9 * eigen::MAX_FACTOR_BYTES as f64)
     };
-    let mut want = prev.0;
+    let mut limited = None;
     for _ in 0..MAX_REFINEMENTS {
         if error.relative <= target {
             break;
         }
-        want = resolution_for(prev.0, &error, target);
-        let (mut lo, mut hi) = (prev.0, want);
+        let want = resolution_for(prev.0, &error, target);
+        let step = want.min((prev.0 as f64 * MAX_REFINE_STEP).ceil() as usize);
+        let (mut lo, mut hi) = (prev.0, step);
         if !fits(hi)? {
             while hi - lo > 1 {
                 let mid = (lo + hi) / 2;
@@ -985,23 +1012,35 @@ fn solve_by_budget(
                 }
             }
             hi = lo;
+            limited = Some(want);
         }
         if hi == prev.0 {
             break;
         }
         let fine = MeshDensity { resolution: hi, ..density };
-        let (mesh, geom) = mesh::mesh_with_layers(shape, fine.resolution, fine.layers)?;
-        let modes = analyse(&mesh, material, opts, progress)?;
+        let attempt = mesh::mesh_with_layers(shape, fine.resolution, fine.layers)
+            .and_then(|(mesh, geom)| Ok((analyse(&mesh, material, opts, progress)?, mesh, geom)));
+        let (modes, mesh, geom) = match attempt {
+            Ok(done) => done,
+            Err(e) => {
+                solved
+                    .warnings
+                    .push(format!("the refinement to resolution {hi} failed ({e}); kept resolution {}", prev.0));
+                break;
+            }
+        };
         let next = (hi, modes.frequencies_hz());
         error = grid_convergence(&next, &prev, error.order, fine.layers);
         prev = next;
-        solved = Solved { density: fine, mesh, geom, modes, error: None, warnings: Vec::new() };
+        solved = Solved { density: fine, mesh, geom, modes, error: None, warnings: solved.warnings };
     }
     if error.relative > target {
-        let limit = if want > prev.0 {
-            format!(" (the memory budget allows no finer mesh; about resolution {want} would be needed)")
-        } else {
-            String::new()
+        let limit = match limited {
+            Some(want) => format!(
+                " (the build's memory budget, {} DOFs and a 1.5 GiB factor, allows no finer mesh; about resolution {want} would be needed)",
+                ACCURACY_DOFS
+            ),
+            None => String::new(),
         };
         solved.warnings.push(format!(
             "the accuracy {:.2} % was not reached: resolution {}{limit} gives an estimated {:.2} %",

@@ -143,6 +143,9 @@ mod tests {
         println!("24^3 grid: factor entries nested dissection {nd}, AMD {amd}");
         assert!((nd as f64) < 0.85 * amd as f64, "nested dissection {nd} vs AMD {amd}");
         let (fwd, inv) = dof_permutation(&perm);
+        let mut sorted = fwd.clone();
+        sorted.sort_unstable();
+        assert!(sorted.iter().enumerate().all(|(i, &d)| i == d), "not a permutation of the DOFs");
         assert!(fwd.iter().enumerate().all(|(new, &old)| inv[old] == new));
         assert_eq!(fwd[..3], [3 * perm[0], 3 * perm[0] + 1, 3 * perm[0] + 2]);
     }

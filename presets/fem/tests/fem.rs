@@ -488,7 +488,10 @@ fn the_automatic_resolution_keeps_torsion_in_tune_and_cubes_solvable() {
     fem::analyse(&mesh, &steel, &BuildOptions { max_modes: 4, ..BuildOptions::default() }, &quiet).unwrap();
     let real = fem::eigen::last_profile().factor_nnz as f64 * 8.0;
     let estimate = fem::eigen::factor_bytes_estimate(&mesh).unwrap();
-    assert!((estimate / real - 1.0).abs() < 0.5, "factor estimate {estimate:.3e} B vs {real:.3e} B");
+    // The estimate orders the mesh's node graph, the solve the node graph it reads off the
+    // assembled DOF pattern: both by nested dissection, so they agree closely.
+    assert_eq!(fem::eigen::last_profile().ordering, "nested dissection (METIS)");
+    assert!((estimate / real - 1.0).abs() < 0.15, "factor estimate {estimate:.3e} B vs {real:.3e} B");
     println!("bar: factor estimate {estimate:.3e} B, real {real:.3e} B");
 
     let cube = Shape::Block { length: 0.05, width: 0.05, height: 0.05 };

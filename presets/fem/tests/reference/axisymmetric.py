@@ -326,7 +326,7 @@ def self_test():
         for n in harmonics:
             f = freqs[n][np.argmin(np.abs(freqs[n] - exact))]
             err = abs(f - exact) / exact
-            good = err < 1e-6
+            good = err < 1e-8
             ok &= good
             print(f"  {name}, harmonic {n}: {f:.6f} Hz vs exact {exact:.6f} Hz, {err:.1e} {'ok' if good else 'FAIL'}")
 
