@@ -19,6 +19,8 @@ Self-tests against closed forms (run with --self-test; `--check` runs them too):
   (l - 1) z_l(x) - x z_{l+1}(x) with z = j, y (spherical Bessel functions), found in every
   harmonic n <= l;
 - the breathing mode (l = 0) of the same shell, roots of (lam + 2 mu) k z_0(kr) - 4 mu z_1(kr)/r;
+- the lowest spheroidal mode of degree 2 (P and S potentials, a 4 x 4 traction determinant),
+  found in harmonics 0, 1 and 2: it couples the volume change (lam) into every harmonic;
 - six rigid-body modes: two in n = 0 (axial translation, rotation about the axis) and two in
   n = 1 (each a degenerate pair in 3-D).
 
@@ -311,6 +313,38 @@ def self_test():
 
         return shell_roots(det, 1, 400.0)[0] * cp / (2 * np.pi)
 
+    def spheroidal(l):
+        """Lowest spheroidal mode of degree l: u = U(r) P_l e_r + V(r) dP_l/dtheta e_theta from
+        a P potential z_l(k_p r) P_l (u = grad) and an S potential z_l(k_s r) P_l (u = curl curl
+        (r psi)), z = j, y; traction-free sigma_rr = sigma_rtheta = 0 at both radii."""
+        big_l = l * (l + 1)
+
+        def z_and_derivs(z, x):
+            f, d = z(l, x), z(l, x, derivative=True)
+            # The spherical Bessel equation: f'' = -(2/x) f' - (1 - l(l+1)/x^2) f.
+            return f, d, -2 / x * d - (1 - big_l / x**2) * f
+
+        def tractions(z, k, r, shear):
+            f, d, dd = z_and_derivs(z, k * r)
+            if not shear:
+                u, du = k * d, k * k * dd
+                v, dv = f / r, k * d / r - f / r**2
+                div = -k * k * f
+            else:
+                u, du = big_l * f / r, big_l * (k * d / r - f / r**2)
+                v, dv = f / r + k * d, k * d / r - f / r**2 + k * k * dd
+                div = 0.0
+            return lam * div + 2 * mu * du, mu * (u / r + dv - v / r)
+
+        def det(w):
+            cols = []
+            for z, k, shear in ((spherical_jn, w / cp, False), (spherical_yn, w / cp, False), (spherical_jn, w / cs, True), (spherical_yn, w / cs, True)):
+                cols.append([*tractions(z, k, a_in, shear), *tractions(z, k, b_out, shear)])
+            m = np.array(cols).T
+            return np.linalg.det(m / np.abs(m).max(axis=0))
+
+        return shell_roots(det, 1, 2 * np.pi * 40000.0)[0] / (2 * np.pi)
+
     sec = section(1)
     w2 = {n: harmonic(sec, material, n, 40) for n in range(4)}
     for n, rigid in ((0, 2), (1, 2), (2, 0), (3, 0)):
@@ -333,6 +367,7 @@ def self_test():
     check("torsional l=2", torsional(2), (0, 1, 2))
     check("torsional l=3", torsional(3), (0, 1, 2, 3))
     check("breathing l=0", breathing(), (0,))
+    check("spheroidal l=2", spheroidal(2), (0, 1, 2))
     return ok
 
 
