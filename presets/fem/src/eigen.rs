@@ -152,6 +152,15 @@ fn node_order(adjacency: &[Vec<u32>]) -> Option<Vec<usize>> {
     crate::ordering::nested_dissection(adjacency)
 }
 
+/// faer's ordering for a permutation with its inverse ([`crate::ordering::with_inverse`]);
+/// AMD without one.
+fn symmetric_ordering(perm: &Option<(Vec<usize>, Vec<usize>)>) -> SymmetricOrdering<'_, usize> {
+    match perm {
+        Some((fwd, inv)) => SymmetricOrdering::Custom(PermRef::new_checked(fwd, inv, fwd.len())),
+        None => SymmetricOrdering::Amd,
+    }
+}
+
 /// Parallelism for the numeric factorisation and the dense solver of [`dense`] (large,
 /// compute-bound kernels).
 fn par() -> Par {
@@ -309,18 +318,8 @@ pub fn factor_bytes_estimate(mesh: &crate::TetMesh) -> Result<f64, FemError> {
         col_ptr.push(row_idx.len());
     }
     let pattern = SymbolicSparseColMatRef::new_checked(nn, nn, &col_ptr, None, &row_idx);
-    let perm = node_order(&adj).map(|fwd| {
-        let mut inv = vec![0; fwd.len()];
-        for (new, &old) in fwd.iter().enumerate() {
-            inv[old] = new;
-        }
-        (fwd, inv)
-    });
-    let ordering = match &perm {
-        Some((fwd, inv)) => SymmetricOrdering::Custom(PermRef::new_checked(fwd, inv, nn)),
-        None => SymmetricOrdering::Amd,
-    };
-    let symbolic = factorize_symbolic_cholesky(pattern, Side::Lower, ordering, Default::default())
+    let perm = node_order(&adj).map(crate::ordering::with_inverse);
+    let symbolic = factorize_symbolic_cholesky(pattern, Side::Lower, symmetric_ordering(&perm), Default::default())
         .map_err(|e| FemError::Factorization(format!("symbolic analysis failed ({e:?}); out of memory?")))?;
     Ok(9.0 * symbolic.len_val() as f64 * 8.0)
 }
@@ -348,12 +347,8 @@ impl<'a> Factor<'a> {
             .collect();
         let perm = node_order(&nodes).map(|p| crate::ordering::dof_permutation(&p));
         drop(nodes);
-        let ordering = match &perm {
-            Some((fwd, inv)) => SymmetricOrdering::Custom(PermRef::new_checked(fwd, inv, n)),
-            None => SymmetricOrdering::Amd,
-        };
         prof.ordering = if perm.is_some() { "nested dissection (METIS)" } else { "AMD" };
-        let symbolic = factorize_symbolic_cholesky(pattern, Side::Lower, ordering, params)
+        let symbolic = factorize_symbolic_cholesky(pattern, Side::Lower, symmetric_ordering(&perm), params)
             .map_err(|e| FemError::Factorization(format!("symbolic analysis failed ({e:?}); out of memory?")))?;
         let len = symbolic.len_val();
         prof.symbolic_seconds += t.elapsed().as_secs_f64();

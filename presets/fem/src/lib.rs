@@ -384,8 +384,8 @@ pub struct BuildOptions {
     pub auto_resolution: bool,
     /// With `auto_resolution`: the largest relative frequency error wanted over the first
     /// [`ERROR_MODES`] modes (e.g. 0.002 for 0.2 %). A mesh whose estimated error is larger is
-    /// refined to the resolution predicted to reach it, as far as the 1.5 GiB factor allows
-    /// ([`eigen::MAX_FACTOR_BYTES`]), and solved again.
+    /// refined towards the resolution predicted to reach it, as far as [`ACCURACY_DOFS`] and
+    /// the factor limit ([`eigen::MAX_FACTOR_BYTES`]) allow, and solved again.
     pub accuracy: Option<f64>,
 }
 
@@ -565,17 +565,21 @@ pub fn discretisation_error(
 
 /// The mesh a build of `shape` gets by budget: [`AUTO_LAYERS`] layers through walls and
 /// plates, and the finest resolution, in steps of about 12 % from 4 up to
-/// [`MAX_AUTO_RESOLUTION`], whose mesh has at most [`AUTO_DOFS`] DOFs and whose sparse factor
-/// is estimated ([`eigen::factor_bytes_estimate`]) within 90 % of [`eigen::MAX_FACTOR_BYTES`].
-/// So a slender bar gets several elements across its section (its torsion in tune) and a
-/// chunky block a mesh it can solve (a 5 cm cube at 40 elements per side would need an
-/// 80 GiB factor).
+/// [`MAX_AUTO_RESOLUTION`], that [`fits_budget`] with [`AUTO_DOFS`]. So a slender bar gets
+/// several elements across its section (its torsion in tune) and a chunky block a mesh it can
+/// solve (a 5 cm cube at 40 elements per side would need an 80 GiB factor).
 ///
 /// # Errors
 /// As [`mesh_shape`]; [`FemError::Mesh`] if even resolution 4 is over the budget.
 pub fn choose_mesh(shape: &Shape) -> Result<MeshDensity, FemError> {
-    finest_within(shape, AUTO_LAYERS, AUTO_DOFS, 4, MAX_AUTO_RESOLUTION)?
-        .map(|resolution| MeshDensity { resolution, layers: AUTO_LAYERS })
+    let mut best = None;
+    let mut r = 4;
+    while r <= MAX_AUTO_RESOLUTION && fits_budget(shape, MeshDensity { resolution: r, layers: AUTO_LAYERS }, AUTO_DOFS)?
+    {
+        best = Some(r);
+        r = (r * 9).div_ceil(8);
+    }
+    best.map(|resolution| MeshDensity { resolution, layers: AUTO_LAYERS })
         .ok_or_else(|| FemError::Mesh(format!("{} does not fit the build budget even at resolution 4", shape.kind())))
 }
 
@@ -587,32 +591,15 @@ pub fn choose_resolution(shape: &Shape) -> Result<usize, FemError> {
     Ok(choose_mesh(shape)?.resolution)
 }
 
-/// The finest resolution from `from`, in steps of about 12 %, up to `to`, whose mesh with
-/// `layers` has at most `max_dofs` DOFs and a factor estimated within 90 % of
-/// [`eigen::MAX_FACTOR_BYTES`] (10 % margin: the estimate is within 7 % of the real factor on
-/// the bar); `None` if not even `from`.
-fn finest_within(
-    shape: &Shape,
-    layers: usize,
-    max_dofs: usize,
-    from: usize,
-    to: usize,
-) -> Result<Option<usize>, FemError> {
-    let fits = |r: usize| -> Result<bool, FemError> {
-        let mesh = mesh_shape_layers(shape, r, layers)?;
-        Ok(3 * mesh.nodes.len() <= max_dofs
-            && eigen::factor_bytes_estimate(&mesh)? <= 0.9 * eigen::MAX_FACTOR_BYTES as f64)
-    };
-    let mut best = None;
-    let mut r = from;
-    while r <= to {
-        if !fits(r)? {
-            break;
-        }
-        best = Some(r);
-        r = (r * 9).div_ceil(8);
-    }
-    Ok(best)
+/// Whether `shape` meshed at `density` has at most `max_dofs` DOFs and a sparse factor
+/// estimated ([`eigen::factor_bytes_estimate`]) within 90 % of [`eigen::MAX_FACTOR_BYTES`]
+/// (10 % margin: the estimate is within 7 % of the real factor on the bar).
+///
+/// # Errors
+/// As [`mesh_shape`] and [`eigen::factor_bytes_estimate`].
+fn fits_budget(shape: &Shape, density: MeshDensity, max_dofs: usize) -> Result<bool, FemError> {
+    let mesh = mesh_shape_layers(shape, density.resolution, density.layers)?;
+    Ok(3 * mesh.nodes.len() <= max_dofs && eigen::factor_bytes_estimate(&mesh)? <= 0.9 * eigen::MAX_FACTOR_BYTES as f64)
 }
 
 /// Most refinements an accuracy target may ask for after the budget's solve.
@@ -967,20 +954,13 @@ fn solve_by_budget(
             ));
         }
     };
-    let Some((r1, r2)) = coarser(density.resolution) else {
-        no_estimate(&mut solved, "the mesh is too coarse for an error estimate");
-        return Ok(solved);
-    };
-    let n = ERROR_MODES.min(prev.1.len()) + 4;
-    let at = |r| solve_frequencies(shape, material, MeshDensity { resolution: r, ..density }, n);
-    let (f1, f2) = match (at(r1), at(r2)) {
-        (Ok(f1), Ok(f2)) => (f1, f2),
-        (Err(e), _) | (_, Err(e)) => {
-            no_estimate(&mut solved, &format!("a coarser solve for the error estimate failed: {e}"));
+    let mut error = match discretisation_error(shape, material, density, &prev.1) {
+        Ok(e) => e,
+        Err(e) => {
+            no_estimate(&mut solved, &format!("no error estimate: {e}"));
             return Ok(solved);
         }
     };
-    let mut error = three_grid_estimate(&[prev.clone(), (r1, f1), (r2, f2)], density.layers);
     let Some(target) = opts.accuracy else {
         solved.error = Some(error);
         return Ok(solved);
@@ -989,11 +969,7 @@ fn solve_by_budget(
     // observed on the budget's three solves), at most 1.5× per step, as far as the DOFs
     // ([`ACCURACY_DOFS`]) and the factor allow; again if the new estimate (against the
     // previous solve) is still over it. A refinement that fails keeps the previous solve.
-    let fits = |r: usize| -> Result<bool, FemError> {
-        let mesh = mesh_shape_layers(shape, r, density.layers)?;
-        Ok(3 * mesh.nodes.len() <= ACCURACY_DOFS
-            && eigen::factor_bytes_estimate(&mesh)? <= 0.9 * eigen::MAX_FACTOR_BYTES as f64)
-    };
+    let fits = |r: usize| fits_budget(shape, MeshDensity { resolution: r, ..density }, ACCURACY_DOFS);
     let mut limited = None;
     for _ in 0..MAX_REFINEMENTS {
         if error.relative <= target {

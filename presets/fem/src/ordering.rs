@@ -62,19 +62,19 @@ pub fn nested_dissection(adjacency: &[Vec<u32>]) -> Option<Vec<usize>> {
     Some(perm)
 }
 
-/// The DOF permutation (`fwd[new] = old`, and its inverse) of a node order, three DOFs per
-/// node kept together.
-pub fn dof_permutation(node_perm: &[usize]) -> (Vec<usize>, Vec<usize>) {
-    let n = 3 * node_perm.len();
-    let mut fwd = Vec::with_capacity(n);
-    for &p in node_perm {
-        fwd.extend_from_slice(&[3 * p, 3 * p + 1, 3 * p + 2]);
-    }
-    let mut inv = vec![0; n];
+/// A permutation (`fwd[new] = old`) with its inverse (`inv[old] = new`), as faer takes it.
+pub fn with_inverse(fwd: Vec<usize>) -> (Vec<usize>, Vec<usize>) {
+    let mut inv = vec![0; fwd.len()];
     for (new, &old) in fwd.iter().enumerate() {
         inv[old] = new;
     }
     (fwd, inv)
+}
+
+/// The DOF permutation (`fwd[new] = old`, and its inverse) of a node order, three DOFs per
+/// node kept together.
+pub fn dof_permutation(node_perm: &[usize]) -> (Vec<usize>, Vec<usize>) {
+    with_inverse(node_perm.iter().flat_map(|&p| [3 * p, 3 * p + 1, 3 * p + 2]).collect())
 }
 
 #[cfg(test)]
@@ -134,11 +134,8 @@ mod tests {
     fn nested_dissection_fills_a_3d_grid_less_than_minimum_degree() {
         let adj = grid(24);
         let perm = nested_dissection(&adj).expect("METIS orders a grid");
-        let mut inv = vec![0; perm.len()];
-        for (new, &old) in perm.iter().enumerate() {
-            inv[old] = new;
-        }
-        let nd = factor_len(&adj, SymmetricOrdering::Custom(PermRef::new_checked(&perm, &inv, perm.len())));
+        let (fwd, inv) = with_inverse(perm.clone());
+        let nd = factor_len(&adj, SymmetricOrdering::Custom(PermRef::new_checked(&fwd, &inv, perm.len())));
         let amd = factor_len(&adj, SymmetricOrdering::Amd);
         println!("24^3 grid: factor entries nested dissection {nd}, AMD {amd}");
         assert!((nd as f64) < 0.85 * amd as f64, "nested dissection {nd} vs AMD {amd}");
