@@ -407,6 +407,10 @@ pub const EXTRACTION_REL_ERROR: f64 = 0.005;
 /// uncertainties keep the density finite), so the floor only keeps ln σ bounded.
 pub const SIGMA_FLOOR_HETERO: f64 = 1e-6;
 
+/// From this many points on, the heteroscedastic EMG runs its starts on threads of their own
+/// (below it a thread costs more than it saves).
+pub const PARALLEL_STARTS_MIN_POINTS: usize = 200;
+
 /// Weight ε of the uniform outlier component in the EMG likelihood: a point far below the
 /// curve (a decay extracted much too slow, issue 10) or far above it costs at most
 /// ln(ε / range of c) instead of dragging the curve (Sterling thesis §4.2.5's EMG, made robust
@@ -548,6 +552,27 @@ fn mix(a: f64, lb: f64) -> (f64, f64) {
     }
 }
 
+/// One point's robust EMG term from q = ln(1 − ε) + ln(η/2) + η²S²/2 + ηr (ℓ without its
+/// erfc) and s: (ln((1 − ε)e^ℓ + ε/R), the EMG component's responsibility w, and
+/// t = d ln erfc/ds). The same as [`ln_erfc_d`] followed by [`mix`], with one logarithm
+/// fewer: for s > 0, (1 − ε)e^ℓ = e^(q − s²)·erfcx(s) (no underflow until the point is
+/// hopeless, where w → 0 is the right limit); for s ≤ 0, e^q·erfc(s).
+#[inline]
+fn emg_mix(q: f64, s: f64, out_density: f64) -> (f64, f64, f64) {
+    const TWO_OVER_SQRT_PI: f64 = std::f64::consts::FRAC_2_SQRT_PI;
+    let (a, t) = if s > 0.0 {
+        let e = s.erfcx();
+        ((q - s * s).exp() * e, -TWO_OVER_SQRT_PI / e)
+    } else if s < -26.0 {
+        (2.0 * q.exp(), 0.0)
+    } else {
+        let e = RealErrorFunctions::erfc(s);
+        (q.exp() * e, -TWO_OVER_SQRT_PI * (-s * s).exp() / e)
+    };
+    let total = a + out_density;
+    (total.ln(), a / total, t)
+}
+
 /// ∂²c/∂aⱼ∂aₖ of the model (zero for the linear models).
 #[inline]
 fn model_hess(kind: ModelKind, a: &[f64], x: f64, lnx: f64, h: &mut [[f64; 3]; 3]) {
@@ -578,7 +603,9 @@ fn model_hess(kind: ModelKind, a: &[f64], x: f64, lnx: f64, h: &mut [[f64; 3]; 3
 /// with s_μ = 1/(√2σ), s_σ = −r/(√2σ²) + η/√2, s_η = σ/√2; the chain rule to (a, ln σ, ln η)
 /// gives ∇ℓᵢ, ∇²ℓᵢ; then ∇Lᵢ = wᵢ∇ℓᵢ and ∇²Lᵢ = wᵢ∇²ℓᵢ + wᵢ(1 − wᵢ)∇ℓᵢ∇ℓᵢᵀ with wᵢ the EMG
 /// component's responsibility.
+pub static EVALS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
 fn emg_nll_hess(kind: ModelKind, d: &Data, p: &[f64], g: &mut [f64], h: &mut [f64]) -> f64 {
+    EVALS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let k = kind.n_params();
     let np = k + 2;
     let (sigma0, eta) = (p[k].exp(), p[k + 1].exp());
@@ -591,7 +618,7 @@ fn emg_nll_hess(kind: ModelKind, d: &Data, p: &[f64], g: &mut [f64], h: &mut [f6
     h.iter_mut().for_each(|v| *v = 0.0);
     let mut ll = 0.0;
     let ln1e = (1.0 - OUTLIER_WEIGHT).ln();
-    let ln_out = d.outlier_density.ln();
+    let out_density = d.outlier_density;
     let ln_eta_half = eta.ln() - std::f64::consts::LN_2;
     for i in 0..d.x.len() {
         // Heteroscedastic: the point's spread is Sᵢ = √(σ² + mᵢ²) (mᵢ its own uncertainty),
@@ -606,8 +633,7 @@ fn emg_nll_hess(kind: ModelKind, d: &Data, p: &[f64], g: &mut [f64], h: &mut [f6
         let mu = model_eval(kind, &p[..k], d.x[i], d.lnx[i], &mut mg);
         let r = mu - d.c[i];
         let s = (r + eta * sigma * sigma) / sq2s;
-        let (le_s, t) = ln_erfc_d(s);
-        let (lm, w) = mix(ln1e + base + eta * r + le_s, ln_out);
+        let (lm, w, t) = emg_mix(ln1e + base + eta * r, s, out_density);
         ll += lm;
         let tp = -t * (2.0 * s + t);
         let s_sig = -r / (sq2s * sigma) + eta / sq2;
@@ -652,6 +678,9 @@ fn emg_nll_hess(kind: ModelKind, d: &Data, p: &[f64], g: &mut [f64], h: &mut [f6
     let n = d.x.len() as f64;
     g.iter_mut().for_each(|v| *v = -*v / n);
     h.iter_mut().for_each(|v| *v = -*v / n);
+    if std::env::var("EMGTRACE").is_ok() {
+        eprintln!("eval {:?} f {:.12} g {:?}", p, -ll / n, g);
+    }
     -ll / n
 }
 
@@ -1172,28 +1201,43 @@ fn fit_emg(model: ModelKind, d: &Data) -> Result<FitResult, EstimateError> {
     let (n, k) = (d.x.len(), model.n_params());
     let nf = n as f64;
     let (ls, cs) = (d.ls, d.cs);
-    let lsq = lsq_fit(model, d);
-    let mut its = lsq.iterations;
     let hetero = d.hetero();
     let floor = if hetero { SIGMA_FLOOR_HETERO } else { SIGMA_FLOOR };
     let bounds = NoiseBounds { ln_sigma_min: floor.ln(), ln_eta_max: ETA_MAX.ln() };
-    let starts = emg_starts(model, d, &lsq.params, bounds);
     let noise_bounds = |c: &mut Constraints, np: usize| {
         c.bound(np, np - 2, bounds.ln_sigma_min, false, format!("sigma >= floor ({floor} x median c)"));
         c.bound(np, np - 1, bounds.ln_eta_max, true, format!("eta <= {ETA_MAX} / median c"));
     };
+    let limits = NewtonLimits { max_iter: 100, gtol: 1e-10, max_step: 2.0 };
+    let lsq = lsq_fit(model, d);
+    let mut its = lsq.iterations;
+    let starts = emg_starts(model, d, &lsq.params, bounds);
+    let solve = |s: &[f64]| {
+        solve_constrained(model, d, s, &noise_bounds, limits, &mut |p, g, h| emg_nll_hess(model, d, p, g, h))
+    };
     let mut best: Option<ConstrainedFit> = None;
-    for s in &starts {
-        // The LB start usually lands on the optimum; the second start is for when it
-        // did not converge or stopped on a bound.
-        if best.as_ref().is_some_and(|b| b.opt.converged && b.active.is_empty()) {
-            break;
-        }
-        let limits = NewtonLimits { max_iter: 100, gtol: 1e-10, max_step: 2.0 };
-        let r = solve_constrained(model, d, s, &noise_bounds, limits, &mut |p, g, h| emg_nll_hess(model, d, p, g, h));
-        its += r.opt.iterations;
+    let keep = |best: &mut Option<ConstrainedFit>, r: ConstrainedFit, its: &mut usize| {
+        *its += r.opt.iterations;
         if r.opt.f.is_finite() && best.as_ref().is_none_or(|b| r.opt.f < b.opt.f) {
-            best = Some(r);
+            *best = Some(r);
+        }
+    };
+    if hetero && d.x.len() >= PARALLEL_STARTS_MIN_POINTS {
+        // With per-point uncertainties σ rests on its floor, so the first start never ends
+        // free of bounds and every start runs: run them side by side, one thread each.
+        let fits: Vec<ConstrainedFit> = std::thread::scope(|scope| {
+            let handles: Vec<_> = starts.iter().map(|s| scope.spawn(|| solve(s))).collect();
+            handles.into_iter().filter_map(|h| h.join().ok()).collect()
+        });
+        fits.into_iter().for_each(|r| keep(&mut best, r, &mut its));
+    } else {
+        for s in &starts {
+            // The LB start usually lands on the optimum; the second start is for when it
+            // did not converge or stopped on a bound.
+            if best.as_ref().is_some_and(|b| b.opt.converged && b.active.is_empty()) {
+                break;
+            }
+            keep(&mut best, solve(s), &mut its);
         }
     }
     let ConstrainedFit { opt: best, active } =
@@ -1255,21 +1299,16 @@ fn emg_starts(model: ModelKind, d: &Data, lsq: &[f64], bounds: NoiseBounds) -> V
     let resid = |a: &[f64], mg: &mut [f64; 4]| -> Vec<f64> {
         (0..n).map(|i| d.c[i] - model_eval(model, a, d.x[i], d.lnx[i], mg)).collect()
     };
-    // With per-point uncertainties the extra spread σ usually ends far under them
-    // (the likelihood is flat in ln σ there): start it at a tenth of the median
-    // uncertainty rather than walking down from the residuals' scale.
-    let m_med = if d.hetero() {
-        let mut m = d.m.clone();
-        m.sort_by(f64::total_cmp);
-        m[m.len() / 2]
-    } else {
-        f64::INFINITY
-    };
+    // With per-point uncertainties the extra spread σ usually ends at its floor: the points
+    // scatter no more than they were measured to, and the likelihood is flat in ln σ far
+    // under them. So σ starts on the floor, its bound in the Newton's working set; the
+    // bound's multiplier lets σ off it only where the data ask for more spread.
+    let hetero = d.hetero();
     if let Some(lb) = lb_fit(model, d) {
         let r = resid(&lb, &mut mg);
         let mean = (r.iter().sum::<f64>() / nf).max(1e-3);
         let mut s = lb.clone();
-        s.push((0.1 * mean).min(0.1 * m_med).ln().max(ls_lo));
+        s.push(if hetero { ls_lo } else { (0.1 * mean).ln().max(ls_lo) });
         s.push((1.0 / mean).ln().min(le_hi));
         starts.push(s);
     }
@@ -1288,7 +1327,7 @@ fn emg_starts(model: ModelKind, d: &Data, lsq: &[f64], bounds: NoiseBounds) -> V
     if !make_feasible(model, d, &mut s[..k]) {
         s[..k].copy_from_slice(lsq);
     }
-    s.push(sig.min(0.1 * m_med).ln().max(ls_lo));
+    s.push(if hetero { ls_lo } else { sig.ln().max(ls_lo) });
     s.push((1.0 / tau.max(1e-6)).ln().min(le_hi));
     starts.push(s);
     starts
