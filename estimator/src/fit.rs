@@ -481,8 +481,8 @@ pub fn ln_erfc(s: f64) -> f64 {
     }
 }
 
-/// (ln erfc(s), d ln erfc/ds) with one erfc or erfcx evaluation.
-#[inline]
+/// (ln erfc(s), d ln erfc/ds) with one erfc or erfcx evaluation (the check of [`emg_mix`]).
+#[cfg(test)]
 fn ln_erfc_d(s: f64) -> (f64, f64) {
     const TWO_OVER_SQRT_PI: f64 = std::f64::consts::FRAC_2_SQRT_PI;
     if s > 0.0 {
@@ -539,7 +539,7 @@ fn emg_nll(kind: ModelKind, d: &Data, p: &[f64], g: &mut [f64]) -> f64 {
 
 /// ln(e^a + e^lb) and the EMG component's responsibility w = e^a / (e^a + e^lb), stable for
 /// any a.
-#[inline]
+#[cfg(test)]
 fn mix(a: f64, lb: f64) -> (f64, f64) {
     if a > lb + 40.0 {
         (a, 1.0)
@@ -1448,6 +1448,21 @@ mod tests {
                 let fm = sse(kind, &d, &pp, &mut tmp);
                 let fd = (fp - fm) / 2e-6;
                 assert!((fd - g[j]).abs() <= 1e-6 * (1.0 + fd.abs()));
+            }
+        }
+    }
+
+    #[test]
+    fn emg_mix_equals_ln_erfc_then_the_mixture() {
+        let out: f64 = 0.013;
+        for &q in &[-800.0f64, -30.0, -2.0, 0.0, 1.5, 9.0] {
+            for &s in &[-40.0, -26.5, -5.0, -0.3, 0.0, 0.2, 3.0, 25.0, 300.0] {
+                let (le, t) = ln_erfc_d(s);
+                let (lm, w) = mix(q + le, out.ln());
+                let (lm2, w2, t2) = emg_mix(q, s, out);
+                assert!((lm - lm2).abs() <= 1e-12 * (1.0 + lm.abs()), "q {q} s {s}: {lm} vs {lm2}");
+                assert!((w - w2).abs() <= 1e-12, "q {q} s {s}: w {w} vs {w2}");
+                assert!((t - t2).abs() <= 1e-12 * (1.0 + t.abs()), "q {q} s {s}: t {t} vs {t2}");
             }
         }
     }
