@@ -1299,16 +1299,22 @@ fn emg_starts(model: ModelKind, d: &Data, lsq: &[f64], bounds: NoiseBounds) -> V
     let resid = |a: &[f64], mg: &mut [f64; 4]| -> Vec<f64> {
         (0..n).map(|i| d.c[i] - model_eval(model, a, d.x[i], d.lnx[i], mg)).collect()
     };
-    // With per-point uncertainties the extra spread σ usually ends at its floor: the points
-    // scatter no more than they were measured to, and the likelihood is flat in ln σ far
-    // under them. So σ starts on the floor, its bound in the Newton's working set; the
-    // bound's multiplier lets σ off it only where the data ask for more spread.
-    let hetero = d.hetero();
+    // With per-point uncertainties the extra spread σ usually ends far under them
+    // (the likelihood is flat in ln σ there): start it at a tenth of the median
+    // uncertainty rather than walking down from the residuals' scale. (Starting it on its
+    // floor is faster but lands in a worse optimum on 8 of 33 real instruments.)
+    let m_med = if d.hetero() {
+        let mut m = d.m.clone();
+        m.sort_by(f64::total_cmp);
+        m[m.len() / 2]
+    } else {
+        f64::INFINITY
+    };
     if let Some(lb) = lb_fit(model, d) {
         let r = resid(&lb, &mut mg);
         let mean = (r.iter().sum::<f64>() / nf).max(1e-3);
         let mut s = lb.clone();
-        s.push(if hetero { ls_lo } else { (0.1 * mean).ln().max(ls_lo) });
+        s.push((0.1 * mean).min(0.1 * m_med).ln().max(ls_lo));
         s.push((1.0 / mean).ln().min(le_hi));
         starts.push(s);
     }
@@ -1327,7 +1333,7 @@ fn emg_starts(model: ModelKind, d: &Data, lsq: &[f64], bounds: NoiseBounds) -> V
     if !make_feasible(model, d, &mut s[..k]) {
         s[..k].copy_from_slice(lsq);
     }
-    s.push(if hetero { ls_lo } else { sig.ln().max(ls_lo) });
+    s.push(sig.min(0.1 * m_med).ln().max(ls_lo));
     s.push((1.0 / tau.max(1e-6)).ln().min(le_hi));
     starts.push(s);
     starts

@@ -202,6 +202,18 @@ def main():
         med = ratios[len(ratios) // 2]
         print(f"median decay ratio struck/reference over found partials: {med:.3f}")
         summary["median_decay_ratio"] = med
+    # How far two independent references agree with each other (no Struck involved): the
+    # ESPRIT partial's decay against the plain short-time-spectrum slope, and Struck against
+    # that slope. The share of the first bounds what "decay within 20 %" can mean here.
+    stft = [p for p in allp if p["decay_stft"] == p["decay_stft"] and p["decay_stft"] > 0]
+    if stft:
+        ref_stft = sum(abs(p["decay_stft"] - p["decay_ref"]) <= 0.2 * p["decay_ref"] for p in stft) / len(allp)
+        struck_stft = sum(p["found"] and abs(p["decay_struck"] - p["decay_stft"]) <= 0.2 * p["decay_stft"]
+                          for p in stft) / len(allp)
+        print(f"references against each other: ESPRIT decay within 20 % of the STFT slope on {pct(ref_stft)} "
+              f"of the partials; struck within 20 % of the STFT slope on {pct(struck_stft)}")
+        summary["reference_vs_stft_decay_share"] = ref_stft
+        summary["struck_vs_stft_decay_share"] = struck_stft
     multi = [r["id"] for r in rows if r["impacts"] > 1]
     summary["clips_split_into_several_impacts"] = multi
     if multi:
