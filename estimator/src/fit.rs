@@ -603,9 +603,7 @@ fn model_hess(kind: ModelKind, a: &[f64], x: f64, lnx: f64, h: &mut [[f64; 3]; 3
 /// with s_μ = 1/(√2σ), s_σ = −r/(√2σ²) + η/√2, s_η = σ/√2; the chain rule to (a, ln σ, ln η)
 /// gives ∇ℓᵢ, ∇²ℓᵢ; then ∇Lᵢ = wᵢ∇ℓᵢ and ∇²Lᵢ = wᵢ∇²ℓᵢ + wᵢ(1 − wᵢ)∇ℓᵢ∇ℓᵢᵀ with wᵢ the EMG
 /// component's responsibility.
-pub static EVALS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
 fn emg_nll_hess(kind: ModelKind, d: &Data, p: &[f64], g: &mut [f64], h: &mut [f64]) -> f64 {
-    EVALS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let k = kind.n_params();
     let np = k + 2;
     let (sigma0, eta) = (p[k].exp(), p[k + 1].exp());
@@ -678,9 +676,6 @@ fn emg_nll_hess(kind: ModelKind, d: &Data, p: &[f64], g: &mut [f64], h: &mut [f6
     let n = d.x.len() as f64;
     g.iter_mut().for_each(|v| *v = -*v / n);
     h.iter_mut().for_each(|v| *v = -*v / n);
-    if std::env::var("EMGTRACE").is_ok() {
-        eprintln!("eval {:?} f {:.12} g {:?}", p, -ll / n, g);
-    }
     -ll / n
 }
 
@@ -1215,29 +1210,44 @@ fn fit_emg(model: ModelKind, d: &Data) -> Result<FitResult, EstimateError> {
     let solve = |s: &[f64]| {
         solve_constrained(model, d, s, &noise_bounds, limits, &mut |p, g, h| emg_nll_hess(model, d, p, g, h))
     };
-    let mut best: Option<ConstrainedFit> = None;
-    let keep = |best: &mut Option<ConstrainedFit>, r: ConstrainedFit, its: &mut usize| {
-        *its += r.opt.iterations;
-        if r.opt.f.is_finite() && best.as_ref().is_none_or(|b| r.opt.f < b.opt.f) {
-            *best = Some(r);
-        }
-    };
-    if hetero && d.x.len() >= PARALLEL_STARTS_MIN_POINTS {
+    // The starts' results in start order: the first that converges free of bounds ends the
+    // search (the LB start usually lands on the optimum; the second start is for when it did
+    // not converge or stopped on a bound); otherwise the lowest value wins, ties to the first.
+    let settled = |r: &ConstrainedFit| r.opt.converged && r.active.is_empty();
+    let fits: Vec<ConstrainedFit> = if hetero && d.x.len() >= PARALLEL_STARTS_MIN_POINTS {
         // With per-point uncertainties σ rests on its floor, so the first start never ends
-        // free of bounds and every start runs: run them side by side, one thread each.
-        let fits: Vec<ConstrainedFit> = std::thread::scope(|scope| {
-            let handles: Vec<_> = starts.iter().map(|s| scope.spawn(|| solve(s))).collect();
-            handles.into_iter().filter_map(|h| h.join().ok()).collect()
-        });
-        fits.into_iter().for_each(|r| keep(&mut best, r, &mut its));
+        // free of bounds and every start runs: run them side by side, one thread each (in
+        // turn if the system refuses a thread). A panic in a start is passed on.
+        std::thread::scope(|scope| {
+            let runs: Vec<_> = starts
+                .iter()
+                .map(|s| std::thread::Builder::new().spawn_scoped(scope, || solve(s)).map_err(|_| s))
+                .collect();
+            runs.into_iter()
+                .map(|run| match run {
+                    Ok(h) => h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)),
+                    Err(s) => solve(s),
+                })
+                .collect()
+        })
     } else {
+        let mut fits = Vec::new();
         for s in &starts {
-            // The LB start usually lands on the optimum; the second start is for when it
-            // did not converge or stopped on a bound.
-            if best.as_ref().is_some_and(|b| b.opt.converged && b.active.is_empty()) {
+            if fits.last().is_some_and(settled) {
                 break;
             }
-            keep(&mut best, solve(s), &mut its);
+            fits.push(solve(s));
+        }
+        fits
+    };
+    let mut best: Option<ConstrainedFit> = None;
+    for r in fits {
+        its += r.opt.iterations;
+        if best.as_ref().is_some_and(settled) {
+            continue;
+        }
+        if r.opt.f.is_finite() && best.as_ref().is_none_or(|b| r.opt.f < b.opt.f) {
+            best = Some(r);
         }
     }
     let ConstrainedFit { opt: best, active } =

@@ -150,9 +150,10 @@ pub fn bfgs<F: FnMut(&[f64], &mut [f64]) -> f64>(mut f: F, x0: &[f64], max_iter:
     OptResult { x, f: fx, iterations: it, converged, active: Vec::new() }
 }
 
-/// [`newton`] stops once a Newton step would lower the objective by less than this times
-/// (1 + |f|): a few hundred times double precision, where a mean over many points is no more
-/// exact than its round-off.
+/// [`newton`] stops once a Newton step would lower the objective by less than this times |f|
+/// (a few hundred times double precision: a mean over many points is no more exact than its
+/// round-off). Relative, so a least-squares fit whose residual tends to zero never stops on
+/// it and runs to its gradient tolerance.
 pub const NEWTON_DECREMENT_TOL: f64 = 1e-13;
 
 /// Linear inequality constraints `rows[i] · x ≥ rhs[i]` (row-major, `n` columns).
@@ -219,7 +220,9 @@ impl Constraints {
 /// optimum (EMG fits take ~10 iterations).
 ///
 /// The result's `converged` is true only when the KKT conditions hold (projected gradient
-/// ≤ `gtol`, multipliers ≥ 0) or progress stalled at machine precision; `active` lists the
+/// ≤ `gtol`, multipliers ≥ 0), the Newton decrement on the working set is under
+/// [`NEWTON_DECREMENT_TOL`] × |f| with no multiplier negative, or progress stalled at machine
+/// precision; `active` lists the
 /// constraints that hold with equality at the end.
 pub fn newton<F: FnMut(&[f64], &mut [f64], &mut [f64]) -> f64>(
     mut f: F,
@@ -274,9 +277,15 @@ pub fn newton<F: FnMut(&[f64], &mut [f64], &mut [f64]) -> f64>(
         // step's predicted decrease −½gᵀp is what is left to gain. Once that is under the
         // objective's own round-off, further steps only chase noise (Boyd & Vandenberghe
         // 2004 §9.5.1's stopping rule).
+        // A bound whose multiplier is negative is let go first: the point is then not a
+        // KKT point however small the step on the working set.
         if let (Some(p), false) = (&p, shifted) {
-            let dec = -p.iter().zip(&g).map(|(a, b)| a * b).sum::<f64>();
-            if (0.0..=NEWTON_DECREMENT_TOL * (1.0 + fx.abs())).contains(&dec) {
+            let dec = -0.5 * p.iter().zip(&g).map(|(a, b)| a * b).sum::<f64>();
+            if (0.0..=NEWTON_DECREMENT_TOL * fx.abs()).contains(&dec) {
+                if let Some((k, _)) = drop {
+                    work.remove(k);
+                    continue;
+                }
                 converged = true;
                 break;
             }
