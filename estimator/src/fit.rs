@@ -407,8 +407,8 @@ pub const EXTRACTION_REL_ERROR: f64 = 0.005;
 /// uncertainties keep the density finite), so the floor only keeps ln σ bounded.
 pub const SIGMA_FLOOR_HETERO: f64 = 1e-6;
 
-/// From this many points on, the heteroscedastic EMG runs its starts on threads of their own
-/// (below it a thread costs more than it saves).
+/// From this many points on, the heteroscedastic EMG runs its starts on threads of their own;
+/// smaller fits run them in turn.
 pub const PARALLEL_STARTS_MIN_POINTS: usize = 200;
 
 /// Weight ε of the uniform outlier component in the EMG likelihood: a point far below the

@@ -222,8 +222,7 @@ impl Constraints {
 /// The result's `converged` is true only when the KKT conditions hold (projected gradient
 /// ≤ `gtol`, multipliers ≥ 0), the Newton decrement on the working set is under
 /// [`NEWTON_DECREMENT_TOL`] × |f| with no multiplier negative, or progress stalled at machine
-/// precision; `active` lists the
-/// constraints that hold with equality at the end.
+/// precision; `active` lists the constraints that hold with equality at the end.
 pub fn newton<F: FnMut(&[f64], &mut [f64], &mut [f64]) -> f64>(
     mut f: F,
     x0: &[f64],

@@ -207,7 +207,7 @@ def main():
     # that slope. The share of the first bounds what "decay within 20 %" can mean here.
     stft = [p for p in allp if p["decay_stft"] == p["decay_stft"] and p["decay_stft"] > 0]
     if stft:
-        ref_stft = sum(abs(p["decay_stft"] - p["decay_ref"]) <= 0.2 * p["decay_ref"] for p in stft) / len(allp)
+        ref_stft = sum(p["stft_agrees"] for p in stft) / len(allp)
         struck_stft = sum(p["found"] and abs(p["decay_struck"] - p["decay_stft"]) <= 0.2 * p["decay_stft"]
                           for p in stft) / len(allp)
         print(f"references against each other: ESPRIT decay within 20 % of the STFT slope on {pct(ref_stft)} "
