@@ -6,6 +6,7 @@
 //! them. Events are applied at the exact sample the caller renders up to. So the output
 //! does not depend on how the host splits its buffers.
 
+use crate::contact::{self, ContactState, Excitation, FractalNoise, Surface, Texture, TextureKind, Tool};
 use crate::damping::Damping;
 use crate::exciter::{self, Mallet, MalletKind, Noise};
 use crate::resonator::{reduce_lanes, ModeCoeffs, ResonatorBank, VectorBatch, BATCH_VECTORS, LANES, MAX_KERNEL_BLOCK};
@@ -82,6 +83,8 @@ pub struct ObjectModes {
     support_q: Vec<f64>,
     /// Mode indices in ascending λ (so in ascending frequency at any λ scale).
     by_lambda: Vec<u16>,
+    /// Each mode's largest |gain| over the strike points (a lasting contact travels them all).
+    max_gain: Vec<f32>,
 }
 
 impl ObjectModes {
@@ -109,7 +112,8 @@ impl ObjectModes {
         let support_q = lambdas.iter().enumerate().map(|(i, &l)| support_quantile(i, l)).collect();
         let mut by_lambda: Vec<u16> = (0..m as u16).collect();
         by_lambda.sort_by(|&a, &b| lambdas[usize::from(a)].total_cmp(&lambdas[usize::from(b)]));
-        ObjectModes { lambdas, gains: flat, num_points: gains.len(), norm, support_q, by_lambda }
+        let max_gain = (0..m).map(|i| gains.iter().map(|row| row[i].abs()).fold(0.0f32, f32::max)).collect();
+        ObjectModes { lambdas, gains: flat, num_points: gains.len(), norm, support_q, by_lambda, max_gain }
     }
 
     /// Number of modes.
@@ -177,6 +181,90 @@ pub struct SoundParams {
     pub normalize: bool,
     /// Per-strike variation 0..=1 of position, force and contact time (0: bit-exact repeats).
     pub variation: f32,
+    /// How notes excite the object: a strike, or a lasting contact while held (issue 16).
+    pub contact: ContactParams,
+}
+
+/// The controls of a lasting contact (scrape, slide, roll; see [`crate::contact`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactParams {
+    /// The excitation of new notes (a sounding note keeps its own).
+    pub excitation: Excitation,
+    /// Sliding speed of notes without their own (per-note expression), m/s, 0..=1.
+    pub speed_mps: f64,
+    /// The surface texture.
+    pub texture: TextureKind,
+    /// Multiplies the texture's texel length and heights (coarser, same slopes), 0.1..=10.
+    pub texture_scale: f64,
+    /// Radius of the rolling ball, m.
+    pub ball_radius_m: f64,
+    /// The contact starts moving towards the path's end (true) or its start.
+    pub forward: bool,
+    /// At the path's ends the contact wraps round (true) or bounces back.
+    pub wrap: bool,
+}
+
+impl Default for ContactParams {
+    fn default() -> Self {
+        ContactParams {
+            excitation: Excitation::Strike,
+            speed_mps: 0.2,
+            texture: TextureKind::FineGrit,
+            texture_scale: 1.0,
+            ball_radius_m: 0.01,
+            forward: true,
+            wrap: false,
+        }
+    }
+}
+
+/// The textures and micro-noise tables every engine shares, built once per process (the
+/// noise tables take a few tens of ms and 2 MiB each).
+#[derive(Debug)]
+struct ContactTables {
+    textures: Vec<Texture>,
+    /// Micro noise for β = 1, 1.5 and 2.
+    noise: [FractalNoise; 3],
+}
+
+fn contact_tables() -> &'static ContactTables {
+    static TABLES: std::sync::OnceLock<ContactTables> = std::sync::OnceLock::new();
+    TABLES.get_or_init(|| ContactTables {
+        textures: TextureKind::ALL.iter().map(|k| k.texture()).collect(),
+        noise: [FractalNoise::new(1.0, 0x51C1), FractalNoise::new(1.5, 0x51C2), FractalNoise::new(2.0, 0x51C3)],
+    })
+}
+
+/// What a voice's contact runs over this chunk: the shared tables, the controls, the path's
+/// length and where the chunk starts in its control interval (for the gains' interpolation).
+#[derive(Clone, Copy)]
+struct ContactEnv {
+    tables: &'static ContactTables,
+    params: ContactParams,
+    path_m: f64,
+    fs: f64,
+    phase: usize,
+}
+
+impl ContactEnv {
+    fn surface(&self, excitation: Excitation) -> Surface<'static> {
+        let p = &self.params;
+        let texture = &self.tables.textures[TextureKind::ALL.iter().position(|k| *k == p.texture).unwrap_or(0)];
+        let noise = match excitation {
+            Excitation::Strike | Excitation::Scrape => &self.tables.noise[0],
+            Excitation::Slide => &self.tables.noise[1],
+            Excitation::Roll => &self.tables.noise[2],
+        };
+        Surface {
+            texture,
+            scale: p.texture_scale,
+            tool: Tool::of(excitation, p.ball_radius_m),
+            noise,
+            path_m: self.path_m,
+            wrap: p.wrap,
+            fs: self.fs,
+        }
+    }
 }
 
 impl Default for SoundParams {
@@ -196,6 +284,7 @@ impl Default for SoundParams {
             support_c: 0.0,
             normalize: true,
             variation: 0.0,
+            contact: ContactParams::default(),
         }
     }
 }
@@ -281,6 +370,21 @@ struct Voice {
     noise_left: usize,
     noise_env: f32,
     noise_decay: f32,
+    /// The excitation this note was started with.
+    excitation: Excitation,
+    /// A lasting contact is driving the modes (held, not released).
+    lasting: bool,
+    contact: ContactState,
+    /// Normal force 0..=1: the note's velocity until pressure arrives.
+    force: f32,
+    /// Sliding speed of this note (per-note expression), m/s; `None`: the controls'.
+    speed: Option<f64>,
+    /// Per slot, the contact's gain (times the level) at the last control tick and at the
+    /// next: the drive is interpolated linearly between them over the interval.
+    gain_from: Vec<f32>,
+    gain_to: Vec<f32>,
+    /// The level of a unit impulse for this note ([`StrikePlan::norm`]).
+    contact_norm: f32,
 }
 
 impl Voice {
@@ -310,6 +414,14 @@ impl Voice {
             noise_left: 0,
             noise_env: 0.0,
             noise_decay: 0.0,
+            excitation: Excitation::Strike,
+            lasting: false,
+            contact: ContactState::default(),
+            force: 0.0,
+            speed: None,
+            gain_from: vec![0.0; max_modes],
+            gain_to: vec![0.0; max_modes],
+            contact_norm: 0.0,
         }
     }
 
@@ -335,6 +447,8 @@ impl Voice {
         self.pending = None;
         self.noise_left = 0;
         self.energy = 0.0;
+        self.lasting = false;
+        self.speed = None;
     }
 
     /// Extra decay rate from release and pressure, s⁻¹.
@@ -343,14 +457,35 @@ impl Voice {
         rel + f64::from(self.pressure.clamp(0.0, 1.0)) * p.pressure_damping
     }
 
-    /// Whether the strike's force pulse or noise burst is still driving the modes.
+    /// Whether the strike's force pulse, noise burst or a lasting contact is driving the modes.
     fn forced(&self) -> bool {
-        self.contact_pos < self.contact_len || self.noise_left > 0
+        self.contact_pos < self.contact_len || self.noise_left > 0 || self.lasting
     }
 
-    /// Samples until the force pulse and the noise burst have both ended (0 when free).
+    /// Samples until the force pulse and the noise burst have both ended (0 when free; a
+    /// lasting contact lasts until its note is released).
     fn forced_left(&self) -> usize {
+        if self.lasting {
+            return usize::MAX;
+        }
         (self.contact_len - self.contact_pos.min(self.contact_len)).max(self.noise_left)
+    }
+
+    fn set_pressure(&mut self, pressure: f32) {
+        let p = if pressure.is_finite() { pressure.clamp(0.0, 1.0) } else { 0.0 };
+        if self.excitation.is_lasting() {
+            self.force = p;
+        } else {
+            self.pressure = p;
+            self.dirty = true;
+        }
+    }
+
+    /// Sets the forcing of every slot to the contact's interpolated gains (after the pulse).
+    fn apply_contact_gains(&mut self) {
+        for k in 0..self.bank.len() {
+            self.bank.set_pulse_forcing(k, (self.gain_from[k], 0.0), (self.gain_to[k], 0.0));
+        }
     }
 }
 
@@ -509,6 +644,7 @@ fn render_voices(
     buf: &mut [Vec<f32>; 3],
     batch: &mut VectorBatch,
     lanes: &mut [f32],
+    env: ContactEnv,
 ) {
     let n = lanes.len() / LANES;
     let mut i = 0;
@@ -518,7 +654,14 @@ fn render_voices(
         // so a voice's modes take the same lanes at a given sample whatever the blocks.
         let left = live.iter().map(|&v| &voices[v]).filter(|v| v.forced()).map(Voice::forced_left).min();
         let m = left.unwrap_or(n).min(n - i);
-        render_span(voices, live, buf, batch, &mut lanes[i * LANES..(i + m) * LANES]);
+        render_span(
+            voices,
+            live,
+            buf,
+            batch,
+            &mut lanes[i * LANES..(i + m) * LANES],
+            ContactEnv { phase: env.phase + i, ..env },
+        );
         i += m;
     }
 }
@@ -536,12 +679,13 @@ fn render_span(
     buf: &mut [Vec<f32>; 3],
     batch: &mut VectorBatch,
     lanes: &mut [f32],
+    env: ContactEnv,
 ) {
     debug_assert!(batch.is_empty());
     for &v in live {
         if voices[v].forced() {
             batch.run(lanes, |v, k, re, im| voices[v].bank.store_modes(k, re, im));
-            render_voice(&mut voices[v], buf, lanes);
+            render_voice(&mut voices[v], buf, lanes, &env);
             continue;
         }
         // Whole kernel groups run in place (after the modes already waiting); the rest wait
@@ -564,11 +708,18 @@ fn render_span(
 }
 
 /// Renders `voice` into the lane accumulator `lanes` ([`LANES`] floats per sample, at most one
-/// kernel block): the forced kernel while its force pulse or noise burst lasts, split exactly
-/// where the pulse ends to add its correction, then the free kernel. Realtime-safe.
-fn render_voice(voice: &mut Voice, buf: &mut [Vec<f32>; 3], lanes: &mut [f32]) {
+/// kernel block): the forced kernel while its force pulse, noise burst or lasting contact
+/// lasts, split exactly where the pulse ends to add its correction, then the free kernel.
+/// A lasting contact drives each mode with its signal s times the mode's gain at the contact,
+/// interpolated linearly over the control interval: P·s·(1 − t) + Q·s·t with P, Q the gains
+/// at the interval's ends (t from the engine's clock, so the same at a sample whatever the
+/// block size). Realtime-safe.
+fn render_voice(voice: &mut Voice, buf: &mut [Vec<f32>; 3], lanes: &mut [f32], env: &ContactEnv) {
     let n = lanes.len() / LANES;
     let mut i = 0;
+    let surface = env.surface(voice.excitation);
+    let speed = voice.speed.unwrap_or(env.params.speed_mps);
+    let force = f64::from(voice.force);
     while i < n {
         if !voice.forced() {
             voice.bank.process_lanes(&mut lanes[i * LANES..]);
@@ -576,16 +727,30 @@ fn render_voice(voice: &mut Voice, buf: &mut [Vec<f32>; 3], lanes: &mut [f32]) {
         }
         let in_contact = voice.contact_pos < voice.contact_len;
         // The forced kernel runs exactly to the end of the contact, then of the noise burst (so
-        // the switch to the free kernel falls on the same sample whatever the block size).
-        let end =
-            if in_contact { n.min(i + voice.contact_len - voice.contact_pos) } else { n.min(i + voice.noise_left) };
+        // the switch to the free kernel falls on the same sample whatever the block size); a
+        // lasting contact runs to the end of the chunk.
+        let end = if in_contact {
+            n.min(i + voice.contact_len - voice.contact_pos)
+        } else if voice.lasting {
+            n
+        } else {
+            n.min(i + voice.noise_left)
+        };
         let m = end - i;
         let [u0, u1, u2] = buf;
         for j in 0..m {
             let t = voice.contact_pos + j;
-            (u0[j], u1[j]) = if (PULSE_PREROLL..voice.contact_len).contains(&t) {
-                let (s, c) = (voice.contact_step * (t - PULSE_PREROLL) as f64).sin_cos();
-                (s as f32, c as f32)
+            (u0[j], u1[j]) = if in_contact {
+                if (PULSE_PREROLL..voice.contact_len).contains(&t) {
+                    let (s, c) = (voice.contact_step * (t - PULSE_PREROLL) as f64).sin_cos();
+                    (s as f32, c as f32)
+                } else {
+                    (0.0, 0.0)
+                }
+            } else if voice.lasting {
+                let s = voice.contact.next(&surface, speed, force);
+                let t = (env.phase + i + j) as f32 * (1.0 / CONTROL_INTERVAL as f32);
+                (s * (1.0 - t), s * t)
             } else {
                 (0.0, 0.0)
             };
@@ -606,6 +771,10 @@ fn render_voice(voice: &mut Voice, buf: &mut [Vec<f32>; 3], lanes: &mut [f32]) {
                 // sine added past T.
                 for k in 0..voice.bank.len() {
                     voice.bank.excite_complex(k, voice.corr_re[k], voice.corr_im[k]);
+                }
+                // A lasting contact takes over from the strike.
+                if voice.lasting {
+                    voice.apply_contact_gains();
                 }
             }
         }
@@ -635,6 +804,8 @@ type Recent = (f64, f64, f64, f64, Option<C64>);
 struct StrikePlan {
     contact_s: f64,
     level: f32,
+    /// The level without the velocity's share: a unit impulse's (a lasting contact's scale).
+    norm: f32,
     peak: f32,
 }
 
@@ -689,6 +860,8 @@ impl ModeSet<'_> {
                 mode_pole(lambda, self.damping, self.support * obj.support_q[m], self.extra, self.fs)
             else {
                 amps[m] = 0.0;
+                // ω = 0: the mode does not ring (a lasting contact checks this).
+                poles[m] = (0.0, 0.0);
                 continue;
             };
             poles[m] = (d, omega);
@@ -758,6 +931,7 @@ impl ModeSet<'_> {
         Some(StrikePlan {
             contact_s: contact,
             level: exciter::velocity_gain(velocity, p.velocity_sensitivity) * norm,
+            norm,
             peak,
         })
     }
@@ -800,6 +974,7 @@ pub struct Engine {
     terminated: [Terminated; MAX_TERMINATED],
     num_terminated: usize,
     rendered_in_call: u32,
+    tables: &'static ContactTables,
 }
 
 impl Engine {
@@ -838,6 +1013,7 @@ impl Engine {
             terminated: [Terminated { note: NoteId { voice_id: None, channel: 0, key: 0 }, offset: 0 }; MAX_TERMINATED],
             num_terminated: 0,
             rendered_in_call: 0,
+            tables: contact_tables(),
         }
     }
 
@@ -890,6 +1066,10 @@ impl Engine {
         p.pressure_damping = p.pressure_damping.clamp(0.0, 1e5);
         p.quality_db = p.quality_db.clamp(6.0, 200.0);
         p.support_c = if p.support_c.is_finite() { p.support_c.clamp(0.0, 1e5) } else { 0.0 };
+        let c = &mut p.contact;
+        c.speed_mps = if c.speed_mps.is_finite() { c.speed_mps.clamp(0.0, contact::MAX_SPEED_M_PER_S) } else { 0.0 };
+        c.texture_scale = if c.texture_scale.is_finite() { c.texture_scale.clamp(0.1, 10.0) } else { 1.0 };
+        c.ball_radius_m = if c.ball_radius_m.is_finite() { c.ball_radius_m.clamp(1e-3, 0.1) } else { 0.01 };
         if p != self.target {
             if p.damping != self.target.damping
                 || p.support_c != self.target.support_c
@@ -973,6 +1153,7 @@ impl Engine {
             voice.position_offset = 0.0;
             voice.start = self.clock;
             voice.energy = f32::MAX;
+            voice.speed = None;
             self.strikes = self.strikes.wrapping_add(1);
             voice.noise = Noise::new(self.strikes.wrapping_mul(0x2545_F491) ^ u32::from(note.key));
         }
@@ -981,13 +1162,27 @@ impl Engine {
         voice.dirty = true;
         voice.position = strike.position;
         voice.pending = Some(strike.velocity);
+        voice.excitation = self.target.contact.excitation;
+        voice.lasting = false;
+        voice.force = strike.velocity.clamp(0.0, 1.0);
     }
 
-    /// Releases a note: it rings on, damped by the release damping. Realtime-safe.
+    /// Releases a note: it rings on, damped by the release damping; a lasting contact ends
+    /// here. Realtime-safe.
     pub fn note_off(&mut self, note: NoteId) {
         for v in self.voices.iter_mut().filter(|v| v.matches(&note)) {
             v.released = true;
             v.dirty = true;
+            v.lasting = false;
+        }
+    }
+
+    /// Per-note sliding speed of a lasting contact, m/s (0..=1; per-note expression).
+    /// Realtime-safe.
+    pub fn set_note_speed(&mut self, note: NoteId, speed_mps: f64) {
+        let s = if speed_mps.is_finite() { speed_mps.clamp(0.0, contact::MAX_SPEED_M_PER_S) } else { 0.0 };
+        for v in self.voices.iter_mut().filter(|v| v.matches(&note)) {
+            v.speed = Some(s);
         }
     }
 
@@ -1003,19 +1198,18 @@ impl Engine {
         }
     }
 
-    /// Per-note pressure 0..=1 (adds damping, like a hand pressing the object). Realtime-safe.
+    /// Per-note pressure 0..=1: on a struck note it adds damping, like a hand pressing the
+    /// object; on a lasting contact it is the normal force. Realtime-safe.
     pub fn set_pressure(&mut self, note: NoteId, pressure: f32) {
         for v in self.voices.iter_mut().filter(|v| v.matches(&note)) {
-            v.pressure = pressure.clamp(0.0, 1.0);
-            v.dirty = true;
+            v.set_pressure(pressure);
         }
     }
 
     /// Channel-wide pressure (MPE): every note on `channel`. Realtime-safe.
     pub fn set_channel_pressure(&mut self, channel: u8, pressure: f32) {
         for v in self.voices.iter_mut().filter(|v| v.active && v.note.channel == channel) {
-            v.pressure = pressure.clamp(0.0, 1.0);
-            v.dirty = true;
+            v.set_pressure(pressure);
         }
     }
 
@@ -1092,9 +1286,20 @@ impl Engine {
         voice.bank.clear_forcing();
         let shape = PulseShape::new(contact, fs);
         let mut energy = 0.0f32;
+        // A lasting contact travels the whole path: it takes every ringing mode whose largest
+        // gain over the strike points passes the quality threshold.
+        let lasting = voice.excitation.is_lasting();
+        let max_gain = if lasting { obj.max_gain.iter().fold(0.0f32, |a, &g| a.max(g)) } else { 0.0 };
+        let gain_threshold = max_gain * 10f32.powf(-p.quality_db / 20.0);
         for m in 0..n {
             let a = self.amps[m];
-            if a.abs() < threshold || a == 0.0 {
+            let rings = self.poles[m].1 > 0.0;
+            let wanted = if lasting {
+                rings && obj.max_gain[m] > 0.0 && obj.max_gain[m] >= gain_threshold
+            } else {
+                a != 0.0 && a.abs() >= threshold
+            };
+            if !wanted {
                 continue;
             }
             let (d, omega) = self.poles[m];
@@ -1117,6 +1322,24 @@ impl Engine {
             voice.corr_re[k] = f(corr.0);
             voice.corr_im[k] = f(corr.1);
             energy += (a * level) * (a * level);
+            if lasting {
+                let g = self.gains[m] * plan.norm;
+                voice.gain_from[k] = g;
+                voice.gain_to[k] = g;
+            }
+        }
+        if lasting {
+            voice.contact_norm = plan.norm;
+            let env = ContactEnv {
+                tables: self.tables,
+                params: p.contact,
+                path_m: contact::PATH_LENGTH_M * self.glide.size,
+                fs,
+                phase: 0,
+            };
+            let seed = self.strikes.wrapping_mul(0x9E37_79B9) ^ u32::from(voice.note.key);
+            voice.contact = ContactState::start(position, p.contact.forward, seed, &env.surface(voice.excitation));
+            voice.lasting = true;
         }
         voice.contact_len = (contact * fs).ceil().max(1.0) as usize + PULSE_PREROLL;
         voice.contact_pos = 0;
@@ -1150,6 +1373,37 @@ impl Engine {
         }
         self.rebuilt_modes += voice.bank.len() as u64;
         voice.dirty = false;
+    }
+
+    /// A lasting contact at a control tick: the gains at the contact's position one interval
+    /// on become the interval's end; its start is the last interval's end (so the drive's
+    /// gains move continuously, with no steps).
+    fn contact_tick(&mut self, v: usize) {
+        let env = self.contact_env(0);
+        let speed = self.voices[v].speed.unwrap_or(self.params.contact.speed_mps);
+        let voice = &mut self.voices[v];
+        let surface = env.surface(voice.excitation);
+        let ahead = voice.contact.position_after(speed * CONTROL_INTERVAL as f64 / self.sample_rate, &surface);
+        let obj = &self.objects[voice.object];
+        obj.gains_at(ahead, &mut self.gains);
+        let norm = voice.contact_norm;
+        for k in 0..voice.bank.len() {
+            voice.gain_from[k] = voice.gain_to[k];
+            voice.gain_to[k] = self.gains[usize::from(voice.mode_of_slot[k])] * norm;
+        }
+        if voice.contact_pos >= voice.contact_len {
+            voice.apply_contact_gains();
+        }
+    }
+
+    fn contact_env(&self, phase: usize) -> ContactEnv {
+        ContactEnv {
+            tables: self.tables,
+            params: self.params.contact,
+            path_m: contact::PATH_LENGTH_M * self.glide.size,
+            fs: self.sample_rate,
+            phase,
+        }
     }
 
     /// Control work at a tick of the clock.
@@ -1197,6 +1451,9 @@ impl Engine {
             if global || self.voices[v].dirty {
                 self.rebuild(v);
             }
+            if self.voices[v].lasting {
+                self.contact_tick(v);
+            }
             let voice = &mut self.voices[v];
             voice.energy = voice.bank.energy();
             if voice.pending.is_none() && !voice.forced() && voice.energy < SILENCE_ENERGY {
@@ -1236,12 +1493,20 @@ impl Engine {
             if self.live_len > 0 {
                 let lanes = &mut self.lanes[..n * LANES];
                 lanes.fill(0.0);
+                let env = ContactEnv {
+                    tables: self.tables,
+                    params: self.params.contact,
+                    path_m: contact::PATH_LENGTH_M * self.glide.size,
+                    fs: self.sample_rate,
+                    phase,
+                };
                 render_voices(
                     &mut self.voices,
                     &self.live[..self.live_len],
                     &mut self.drive_buf,
                     &mut self.batch,
                     lanes,
+                    env,
                 );
                 reduce_lanes(lanes, chunk);
             }

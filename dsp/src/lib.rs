@@ -8,6 +8,7 @@
 //! allocate, everything documented "Realtime-safe" does not.
 #![warn(missing_docs)]
 
+pub mod contact;
 pub mod damping;
 pub mod engine;
 pub mod exciter;

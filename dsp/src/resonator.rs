@@ -175,6 +175,16 @@ impl ResonatorBank {
         self.fb[k] = b;
     }
 
+    /// Sets the complex weights `p` and `q` of slot `k`'s two pulse signals, keeping its noise
+    /// weight (a lasting contact uses them for its interpolated gains).
+    #[inline]
+    pub fn set_pulse_forcing(&mut self, k: usize, p: (f32, f32), q: (f32, f32)) {
+        self.fpr[k] = p.0;
+        self.fpi[k] = p.1;
+        self.fqr[k] = q.0;
+        self.fqi[k] = q.1;
+    }
+
     /// Adds the complex value `re + i·im` to slot `k`'s state (an exact correction of the
     /// state at a sample boundary).
     #[inline]

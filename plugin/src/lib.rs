@@ -11,7 +11,7 @@ pub mod offline;
 pub mod params;
 pub mod shared;
 
-use dsp::engine::{Engine, NoteId, SoundParams, Strike};
+use dsp::engine::{ContactParams, Engine, NoteId, SoundParams, Strike};
 use dsp::ftz::DenormalGuard;
 use library::Library;
 use nice_plug::midi::{Channel, Key, VoiceID};
@@ -40,6 +40,8 @@ pub struct Struck {
     /// The last MIDI CC 74 (MPE timbre) of each channel, 0..=1: the strike position of that
     /// channel's next notes (MPE sends a note's initial timbre just before its note-on).
     channel_timbre: [Option<f32>; 16],
+    /// The mod wheel's last value (0..=1 of the fastest contact speed), once one arrived.
+    mod_wheel: Option<f32>,
 }
 
 impl Default for Struck {
@@ -60,6 +62,7 @@ impl Struck {
             editor_shared: Arc::new(shared::EditorShared::default()),
             clip_player: shared::ClipPlayer::default(),
             channel_timbre: [None; 16],
+            mod_wheel: None,
         }
     }
 }
@@ -131,6 +134,17 @@ impl Struck {
             pressure_damping: f64::from(p.pressure_damping_per_s.value()),
             quality_db: p.quality_db.value(),
             support_c,
+            contact: ContactParams {
+                excitation: p.excitation.value().excitation(),
+                speed_mps: f64::from(
+                    self.mod_wheel.unwrap_or_else(|| p.contact_speed.value() / dsp::contact::MAX_SPEED_M_PER_S as f32),
+                ) * dsp::contact::MAX_SPEED_M_PER_S,
+                texture: p.texture.value().kind(),
+                texture_scale: f64::from(p.texture_scale.value()),
+                ball_radius_m: 1e-3 * f64::from(p.ball_radius_mm.value()),
+                forward: p.contact_direction.value() == params::ContactDirection::Forward,
+                wrap: p.path_ends.value() == params::PathEnds::Wrap,
+            },
         }
     }
 
@@ -214,6 +228,8 @@ impl Struck {
             }
             _ => None,
         };
+        let lasting = self.params.excitation.value() != params::ExcitationParam::Strike;
+        let speed_of = |x: f32| f64::from(x.clamp(0.0, 1.0)) * dsp::contact::MAX_SPEED_M_PER_S;
         let Some(engine) = self.engine.as_mut() else { return };
         // nice-plug's identifiers may be wildcards; the engine's NoteId::ANY matches all.
         let note = |voice_id: VoiceID, channel: Channel, key: Key| NoteId {
@@ -232,9 +248,20 @@ impl Struck {
             NoteEvent::PolyPressure { voice_id, channel, key, pressure, .. } => {
                 engine.set_pressure(note(voice_id, channel, key), pressure)
             }
-            // CLAP brightness expression / MPE timbre → strike position of the note.
+            // CLAP brightness expression / MPE timbre → the note's contact speed in a lasting
+            // excitation, else its strike position.
             NoteEvent::PolyBrightness { voice_id, channel, key, brightness, .. } => {
-                engine.set_note_position(note(voice_id, channel, key), brightness)
+                if lasting {
+                    engine.set_note_speed(note(voice_id, channel, key), speed_of(brightness))
+                } else {
+                    engine.set_note_position(note(voice_id, channel, key), brightness)
+                }
+            }
+            // The mod wheel sets the contact speed of every note without its own (0..1 of the
+            // fastest), in place of *Contact speed*, from now on.
+            NoteEvent::MidiCC { cc: 1, value, .. } => self.mod_wheel = Some(value.clamp(0.0, 1.0)),
+            NoteEvent::MidiCC { channel, cc: 74, value, .. } if lasting => {
+                engine.set_note_speed(NoteId { voice_id: None, channel, key: NoteId::ANY }, speed_of(value))
             }
             NoteEvent::MidiChannelPressure { channel, pressure, .. } => engine.set_channel_pressure(channel, pressure),
             // MPE timbre (CC 74) on a member channel → strike position of that channel's sounding

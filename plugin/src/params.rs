@@ -114,6 +114,94 @@ pub enum PitchReference {
     Chosen,
 }
 
+/// How a note excites the object (issue 16).
+#[derive(Enum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ExcitationParam {
+    /// A strike with the mallet, then the object rings.
+    #[id = "strike"]
+    Strike,
+    /// A point (stick, spoon edge) dragged across the surface while the key is held.
+    #[id = "scrape"]
+    Scrape,
+    /// A flat sliding on the surface's high points while the key is held.
+    #[id = "slide"]
+    Slide,
+    /// A ball rolling on the surface while the key is held.
+    #[id = "roll"]
+    Roll,
+}
+
+impl ExcitationParam {
+    /// The engine's excitation.
+    pub fn excitation(self) -> dsp::contact::Excitation {
+        use dsp::contact::Excitation as E;
+        match self {
+            ExcitationParam::Strike => E::Strike,
+            ExcitationParam::Scrape => E::Scrape,
+            ExcitationParam::Slide => E::Slide,
+            ExcitationParam::Roll => E::Roll,
+        }
+    }
+}
+
+/// The surface texture a lasting contact runs over.
+#[derive(Enum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TextureParam {
+    /// No texture: the fine (fractal) noise alone.
+    #[id = "smooth"]
+    Smooth,
+    /// Fine grit.
+    #[id = "finegrit"]
+    #[name = "Fine grit"]
+    FineGrit,
+    /// Coarse grit.
+    #[id = "coarsegrit"]
+    #[name = "Coarse grit"]
+    CoarseGrit,
+    /// Evenly spaced grooves (2 mm apart at scale 1), as on a guiro or a ribbed bottle.
+    #[id = "grooves"]
+    Grooves,
+    /// Random bumps.
+    #[id = "bumps"]
+    Bumps,
+}
+
+impl TextureParam {
+    /// The engine's texture.
+    pub fn kind(self) -> dsp::contact::TextureKind {
+        use dsp::contact::TextureKind as T;
+        match self {
+            TextureParam::Smooth => T::Smooth,
+            TextureParam::FineGrit => T::FineGrit,
+            TextureParam::CoarseGrit => T::CoarseGrit,
+            TextureParam::Grooves => T::Grooves,
+            TextureParam::Bumps => T::Bumps,
+        }
+    }
+}
+
+/// Where a lasting contact first moves along the strike path.
+#[derive(Enum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ContactDirection {
+    /// Towards the path's end (position 1).
+    #[id = "forward"]
+    Forward,
+    /// Towards the path's start (position 0).
+    #[id = "backward"]
+    Backward,
+}
+
+/// What a lasting contact does at the strike path's ends.
+#[derive(Enum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PathEnds {
+    /// Turns back.
+    #[id = "bounce"]
+    Bounce,
+    /// Goes round (a rim, a ring): from one end on at the other.
+    #[id = "wrap"]
+    Wrap,
+}
+
 /// Most modes *Pitch mode* can choose from.
 pub const MAX_PITCH_MODE: i32 = 256;
 
@@ -226,6 +314,28 @@ pub struct StruckParams {
     /// Output gain.
     #[id = "gain"]
     pub gain_db: FloatParam,
+    /// How notes excite the object: a strike, or a lasting contact while the key is held.
+    #[id = "excite"]
+    pub excitation: EnumParam<ExcitationParam>,
+    /// Sliding speed of a lasting contact, m/s (the mod wheel, MPE slide or per-note
+    /// brightness set it too).
+    #[id = "speed"]
+    pub contact_speed: FloatParam,
+    /// The surface texture of a lasting contact.
+    #[id = "texture"]
+    pub texture: EnumParam<TextureParam>,
+    /// Multiplies the texture's spacing and depth (coarser, same slopes).
+    #[id = "texscale"]
+    pub texture_scale: FloatParam,
+    /// Radius of the rolling ball, mm.
+    #[id = "ball"]
+    pub ball_radius_mm: FloatParam,
+    /// Where a lasting contact first moves.
+    #[id = "contactdir"]
+    pub contact_direction: EnumParam<ContactDirection>,
+    /// What a lasting contact does at the path's ends.
+    #[id = "contactends"]
+    pub path_ends: EnumParam<PathEnds>,
     /// Editor window size in logical points `[width, height]`, so it reopens at that size.
     #[persist = "editor-size"]
     pub editor_size: Mutex<[u32; 2]>,
@@ -508,6 +618,37 @@ impl StruckParams {
                 .with_unit(" dB")
                 .with_value_to_string(formatters::v2s_f32_rounded(1))
                 .with_string_to_value(s2v_number()),
+            excitation: EnumParam::new("Excitation", ExcitationParam::Strike),
+            contact_speed: FloatParam::new(
+                "Contact speed",
+                0.2,
+                FloatRange::Skewed {
+                    min: 0.0,
+                    max: dsp::contact::MAX_SPEED_M_PER_S as f32,
+                    factor: FloatRange::skew_factor(-1.5),
+                },
+            )
+            .with_unit(" m/s")
+            .with_value_to_string(v2s_significant(3))
+            .with_string_to_value(s2v_number()),
+            texture: EnumParam::new("Texture", TextureParam::FineGrit),
+            texture_scale: FloatParam::new(
+                "Texture scale",
+                1.0,
+                FloatRange::Skewed { min: 0.1, max: 10.0, factor: FloatRange::skew_factor(-2.0) },
+            )
+            .with_value_to_string(v2s_significant(3))
+            .with_string_to_value(s2v_number()),
+            ball_radius_mm: FloatParam::new(
+                "Ball radius",
+                10.0,
+                FloatRange::Skewed { min: 1.0, max: 100.0, factor: FloatRange::skew_factor(-2.0) },
+            )
+            .with_unit(" mm")
+            .with_value_to_string(v2s_significant(3))
+            .with_string_to_value(s2v_number()),
+            contact_direction: EnumParam::new("Contact direction", ContactDirection::Forward),
+            path_ends: EnumParam::new("Path ends", PathEnds::Bounce),
             editor_size: Mutex::new(DEFAULT_EDITOR_SIZE),
             capture: Mutex::new(None),
         }

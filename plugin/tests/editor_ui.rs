@@ -212,6 +212,7 @@ fn render_taps(name: &str) -> PathBuf {
         block_size: 512,
         out: wav.clone(),
         normalize: None,
+        gesture: Default::default(),
     };
     struck_cli::cli::render(&opts).expect("render the taps");
     wav
@@ -361,6 +362,7 @@ fn ab_plays_the_recording_and_resyntheses_and_a_known_object_gives_gamma() {
         block_size: 512,
         out: wav.clone(),
         normalize: None,
+        gesture: Default::default(),
     };
     struck_cli::cli::render(&opts).expect("render the taps");
     let mut h = harness_sized(&plugin, 1100.0);

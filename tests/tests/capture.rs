@@ -28,6 +28,7 @@ fn estimator_recovers_the_material_the_plugin_played() {
         block_size: 512,
         out: wav.clone(),
         normalize: None,
+        gesture: Default::default(),
     };
     render(&opts).unwrap();
     let out = tmp("material.json");

@@ -46,6 +46,7 @@ fn a_midi_file_note_starts_at_its_time_in_the_wav() {
         block_size: 300,
         out: wav.clone(),
         normalize: None,
+        gesture: Default::default(),
     };
     render(&opts).unwrap();
     let mut r = hound::WavReader::open(&wav).unwrap();
@@ -71,6 +72,7 @@ fn unwritable_output_and_bad_midi_are_one_line_errors() {
         block_size: 64,
         out: "/nonexistent-dir/x.wav".into(),
         normalize: None,
+        gesture: Default::default(),
     };
     let e = render(&opts).unwrap_err();
     assert!(e.starts_with("cannot write /nonexistent-dir/x.wav") && !e.contains('\n'), "{e}");
@@ -108,6 +110,7 @@ fn a_bank_file_given_as_the_object_plays_like_the_listed_bank() {
             block_size: 256,
             out: wav.clone(),
             normalize: None,
+            gesture: Default::default(),
         };
         render(&opts).map(|_| {
             let x: Vec<f32> = hound::WavReader::open(&wav).unwrap().samples::<f32>().map(Result::unwrap).collect();
@@ -197,6 +200,7 @@ fn bank_build_from_an_obj_surface_then_render_it() {
         block_size: 128,
         out: wav.clone(),
         normalize: None,
+        gesture: Default::default(),
     };
     render(&opts).unwrap();
     let x: Vec<f32> = hound::WavReader::open(&wav).unwrap().samples::<f32>().map(Result::unwrap).collect();

@@ -92,7 +92,82 @@ pub struct RenderOptions {
     /// `--normalize`: scale the render so its peak is this many dBFS (the output safety is
     /// then off unless set).
     pub normalize: Option<f64>,
+    /// A lasting contact's gesture: excitation, texture, speed and force over time.
+    pub gesture: Gesture,
 }
+
+/// `render`'s gesture options (issue 16): how held notes touch the object.
+#[derive(Clone, Debug, Default)]
+pub struct Gesture {
+    /// `--excitation strike|scrape|slide|roll`.
+    pub excitation: Option<String>,
+    /// `--texture smooth|finegrit|coarsegrit|grooves|bumps`.
+    pub texture: Option<String>,
+    /// `--speed-curve "t:m/s,…"`: the contact speed over time (the mod wheel's way).
+    pub speed_curve: Option<String>,
+    /// `--force-curve "t:0..1,…"`: the normal force over time (every note's pressure).
+    pub force_curve: Option<String>,
+}
+
+/// Interval between the events that play a gesture's curves, samples.
+pub const CURVE_STEP: u64 = 64;
+
+/// Parses a curve "t:value,t:value,…" (seconds ascending from 0, values in `lo..=hi`).
+///
+/// # Errors
+/// Empty, malformed, times not ascending or negative, values out of range.
+pub fn parse_curve(name: &str, text: &str, lo: f64, hi: f64) -> Result<Vec<(f64, f64)>, String> {
+    let mut points: Vec<(f64, f64)> = Vec::new();
+    for item in text.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+        let bad = || format!("--{name} '{item}': expected seconds:value, e.g. \"0:0.1,1:0.5\"");
+        let (t, v) = item.split_once(':').ok_or_else(bad)?;
+        let t: f64 = t.trim().parse().map_err(|_| bad())?;
+        let v: f64 = v.trim().parse().map_err(|_| bad())?;
+        if !(t.is_finite() && t >= 0.0) {
+            return Err(format!("--{name} '{item}': time {t} s is not a time from 0 on"));
+        }
+        if let Some(&(last, _)) = points.last() {
+            if t < last {
+                return Err(format!("--{name} '{item}': times must ascend ({t} s after {last} s)"));
+            }
+        }
+        if !(v.is_finite() && v >= lo && v <= hi) {
+            return Err(format!("--{name} '{item}': {v} is outside {lo}..={hi}"));
+        }
+        points.push((t, v));
+    }
+    if points.is_empty() {
+        return Err(format!("--{name} holds no points"));
+    }
+    Ok(points)
+}
+
+/// The value of a curve at `t` s: linear between its points, held before the first and
+/// after the last.
+pub fn curve_at(points: &[(f64, f64)], t: f64) -> f64 {
+    match points.iter().position(|&(pt, _)| pt > t) {
+        None => points.last().map_or(0.0, |p| p.1),
+        Some(0) => points[0].1,
+        Some(i) => {
+            let ((t0, v0), (t1, v1)) = (points[i - 1], points[i]);
+            v0 + (v1 - v0) * (t - t0) / (t1 - t0)
+        }
+    }
+}
+
+/// The index of `name` among `names` (ids, case-insensitive) for `--option`.
+fn choice(option: &str, names: &[&str], name: &str) -> Result<usize, String> {
+    let q = name.trim().to_lowercase().replace([' ', '-', '_'], "");
+    names
+        .iter()
+        .position(|n| *n == q)
+        .ok_or_else(|| format!("--{option} '{name}': expected one of {}", names.join(", ")))
+}
+
+/// Excitation ids in the order of the plugin's *Excitation* parameter.
+pub const EXCITATIONS: [&str; 4] = ["strike", "scrape", "slide", "roll"];
+/// Texture ids in the order of the plugin's *Texture* parameter.
+pub const TEXTURES: [&str; 5] = ["smooth", "finegrit", "coarsegrit", "grooves", "bumps"];
 
 fn find(names: &[(&str, &str)], what: &str, query: &str) -> Result<usize, String> {
     if let Ok(i) = query.parse::<usize>() {
@@ -560,6 +635,57 @@ pub fn render_with_stats(opts: &RenderOptions) -> Result<(String, RenderStats), 
     if opts.normalize.is_some() && !sound.set.iter().any(|kv| kv.trim_start().starts_with("safety")) {
         sound.set.push("safety=0".into());
     }
+    let g = &opts.gesture;
+    if let Some(e) = &g.excitation {
+        sound.set.push(format!("excite={}", choice("excitation", &EXCITATIONS, e)?));
+    }
+    if let Some(t) = &g.texture {
+        sound.set.push(format!("texture={}", choice("texture", &TEXTURES, t)?));
+    }
+    let probe = configured_host(&sound, opts.block_size)?;
+    if probe.param("excite").map_err(|e| e.to_string())? >= 1.0 {
+        // In a lasting excitation the brightness expression sets a note's speed: a note's
+        // own position goes as the position's polyphonic modulation instead.
+        let base = probe.param("pos").map_err(|e| e.to_string())?;
+        for e in &mut events {
+            if let NoteEvent::PolyBrightness { voice_id: VoiceID::ID(id), brightness, .. } = e.event {
+                e.event = NoteEvent::PolyModulation {
+                    timing: 0,
+                    voice_id: id,
+                    poly_modulation_id: struck::params::POSITION_POLY_MOD_ID,
+                    normalized_offset: brightness - base,
+                };
+            }
+        }
+    }
+    drop(probe);
+    let mut curves = Vec::new();
+    if let Some(text) = &g.speed_curve {
+        let max = dsp::contact::MAX_SPEED_M_PER_S;
+        let c = parse_curve("speed-curve", text, 0.0, max)?;
+        curves.push((c, true, max));
+    }
+    if let Some(text) = &g.force_curve {
+        curves.push((parse_curve("force-curve", text, 0.0, 1.0)?, false, 1.0));
+    }
+    for (points, speed, max) in &curves {
+        for sample in (0..total as u64).step_by(CURVE_STEP as usize) {
+            let v = (curve_at(points, sample as f64 / sr) / max) as f32;
+            let event = if *speed {
+                NoteEvent::MidiCC { timing: 0, channel: 0, cc: 1, value: v }
+            } else {
+                NoteEvent::PolyPressure {
+                    timing: 0,
+                    voice_id: VoiceID::Wildcard,
+                    channel: Channel::Wildcard,
+                    key: Key::Wildcard,
+                    pressure: v,
+                }
+            };
+            events.push(TimedEvent { sample, event });
+        }
+    }
+    events.sort_by_key(|e| e.sample);
     let ending = Ending { auto, total, last_event, fade: (FADE_S * sr).round() as usize };
     // --normalize: a first pass finds the peak (and the length); the render is deterministic,
     // so the second pass, scaled, is the same audio.

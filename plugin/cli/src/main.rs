@@ -124,6 +124,21 @@ enum Command {
         /// Output WAV (32-bit float, stereo).
         #[arg(long)]
         out: PathBuf,
+        /// How held notes excite the object: strike (default), or a lasting contact while
+        /// held: scrape, slide, roll (the *Excitation* parameter).
+        #[arg(long, value_name = "strike|scrape|slide|roll")]
+        excitation: Option<String>,
+        /// The surface a lasting contact runs over: smooth, finegrit, coarsegrit, grooves, bumps.
+        #[arg(long)]
+        texture: Option<String>,
+        /// Contact speed over time, "seconds:m/s,…" (e.g. "0:0.1,1:0.5,2:0"; linear between
+        /// points, held outside; 0..=1 m/s). Sent as the mod wheel.
+        #[arg(long, value_name = "T:V,…")]
+        speed_curve: Option<String>,
+        /// Normal force over time, "seconds:0..1,…" (linear between points). Sent as every
+        /// note's pressure; without it a note's force is its velocity.
+        #[arg(long, value_name = "T:V,…")]
+        force_curve: Option<String>,
     },
 }
 
@@ -188,7 +203,20 @@ fn run(cli: Cli) -> Result<(), String> {
             eprintln!("{summary}");
             Ok(())
         }
-        Command::Render { sound, notes, midi, seconds, normalize, block_size, stats, out } => {
+        Command::Render {
+            sound,
+            notes,
+            midi,
+            seconds,
+            normalize,
+            block_size,
+            stats,
+            out,
+            excitation,
+            texture,
+            speed_curve,
+            force_curve,
+        } => {
             let opts = RenderOptions {
                 sound: sound.options(),
                 notes,
@@ -197,6 +225,7 @@ fn run(cli: Cli) -> Result<(), String> {
                 block_size,
                 out,
                 normalize,
+                gesture: struck_cli::cli::Gesture { excitation, texture, speed_curve, force_curve },
             };
             let (summary, load) = cli::render_with_stats(&opts)?;
             eprintln!("{summary}");

@@ -1,0 +1,167 @@
+//! Lasting contact (issue 16: scrape, slide, roll) measured through the plugin's own
+//! `process()` (offline host, allocation assertions on): block-size invariance, the level's
+//! proportionality to the normal force, the groove rate v/s in the sound, per-note speed, and
+//! the end of contact at note-off.
+
+use nice_plug::midi::{Channel, Key, VoiceID};
+use nice_plug::prelude::NoteEvent;
+use struck::offline::TimedEvent;
+use struck_cli::cli::{note_events, NoteSpec};
+use struck_tests::*;
+
+const SR: u32 = 48_000;
+
+/// Excitation and texture parameter values (the enums' order).
+const SCRAPE: f32 = 1.0;
+const SLIDE: f32 = 2.0;
+const ROLL: f32 = 3.0;
+const GROOVES: f32 = 3.0;
+const BUMPS: f32 = 4.0;
+
+fn pressure(sample: u64, p: f32) -> TimedEvent {
+    TimedEvent {
+        sample,
+        event: NoteEvent::PolyPressure {
+            timing: 0,
+            voice_id: VoiceID::Wildcard,
+            channel: Channel::Wildcard,
+            key: Key::Wildcard,
+            pressure: p,
+        },
+    }
+}
+
+fn brightness(sample: u64, voice: i32, key: u8, value: f32) -> TimedEvent {
+    TimedEvent {
+        sample,
+        event: NoteEvent::PolyBrightness {
+            timing: 0,
+            voice_id: VoiceID::ID(voice),
+            channel: Channel::Number(0),
+            key: Key::Number(key),
+            brightness: value,
+        },
+    }
+}
+
+fn play(set: &[(&str, f32)], events: &[TimedEvent], seconds: f64, block: usize) -> Vec<f32> {
+    let mut h = host("rect-plate", "steel-sterling-hybrid", SR, set);
+    let (out, _) = h.render(events, (seconds * f64::from(SR)) as usize, block);
+    assert!(out[0].iter().all(|x| x.is_finite()), "non-finite output");
+    assert_eq!(out[0], out[1]);
+    out[0].clone()
+}
+
+fn held(key: u8, velocity: u8, start_s: f64, held_s: f64) -> NoteSpec {
+    NoteSpec { key, velocity, position: None, start_s, duration_s: Some(held_s) }
+}
+
+/// Staggered held notes of every lasting excitation, pressure changes and releases: the
+/// output is the same whatever the host's block size (the contact's gains move at the
+/// engine's control ticks, fixed by its clock).
+#[test]
+fn lasting_contacts_are_block_size_invariant() {
+    for (excitation, texture) in [(SCRAPE, GROOVES), (SLIDE, BUMPS), (ROLL, BUMPS)] {
+        let set = [("excite", excitation), ("texture", texture), ("speed", 0.3), ("noise", 0.3)];
+        let notes = [held(60, 100, 0.0, 0.5), held(64, 80, 0.1013, 0.3), held(67, 127, 0.2331, 0.7)];
+        let mut events = note_events(&notes, f64::from(SR));
+        events.push(pressure(7_001, 0.4));
+        events.push(pressure(19_999, 1.0));
+        events.sort_by_key(|e| e.sample);
+        let reference = play(&set, &events, 1.2, 512);
+        assert!(rms(&reference) > 1e-3);
+        for block in [1, 17, 64, 4096] {
+            let y = play(&set, &events, 1.2, block);
+            let worst = reference.iter().zip(&y).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+            assert!(worst <= 1e-6, "excitation {excitation}, block {block}: max difference {worst}");
+        }
+    }
+}
+
+/// The contact's sound is proportional to the normal force (pressure): with the strike the
+/// same, out(1) − out(0) = 2·(out(½) − out(0)) to float rounding, and it is not small.
+#[test]
+fn the_contact_is_proportional_to_the_force() {
+    let set = [("excite", SCRAPE), ("texture", GROOVES), ("speed", 0.3)];
+    let notes = [held(60, 100, 0.0, 0.8)];
+    let at = |p: f32| {
+        let mut events = note_events(&notes, f64::from(SR));
+        events.push(pressure(0, p));
+        events.sort_by_key(|e| e.sample);
+        play(&set, &events, 1.0, 256)
+    };
+    let (zero, half, full) = (at(0.0), at(0.5), at(1.0));
+    let contact: Vec<f64> = full.iter().zip(&zero).map(|(a, b)| f64::from(a - b)).collect();
+    let twice_half: Vec<f64> = half.iter().zip(&zero).map(|(a, b)| 2.0 * f64::from(a - b)).collect();
+    let size = (contact.iter().map(|x| x * x).sum::<f64>() / contact.len() as f64).sqrt();
+    let err =
+        (contact.iter().zip(&twice_half).map(|(a, b)| (a - b) * (a - b)).sum::<f64>() / contact.len() as f64).sqrt();
+    assert!(size > 0.3 * rms(&zero), "the contact is {size}, the strike alone {}", rms(&zero));
+    assert!(err < 1e-4 * size, "not proportional: error {err} of {size}");
+}
+
+/// Frequency (Hz) of the strongest line between `lo` and `hi` in the spectrum of x²
+/// (the energy envelope), over `x[start..]`, zero-padded to 2¹⁸ points.
+fn envelope_line(x: &[f32], start: usize, lo: f64, hi: f64) -> f64 {
+    use rustfft::num_complex::Complex;
+    let n = 1 << 18;
+    let seg = &x[start..];
+    let mean = seg.iter().map(|v| f64::from(v * v)).sum::<f64>() / seg.len() as f64;
+    let mut buf: Vec<Complex<f64>> = (0..n)
+        .map(|i| {
+            let v = seg.get(i).map_or(0.0, |v| f64::from(v * v) - mean);
+            let w = if i < seg.len() {
+                0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / seg.len() as f64).cos()
+            } else {
+                0.0
+            };
+            Complex::new(v * w, 0.0)
+        })
+        .collect();
+    rustfft::FftPlanner::new().plan_fft_forward(n).process(&mut buf);
+    let df = f64::from(SR) / n as f64;
+    let (a, b) = ((lo / df) as usize, (hi / df) as usize);
+    let k = (a..b).max_by(|&i, &j| buf[i].norm().total_cmp(&buf[j].norm())).unwrap();
+    // Parabolic interpolation of the peak.
+    let (y0, y1, y2) = (buf[k - 1].norm(), buf[k].norm(), buf[k + 1].norm());
+    (k as f64 + 0.5 * (y0 - y2) / (y0 - 2.0 * y1 + y2)) * df
+}
+
+/// Grooves 2 mm apart scraped at v are heard as v/s clicks a second: the line of the
+/// output's energy envelope is at v/s within 1 % (a heavily damped object, so each click
+/// dies before the next). The speed set per note (brightness / MPE slide) overrides the
+/// parameter.
+#[test]
+fn grooves_are_heard_at_speed_over_spacing() {
+    let spacing = 2e-3;
+    for (param, per_note) in [(0.25f32, None), (0.8, Some(0.35f32))] {
+        let set = [("excite", SCRAPE), ("texture", GROOVES), ("speed", param), ("dscale", 20.0)];
+        let mut events = note_events(&[held(60, 60, 0.0, 2.5)], f64::from(SR));
+        if let Some(v) = per_note {
+            // note_events numbers its notes' voices from 0.
+            events.push(brightness(0, 0, 60, v / dsp::contact::MAX_SPEED_M_PER_S as f32));
+            events.sort_by_key(|e| e.sample);
+        }
+        let x = play(&set, &events, 2.5, 512);
+        let v = f64::from(per_note.unwrap_or(param));
+        let expected = v / spacing;
+        let f = envelope_line(&x, SR as usize / 2, 0.5 * expected, 1.5 * expected);
+        assert!((f / expected - 1.0).abs() < 0.01, "{v} m/s: clicks at {f:.2} Hz, expected {expected:.2}");
+    }
+}
+
+/// A note-off ends the contact: the object then rings freely, damped by the release damping,
+/// and the voice ends.
+#[test]
+fn a_note_off_ends_the_contact() {
+    let set = [("excite", SCRAPE), ("texture", BUMPS), ("speed", 0.4), ("release", 60.0)];
+    let mut h = host("rect-plate", "steel-sterling-hybrid", SR, &set);
+    let events = note_events(&[held(60, 100, 0.0, 0.5)], f64::from(SR));
+    let (out, sent) = h.render(&events, 2 * SR as usize, 512);
+    let x = &out[0];
+    let sr = SR as usize;
+    let during = rms(&x[sr / 5..sr / 2]);
+    let after = rms(&x[sr..3 * sr / 2]);
+    assert!(during > 1e-3 && after < 1e-4 * during, "during {during}, after {after}");
+    assert!(sent.iter().any(|(_, e)| matches!(e, NoteEvent::VoiceTerminated { .. })), "the voice did not end");
+}
