@@ -1101,6 +1101,11 @@ impl Engine {
         self.rebuilt_modes
     }
 
+    /// Where the newest sounding lasting contact is on the strike path (0..=1), if one is.
+    pub fn contact_position(&self) -> Option<f32> {
+        self.voices.iter().filter(|v| v.active && v.lasting).max_by_key(|v| v.start).map(|v| v.contact.position())
+    }
+
     /// Number of modes being rendered over all voices.
     pub fn active_modes(&self) -> usize {
         self.voices.iter().filter(|v| v.active).map(|v| v.bank.len()).sum()

@@ -42,7 +42,13 @@ pub struct Struck {
     channel_timbre: [Option<f32>; 16],
     /// The mod wheel's last value (0..=1 of the fastest contact speed), once one arrived.
     mod_wheel: Option<f32>,
+    /// The editor's audition of a lasting contact (a click holds no key): released after
+    /// [`AUDITION_CONTACT_S`]; the note and the samples left.
+    audition_contact: Option<(NoteId, u64)>,
 }
+
+/// How long a click on the object view keeps a lasting contact, s.
+pub const AUDITION_CONTACT_S: f64 = 1.0;
 
 impl Default for Struck {
     fn default() -> Self {
@@ -63,6 +69,7 @@ impl Struck {
             clip_player: shared::ClipPlayer::default(),
             channel_timbre: [None; 16],
             mod_wheel: None,
+            audition_contact: None,
         }
     }
 }
@@ -332,6 +339,8 @@ impl Plugin for Struck {
 
     fn reset(&mut self) {
         self.channel_timbre = [None; 16];
+        self.mod_wheel = None;
+        self.audition_contact = None;
         let sp = self.sound_params();
         let object = self.object_index();
         if let Some(e) = self.engine.as_mut() {
@@ -370,6 +379,23 @@ impl Plugin for Struck {
             self.tune_to_strongest(a.key, &mut strike);
             if let Some(e) = self.engine.as_mut() {
                 e.note_on(a.note(), strike);
+                if sp.contact.excitation.is_lasting() {
+                    // A new audition's contact replaces the last one's.
+                    if let Some((old, _)) = self.audition_contact {
+                        e.note_off(old);
+                    }
+                    self.audition_contact = Some((a.note(), (AUDITION_CONTACT_S * self.sample_rate as f64) as u64));
+                }
+            }
+        }
+        if let Some((note, left)) = self.audition_contact {
+            if left <= total as u64 {
+                self.audition_contact = None;
+                if let Some(e) = self.engine.as_mut() {
+                    e.note_off(note);
+                }
+            } else {
+                self.audition_contact = Some((note, left - total as u64));
             }
         }
 
@@ -454,6 +480,7 @@ impl Plugin for Struck {
         }
         if let Some(e) = self.engine.as_ref() {
             self.editor_shared.store_meters(e.active_voices(), e.active_modes());
+            self.editor_shared.store_contact(e.contact_position());
         }
         ProcessStatus::Normal
     }

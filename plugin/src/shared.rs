@@ -137,6 +137,9 @@ pub struct EditorShared {
     pub clip_playing: AtomicBool,
     /// Audio → GUI: the sample rate of the last activation, Hz (`f32` bits; 0 before).
     pub sample_rate: AtomicU32,
+    /// Audio → GUI: where the newest lasting contact is on the strike path (`f32` bits of
+    /// 0..=1; NaN when none).
+    pub contact_position: AtomicU32,
 }
 
 impl Default for EditorShared {
@@ -150,6 +153,7 @@ impl Default for EditorShared {
             stop_clip: AtomicBool::new(false),
             clip_playing: AtomicBool::new(false),
             sample_rate: AtomicU32::new(0),
+            contact_position: AtomicU32::new(f32::NAN.to_bits()),
         }
     }
 }
@@ -162,6 +166,19 @@ impl EditorShared {
     pub fn store_meters(&self, voices: usize, modes: usize) {
         self.active_voices.store(voices.min(u32::MAX as usize) as u32, Ordering::Relaxed);
         self.active_modes.store(modes.min(u32::MAX as usize) as u32, Ordering::Relaxed);
+    }
+
+    /// Stores where the newest lasting contact is (`None`: no contact).
+    ///
+    /// # Realtime safety
+    /// One relaxed atomic store.
+    pub fn store_contact(&self, position: Option<f32>) {
+        self.contact_position.store(position.unwrap_or(f32::NAN).to_bits(), Ordering::Relaxed);
+    }
+
+    /// Where the newest lasting contact is on the strike path, if one is sounding.
+    pub fn contact(&self) -> Option<f32> {
+        Some(f32::from_bits(self.contact_position.load(Ordering::Relaxed))).filter(|p| p.is_finite())
     }
 
     /// `(active voices, active modes)` as last stored.

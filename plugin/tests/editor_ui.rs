@@ -489,6 +489,26 @@ fn the_t60_plot_is_whole_on_screen_and_the_new_controls_are_there() {
     }
 }
 
+/// Issue 16: the lasting contact's controls are in the editor, with a hint on how held keys
+/// play once the excitation is not a strike.
+#[test]
+fn the_excitation_controls_are_there() {
+    let plugin = Struck::default();
+    let mut h = harness(&plugin);
+    h.run_steps(2);
+    for name in
+        ["Excitation", "Contact speed", "Texture", "Texture scale", "Ball radius", "Contact direction", "Path ends"]
+    {
+        h.get_by_label(&format!("{name} slider"));
+    }
+    assert!(h.query_by_label_contains("Held keys keep contact").is_none());
+    ParamSetter::new(&*h.state().ctx)
+        .set_parameter(&plugin.struck_params().excitation, struck::params::ExcitationParam::Scrape);
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("Held keys keep contact").is_some());
+    screenshot(&mut h, "excitation");
+}
+
 /// Issue 11 part 6: the object view draws the object itself — its surface from the bank,
 /// shaded — with the strike path on it. For every factory object: something is painted, the
 /// strike points the camera sees lie on the painted picture, flat objects show every point

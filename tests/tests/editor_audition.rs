@@ -107,3 +107,25 @@ fn an_ab_clip_plays_sample_exact_and_comes_back_to_the_gui_for_freeing() {
     let (e, _) = h.render(&[], 100, 100);
     assert!(e[0].iter().all(|v| *v == 0.75));
 }
+
+/// A click on the object view holds no key: in a lasting excitation its contact is released
+/// after `AUDITION_CONTACT_S`; while it lasts the editor is told where the contact is.
+#[test]
+fn an_audition_of_a_lasting_contact_ends_by_itself() {
+    let mut h = OfflineHost::new(SR, 256).expect("host");
+    h.set_param("excite", 1.0).expect("scrape");
+    h.set_param("release", 60.0).expect("release");
+    h.reset();
+    let shared = h.plugin().editor_shared().clone();
+    assert_eq!(shared.contact(), None);
+    assert!(shared.audition(Audition { key: 60, velocity: 0.8, position: 0.25, serial: 1 }));
+    let held = (struck::AUDITION_CONTACT_S * f64::from(SR)) as usize;
+    let (out, _) = h.render(&[], held - 2_560, 256);
+    let position = shared.contact().expect("a contact is sounding");
+    assert!((0.0..=1.0).contains(&position) && position != 0.25, "the contact moved: {position}");
+    let during = peak(&out[0][held / 2..]);
+    let (after, _) = h.render(&[], SR as usize, 256);
+    assert!(during > 1e-3 && peak(&after[0][SR as usize / 2..]) < 1e-4 * during);
+    assert_eq!(shared.contact(), None);
+    assert_eq!(shared.meters().0, 0, "the voice ended");
+}

@@ -4,8 +4,9 @@ use nice_plug::midi::{Channel, Key, VoiceID};
 use nice_plug::prelude::NoteEvent;
 use struck::offline::TimedEvent;
 
-/// Reads the note-ons, note-offs, channel pressure and CC 74 of every track of a MIDI file,
-/// honouring tempo changes, as events at absolute samples of `sample_rate`.
+/// Reads the note-ons, note-offs, channel and polyphonic pressure, CC 1 (mod wheel: a lasting
+/// contact's speed) and CC 74 of every track of a MIDI file, honouring tempo changes, as
+/// events at absolute samples of `sample_rate`.
 ///
 /// # Errors
 /// A one-line reason if the bytes are not a MIDI file this can read (SMPTE timing is
@@ -63,11 +64,20 @@ pub fn read_midi(bytes: &[u8], sample_rate: f64) -> Result<Vec<TimedEvent>, Stri
                         channel: ch,
                         pressure: f32::from(vel.as_int()) / 127.0,
                     }),
-                    midly::MidiMessage::Controller { controller, value } if controller.as_int() == 74 => {
+                    midly::MidiMessage::Aftertouch { key, vel } => Some(NoteEvent::PolyPressure {
+                        timing: 0,
+                        voice_id: VoiceID::Wildcard,
+                        channel,
+                        key: Key::Number(key.as_int()),
+                        pressure: f32::from(vel.as_int()) / 127.0,
+                    }),
+                    midly::MidiMessage::Controller { controller, value }
+                        if controller.as_int() == 74 || controller.as_int() == 1 =>
+                    {
                         Some(NoteEvent::MidiCC {
                             timing: 0,
                             channel: ch,
-                            cc: 74,
+                            cc: controller.as_int(),
                             value: f32::from(value.as_int()) / 127.0,
                         })
                     }
@@ -107,5 +117,28 @@ mod tests {
         assert_eq!(ev[1].sample, 24_000);
         assert!(matches!(ev[1].event, NoteEvent::NoteOff { .. }));
         assert!(read_midi(b"not midi", 48_000.0).is_err());
+    }
+
+    /// The gestures of a lasting contact: poly aftertouch (force) and the mod wheel (speed)
+    /// arrive as pressure and CC 1 on their note and channel.
+    #[test]
+    fn reads_aftertouch_and_the_mod_wheel() {
+        let mut trk = vec![];
+        trk.extend([0x00, 0x91, 62, 90]); // note on, channel 2
+        trk.extend([0x30, 0xA1, 62, 127]); // poly aftertouch 127 after 48 ticks (0.25 s)
+        trk.extend([0x00, 0xB1, 1, 64]); // mod wheel 64
+        trk.extend([0x30, 0x81, 62, 0]);
+        trk.extend([0x00, 0xFF, 0x2F, 0x00]);
+        let mut f = b"MThd\x00\x00\x00\x06\x00\x00\x00\x01\x00\x60MTrk".to_vec();
+        f.extend((trk.len() as u32).to_be_bytes());
+        f.extend(trk);
+        let ev = read_midi(&f, 48_000.0).unwrap();
+        assert_eq!(ev.len(), 4);
+        assert_eq!(ev[1].sample, 12_000);
+        assert!(matches!(
+            ev[1].event,
+            NoteEvent::PolyPressure { channel: Channel::Number(1), key: Key::Number(62), pressure, .. } if pressure == 1.0
+        ));
+        assert!(matches!(ev[2].event, NoteEvent::MidiCC { channel: 1, cc: 1, value, .. } if value == 64.0 / 127.0));
     }
 }

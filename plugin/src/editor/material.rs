@@ -186,6 +186,22 @@ fn knob_groups(ui: &mut egui::Ui, cx: &PanelCtx) {
             param_row(ui, setter, &p.noise);
         });
     });
+    egui::CollapsingHeader::new("Excitation").default_open(true).show(ui, |ui| {
+        egui::Grid::new("excitation-knobs").num_columns(2).show(ui, |ui| {
+            param_row(ui, setter, &p.excitation);
+            param_row(ui, setter, &p.contact_speed);
+            param_row(ui, setter, &p.texture);
+            param_row(ui, setter, &p.texture_scale);
+            param_row(ui, setter, &p.ball_radius_mm);
+            param_row(ui, setter, &p.contact_direction);
+            param_row(ui, setter, &p.path_ends);
+        });
+        if p.excitation.value() != crate::params::ExcitationParam::Strike {
+            ui.label(
+                egui::RichText::new("Held keys keep contact: pressure = force, mod wheel / MPE slide = speed.").weak(),
+            );
+        }
+    });
     egui::CollapsingHeader::new("Material and object").default_open(true).show(ui, |ui| {
         egui::Grid::new("material-knobs").num_columns(2).show(ui, |ui| {
             param_row(ui, setter, &p.decay_scale);

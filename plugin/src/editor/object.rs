@@ -241,6 +241,12 @@ fn paint_view(ui: &egui::Ui, response: &egui::Response, view: &View, bank: &pres
             Stroke::new(2.0, Color32::from_rgb(255, 150, 40).gamma_multiply(alpha)),
         );
     }
+    // A sounding lasting contact, where it is now.
+    if let Some(xy) = cx.shared.contact().and_then(|c| logic::point_at_position(points, c)) {
+        let at = view.to_screen(xy);
+        painter.circle_filled(at, 5.0, Color32::from_rgb(80, 200, 255));
+        painter.circle_stroke(at, 8.0, Stroke::new(1.5, Color32::from_rgb(80, 200, 255)));
+    }
     let label = current.and_then(|i| bank.points.get(i)).map_or("", |p| p.label.as_str());
     painter.text(
         rect.left_top() + Vec2::new(6.0, 4.0),

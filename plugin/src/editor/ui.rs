@@ -100,7 +100,8 @@ impl EditorUi {
                 }
             });
         });
-        if self.capture.is_running() || self.object.is_active() || self.capture.ab_busy() {
+        let contact = self.shared.contact().is_some();
+        if self.capture.is_running() || self.object.is_active() || self.capture.ab_busy() || contact {
             ui.ctx().request_repaint();
         } else {
             // Meters move while notes ring: poll them a few times a second.
