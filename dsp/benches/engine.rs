@@ -73,6 +73,29 @@ fn engine_16_voices(c: &mut Criterion) {
         })
     });
 
+    // Issue 16's target: 16 voices of scrape on 1000 modes each at 48 kHz in ≤ 30 % of a core.
+    let mut e = Engine::new(vec![object(1000)], 32, SR);
+    let mut p = quiet_params();
+    p.contact.excitation = dsp::contact::Excitation::Scrape;
+    p.contact.texture = dsp::contact::TextureKind::CoarseGrit;
+    e.set_params(p);
+    e.reset();
+    for v in 0..16u8 {
+        e.note_on(
+            NoteId { voice_id: None, channel: 0, key: 40 + v },
+            Strike { velocity: 1.0, position: f32::from(v) / 16.0, lambda_factor: 1.0 },
+        );
+    }
+    e.render(&mut out);
+    assert_eq!(e.active_modes(), 16_000);
+    g.throughput(Throughput::Elements(16_000 * 512));
+    g.bench_function("16 voices of scrape x 1000 modes, 512-sample block", |b| {
+        b.iter(|| {
+            out.fill(0.0);
+            e.render(black_box(&mut out));
+        })
+    });
+
     // Issue 13's target: 64 voices of 250 modes at 48 kHz in ≤ 25 % of one core.
     let mut e = Engine::new(vec![object(250)], 64, SR);
     e.set_params(quiet_params());
