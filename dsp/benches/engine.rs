@@ -96,6 +96,23 @@ fn engine_16_voices(c: &mut Criterion) {
         })
     });
 
+    // Issue 16's audio-in target: a 1000-mode object driven by the input in ≤ 5 % of a core.
+    let mut e = Engine::new(vec![object(1000)], 32, SR);
+    e.set_params(quiet_params());
+    e.reset();
+    e.set_audio_input(true, 0.3);
+    let mut noise = dsp::exciter::Noise::new(1);
+    let input: Vec<f32> = (0..512).map(|_| 0.1 * noise.next_sample()).collect();
+    e.render_input(&input, &mut out);
+    assert_eq!(e.active_modes(), 1000);
+    g.throughput(Throughput::Elements(1000 * 512));
+    g.bench_function("audio in x 1000 modes, 512-sample block", |b| {
+        b.iter(|| {
+            out.fill(0.0);
+            e.render_input(black_box(&input), black_box(&mut out));
+        })
+    });
+
     // Issue 13's target: 64 voices of 250 modes at 48 kHz in ≤ 25 % of one core.
     let mut e = Engine::new(vec![object(250)], 64, SR);
     e.set_params(quiet_params());

@@ -424,6 +424,16 @@ impl ContactState {
         p as f32
     }
 
+    /// Moves the contact on by one sample at `speed` (m/s) along the path, without the
+    /// texture or the micro noise (the audio input's contact: its force is the input).
+    #[inline]
+    pub fn travel(&mut self, surface: &Surface, speed: f64) {
+        let dx = speed.clamp(0.0, MAX_SPEED_M_PER_S) / surface.fs;
+        self.odometer_m += dx;
+        (self.position, self.direction) =
+            advance_position(self.position, self.direction, dx / surface.path_m, surface.wrap);
+    }
+
     /// Moves on by one sample at `speed` (m/s, ≥ 0) with normal force `force` (0..=1) and
     /// returns the sample's impulse on the object (see the module documentation for units).
     #[inline]

@@ -218,6 +218,14 @@ impl Default for ContactParams {
     }
 }
 
+/// Audio in: an input sample x drives the modes at the contact with the impulse
+/// x·AUDIO_IN_RATE/fs (in units of a velocity-1 strike's impulse): the input is a force whose
+/// full scale, held for a second, is this many strikes' impulse (so the response does not
+/// depend on the sample rate). An impulse of height fs/AUDIO_IN_RATE is a velocity-1 strike
+/// with an ideal (instant) contact. The value puts white noise through the factory objects at
+/// −8…+4 dB of the input's RMS (measured with `struck render --input`).
+pub const AUDIO_IN_RATE: f64 = 3000.0;
+
 /// The textures and micro-noise tables every engine shares, built once per process (the
 /// noise tables take a few tens of ms and 2 MiB each).
 #[derive(Debug)]
@@ -238,15 +246,22 @@ fn contact_tables() -> &'static ContactTables {
 /// What a voice's contact runs over this chunk: the shared tables, the controls, the path's
 /// length and where the chunk starts in its control interval (for the gains' interpolation).
 #[derive(Clone, Copy)]
-struct ContactEnv {
+struct ContactEnv<'a> {
     tables: &'static ContactTables,
     params: ContactParams,
     path_m: f64,
     fs: f64,
     phase: usize,
+    /// The audio input over the chunk (none: silence).
+    input: Option<&'a [f32]>,
 }
 
-impl ContactEnv {
+impl ContactEnv<'_> {
+    /// An input sample's impulse, in units of a velocity-1 strike's: [`AUDIO_IN_RATE`] / fs.
+    fn input_scale(&self) -> f32 {
+        (AUDIO_IN_RATE / self.fs) as f32
+    }
+
     fn surface(&self, excitation: Excitation) -> Surface<'static> {
         let p = &self.params;
         let texture = &self.tables.textures[TextureKind::ALL.iter().position(|k| *k == p.texture).unwrap_or(0)];
@@ -385,6 +400,8 @@ struct Voice {
     gain_to: Vec<f32>,
     /// The level of a unit impulse for this note ([`StrikePlan::norm`]).
     contact_norm: f32,
+    /// The audio-in voice: its lasting contact is driven by the input signal.
+    input: bool,
 }
 
 impl Voice {
@@ -422,11 +439,13 @@ impl Voice {
             gain_from: vec![0.0; max_modes],
             gain_to: vec![0.0; max_modes],
             contact_norm: 0.0,
+            input: false,
         }
     }
 
     fn matches(&self, note: &NoteId) -> bool {
         self.active
+            && !self.input
             && match (note.voice_id, self.note.voice_id) {
                 (Some(a), Some(b)) => a == b,
                 _ => {
@@ -660,7 +679,7 @@ fn render_voices(
             buf,
             batch,
             &mut lanes[i * LANES..(i + m) * LANES],
-            ContactEnv { phase: env.phase + i, ..env },
+            ContactEnv { phase: env.phase + i, input: env.input.map(|x| &x[i..i + m]), ..env },
         );
         i += m;
     }
@@ -747,6 +766,12 @@ fn render_voice(voice: &mut Voice, buf: &mut [Vec<f32>; 3], lanes: &mut [f32], e
                 } else {
                     (0.0, 0.0)
                 }
+            } else if voice.input {
+                // Audio in: the input signal is the contact's force (see `AUDIO_IN_RATE`).
+                voice.contact.travel(&surface, speed);
+                let x = env.input.map_or(0.0, |x| x[i + j]) * env.input_scale();
+                let t = (env.phase + i + j) as f32 * (1.0 / CONTROL_INTERVAL as f32);
+                (x * (1.0 - t), x * t)
             } else if voice.lasting {
                 let s = voice.contact.next(&surface, speed, force);
                 let t = (env.phase + i + j) as f32 * (1.0 / CONTROL_INTERVAL as f32);
@@ -975,6 +1000,11 @@ pub struct Engine {
     num_terminated: usize,
     rendered_in_call: u32,
     tables: &'static ContactTables,
+    /// Voices notes can take (`voices[pool]` is the audio-in voice).
+    pool: usize,
+    /// Audio in is wanted, and where its contact starts on the strike path.
+    input_on: bool,
+    input_position: f32,
 }
 
 impl Engine {
@@ -990,7 +1020,7 @@ impl Engine {
         Engine {
             objects,
             object: 0,
-            voices: (0..max_voices).map(|_| Voice::new(max_modes)).collect(),
+            voices: (0..=max_voices).map(|_| Voice::new(max_modes)).collect(),
             target: params,
             params,
             glide: Glide { modulus_ratio: params.modulus_ratio, size: params.size, decay_scale: params.decay_scale },
@@ -1004,7 +1034,7 @@ impl Engine {
             heard: vec![0.0; max_modes],
             drive_buf: [vec![0.0; MAX_KERNEL_BLOCK], vec![0.0; MAX_KERNEL_BLOCK], vec![0.0; MAX_KERNEL_BLOCK]],
             lanes: vec![0.0; MAX_KERNEL_BLOCK * LANES],
-            live: vec![0; max_voices],
+            live: vec![0; max_voices + 1],
             live_len: 0,
             live_stale: true,
             batch: VectorBatch::new(true),
@@ -1014,6 +1044,9 @@ impl Engine {
             num_terminated: 0,
             rendered_in_call: 0,
             tables: contact_tables(),
+            pool: max_voices,
+            input_on: false,
+            input_position: 0.5,
         }
     }
 
@@ -1128,13 +1161,14 @@ impl Engine {
     /// Starts (or re-strikes) a note. The strike itself happens at the start of the next
     /// `render`, after any per-note modulation sent at the same time. Realtime-safe.
     pub fn note_on(&mut self, note: NoteId, strike: Strike) {
-        let v = if let Some(i) = self.voices.iter().position(|v| v.matches(&note)) {
+        let pool = &self.voices[..self.pool];
+        let v = if let Some(i) = pool.iter().position(|v| v.matches(&note)) {
             i
-        } else if let Some(i) = self.voices.iter().position(|v| !v.active) {
+        } else if let Some(i) = pool.iter().position(|v| !v.active) {
             i
         } else {
             // Steal the quietest voice, the oldest among equals.
-            let i = (0..self.voices.len())
+            let i = (0..self.pool)
                 .min_by(|&a, &b| {
                     let (va, vb) = (&self.voices[a], &self.voices[b]);
                     va.energy.total_cmp(&vb.energy).then(va.start.cmp(&vb.start))
@@ -1341,6 +1375,7 @@ impl Engine {
                 path_m: contact::PATH_LENGTH_M * self.glide.size,
                 fs,
                 phase: 0,
+                input: None,
             };
             let seed = self.strikes.wrapping_mul(0x9E37_79B9) ^ u32::from(voice.note.key);
             voice.contact = ContactState::start(position, p.contact.forward, seed, &env.surface(voice.excitation));
@@ -1401,13 +1436,14 @@ impl Engine {
         }
     }
 
-    fn contact_env(&self, phase: usize) -> ContactEnv {
+    fn contact_env(&self, phase: usize) -> ContactEnv<'static> {
         ContactEnv {
             tables: self.tables,
             params: self.params.contact,
             path_m: contact::PATH_LENGTH_M * self.glide.size,
             fs: self.sample_rate,
             phase,
+            input: None,
         }
     }
 
@@ -1470,9 +1506,132 @@ impl Engine {
         }
     }
 
-    /// Adds the engine's output for the next `out.len()` samples into `out` (mono).
-    /// Realtime-safe: no allocation, no locks, no panics for any input.
+    /// Adds the engine's output for the next `out.len()` samples into `out` (mono), with
+    /// silence at the audio input. Realtime-safe: no allocation, no locks, no panics for any
+    /// input.
     pub fn render(&mut self, out: &mut [f32]) {
+        self.render_inner(None, out);
+    }
+
+    /// [`render`](Self::render) with `input` (mono, at least `out.len()` samples; shorter:
+    /// silence) at the audio input: with [`set_audio_input`](Self::set_audio_input) on, it
+    /// drives the object's modes at the input's contact. Realtime-safe.
+    pub fn render_input(&mut self, input: &[f32], out: &mut [f32]) {
+        if input.len() >= out.len() {
+            self.render_inner(Some(input), out);
+        } else {
+            self.render_inner(None, out);
+        }
+    }
+
+    /// Audio in (issue 16): while `on`, the object is a resonator for the input of
+    /// [`render_input`](Self::render_input), driven at a contact that starts at `position`
+    /// (0..=1 along the strike path) and moves like a lasting contact (speed, direction, path
+    /// ends of the [`ContactParams`]; speed 0: it stays there). A new position restarts the
+    /// contact there; the modes are those a lasting contact would ring on the current object.
+    /// Off: the object rings out. Realtime-safe.
+    pub fn set_audio_input(&mut self, on: bool, position: f32) {
+        let position = if position.is_finite() { position.clamp(0.0, 1.0) } else { 0.5 };
+        let v = self.pool;
+        if !on {
+            self.voices[v].lasting = false;
+        } else if self.input_on && self.voices[v].lasting && position != self.input_position {
+            let env = self.contact_env(0);
+            let forward = self.target.contact.forward;
+            self.voices[v].contact = ContactState::start(position, forward, 1, &env.surface(Excitation::Scrape));
+        }
+        self.input_on = on;
+        self.input_position = position;
+    }
+
+    /// Starts the audio-in voice on the current object when audio in is on and it is not
+    /// driving that object (first use, another object, after a reset or a switch off).
+    fn update_input(&mut self) {
+        let v = self.pool;
+        if !self.input_on || (self.voices[v].lasting && self.voices[v].object == self.object) {
+            return;
+        }
+        let voice = &mut self.voices[v];
+        voice.clear();
+        voice.active = true;
+        voice.input = true;
+        voice.excitation = Excitation::Scrape;
+        voice.note = NoteId { voice_id: Some(i32::MIN), channel: 0, key: 0 };
+        voice.object = self.object;
+        voice.lambda_factor = 1.0;
+        voice.position = self.input_position;
+        voice.start = self.clock;
+        voice.force = 1.0;
+        self.live_stale = true;
+        let p = self.params;
+        let damping = self.effective_damping();
+        let support = self.effective_support();
+        let fs = self.sample_rate;
+        let scale = self.lambda_scale(1.0);
+        let voice = &mut self.voices[v];
+        let obj = &self.objects[voice.object];
+        obj.gains_at(voice.position, &mut self.gains);
+        let modes = ModeSet { obj, damping: &damping, support, extra: 0.0, scale, fs };
+        let Some(plan) = modes.plan(&p, 1.0, 1.0, &self.gains, &mut self.amps, &mut self.poles) else {
+            voice.active = false;
+            return;
+        };
+        let max_gain = obj.max_gain.iter().fold(0.0f32, |a, &g| a.max(g));
+        let gain_threshold = max_gain * 10f32.powf(-p.quality_db / 20.0);
+        voice.bank.clear_forcing();
+        for m in 0..obj.num_modes() {
+            let (d, omega) = self.poles[m];
+            if !(omega > 0.0 && obj.max_gain[m] > 0.0 && obj.max_gain[m] >= gain_threshold) {
+                continue;
+            }
+            let Some(k) = voice.bank.push(ModeCoeffs::new(d, omega, fs)) else { break };
+            voice.slot_of_mode[m] = k as u16;
+            voice.mode_of_slot[k] = m as u16;
+            let g = self.gains[m] * plan.norm;
+            voice.gain_from[k] = g;
+            voice.gain_to[k] = g;
+        }
+        voice.contact_norm = plan.norm;
+        voice.apply_contact_gains();
+        let env = ContactEnv {
+            tables: self.tables,
+            params: p.contact,
+            path_m: contact::PATH_LENGTH_M * self.glide.size,
+            fs,
+            phase: 0,
+            input: None,
+        };
+        voice.contact = ContactState::start(voice.position, p.contact.forward, 1, &env.surface(Excitation::Scrape));
+        voice.lasting = true;
+        voice.energy = voice.bank.energy();
+    }
+
+    /// The modes the audio input drives at `position` now: `(mode index in the bank,
+    /// frequency Hz, decay rate d s⁻¹, amplitude)`, the amplitude being the mode's ring after
+    /// a velocity-1 strike's impulse (an input impulse of fs/[`AUDIO_IN_RATE`]). Allocates (for
+    /// tests and display).
+    pub fn input_modes(&self, position: f32) -> Vec<(usize, f64, f64, f32)> {
+        let p = self.target;
+        let damping = p.damping.scaled(p.decay_scale);
+        let strike = Strike { velocity: 1.0, position, lambda_factor: 1.0 };
+        let modes = Self::target_modes(&self.objects, &p, self.sample_rate, self.object, strike, &damping);
+        let obj = modes.obj;
+        let n = obj.num_modes();
+        let mut gains = vec![0.0; n];
+        obj.gains_at(position, &mut gains);
+        let (mut amps, mut poles) = (vec![0.0; n], vec![(0.0, 0.0); n]);
+        let Some(plan) = modes.plan(&p, 1.0, 1.0, &gains, &mut amps, &mut poles) else {
+            return Vec::new();
+        };
+        let max_gain = obj.max_gain.iter().fold(0.0f32, |a, &g| a.max(g));
+        let threshold = max_gain * 10f32.powf(-p.quality_db / 20.0);
+        (0..n)
+            .filter(|&m| poles[m].1 > 0.0 && obj.max_gain[m] > 0.0 && obj.max_gain[m] >= threshold)
+            .map(|m| (m, poles[m].1 / (2.0 * PI), poles[m].0, gains[m] * plan.norm))
+            .collect()
+    }
+
+    fn render_inner(&mut self, input: Option<&[f32]>, out: &mut [f32]) {
         self.rendered_in_call = 0;
         let mut pos = 0;
         while pos < out.len() {
@@ -1480,6 +1639,7 @@ impl Engine {
             if phase == 0 {
                 self.control_tick();
             }
+            self.update_input();
             self.update_live();
             // Pending strikes happen at this sample, after all events sent for it (only
             // active voices have them).
@@ -1504,6 +1664,7 @@ impl Engine {
                     path_m: contact::PATH_LENGTH_M * self.glide.size,
                     fs: self.sample_rate,
                     phase,
+                    input: input.map(|x| &x[pos..pos + n]),
                 };
                 render_voices(
                     &mut self.voices,

@@ -42,6 +42,11 @@ pub struct Struck {
     channel_timbre: [Option<f32>; 16],
     /// The mod wheel's last value (0..=1 of the fastest contact speed), once one arrived.
     mod_wheel: Option<f32>,
+    /// The host activated the layout with an audio input.
+    has_input: bool,
+    /// The input mixed to mono, and the output gain per sample, for one chunk.
+    input_mono: Vec<f32>,
+    gains: Vec<f32>,
     /// The editor's audition of a lasting contact (a click holds no key): released after
     /// [`AUDITION_CONTACT_S`]; the note and the samples left.
     audition_contact: Option<(NoteId, u64)>,
@@ -69,6 +74,9 @@ impl Struck {
             clip_player: shared::ClipPlayer::default(),
             channel_timbre: [None; 16],
             mod_wheel: None,
+            has_input: false,
+            input_mono: Vec::new(),
+            gains: Vec::new(),
             audition_contact: None,
         }
     }
@@ -297,11 +305,20 @@ impl Plugin for Struck {
     const EMAIL: &'static str = "struck@example.invalid";
     const VERSION: &'static str = env!("CARGO_PKG_VERSION");
 
-    const AUDIO_IO_LAYOUTS: &'static [AudioIOLayout] = &[AudioIOLayout {
-        main_input_channels: None,
-        main_output_channels: NonZeroU32::new(2),
-        ..AudioIOLayout::const_default()
-    }];
+    // The instrument (no input), and the same with a stereo input: the object as a
+    // resonator for any sound (*Audio in*, issue 16), for hosts that offer the layout.
+    const AUDIO_IO_LAYOUTS: &'static [AudioIOLayout] = &[
+        AudioIOLayout {
+            main_input_channels: None,
+            main_output_channels: NonZeroU32::new(2),
+            ..AudioIOLayout::const_default()
+        },
+        AudioIOLayout {
+            main_input_channels: NonZeroU32::new(2),
+            main_output_channels: NonZeroU32::new(2),
+            ..AudioIOLayout::const_default()
+        },
+    ];
     const MIDI_INPUT: MidiConfig = MidiConfig::MidiCCs;
     const SAMPLE_ACCURATE_AUTOMATION: bool = false;
 
@@ -319,10 +336,11 @@ impl Plugin for Struck {
 
     fn activate(
         &mut self,
-        _layout: &AudioIOLayout,
+        layout: &AudioIOLayout,
         config: &BufferConfig,
         context: &mut impl ActivateContext<Self>,
     ) -> bool {
+        self.has_input = layout.main_input_channels.is_some();
         self.sample_rate = config.sample_rate;
         self.editor_shared.sample_rate.store(config.sample_rate.to_bits(), std::sync::atomic::Ordering::Relaxed);
         let rebuild = self.engine.as_ref().is_none_or(|e| e.sample_rate() != f64::from(config.sample_rate));
@@ -332,6 +350,10 @@ impl Plugin for Struck {
         let max = (config.max_buffer_size as usize).clamp(1, MAX_BLOCK);
         if self.mono.len() < max {
             self.mono = vec![0.0; max];
+        }
+        if self.input_mono.len() < self.mono.len() {
+            self.input_mono = vec![0.0; self.mono.len()];
+            self.gains = vec![0.0; self.mono.len()];
         }
         context.set_current_voice_capacity(MAX_VOICES as u32);
         true
@@ -359,18 +381,25 @@ impl Plugin for Struck {
         let _ftz = DenormalGuard::new();
         let total = buffer.samples();
         let outputs = buffer.as_slice();
+        let ready = self.engine.is_some() && !self.mono.is_empty() && self.input_mono.len() >= self.mono.len();
+        // Audio in: the buffers hold the input until each chunk has read it.
+        let take_input = ready && self.has_input && self.params.audio_in.value();
         // Every sample of every block is written, silence included.
-        for ch in outputs.iter_mut() {
-            ch.fill(0.0);
+        if !take_input {
+            for ch in outputs.iter_mut() {
+                ch.fill(0.0);
+            }
         }
-        if self.engine.is_none() || self.mono.is_empty() {
+        if !ready {
             return ProcessStatus::Normal;
         }
         let sp = self.sound_params();
         let object = self.object_index();
+        let input_position = self.params.strike_position.value();
         if let Some(e) = self.engine.as_mut() {
             e.set_params(sp);
             e.set_object(object);
+            e.set_audio_input(take_input, input_position);
         }
         // Editor auditions (clicks on the object view): lock-free pops, no allocation.
         while let Some(a) = self.editor_shared.audition.pop() {
@@ -404,6 +433,16 @@ impl Plugin for Struck {
         while start < total {
             let len = (total - start).min(self.mono.len());
             self.mono[..len].fill(0.0);
+            if take_input {
+                // The input's channels mixed to mono.
+                let scale = 1.0 / outputs.len().max(1) as f32;
+                self.input_mono[..len].fill(0.0);
+                for ch in outputs.iter() {
+                    for (m, &x) in self.input_mono[..len].iter_mut().zip(&ch[start..start + len]) {
+                        *m += if x.is_finite() { x * scale } else { 0.0 };
+                    }
+                }
+            }
             let mut pos = 0;
             loop {
                 // Apply every event due at `pos` (late ones at once), then render to the next.
@@ -417,7 +456,11 @@ impl Plugin for Struck {
                 let until = next.map_or(len, |ev| (ev.timing() as usize).saturating_sub(start).min(len));
                 if until > pos {
                     if let Some(e) = self.engine.as_mut() {
-                        e.render(&mut self.mono[pos..until]);
+                        if take_input {
+                            e.render_input(&self.input_mono[pos..until], &mut self.mono[pos..until]);
+                        } else {
+                            e.render(&mut self.mono[pos..until]);
+                        }
                         e.drain_terminated(|t| {
                             // The host never saw the editor's audition notes.
                             if shared::is_audition(&t.note) {
@@ -451,6 +494,23 @@ impl Plugin for Struck {
                     s
                 }
             };
+            if take_input {
+                // Dry/wet per channel, in place over the input: out = w·modes + (1 − w)·in.
+                let w = self.params.dry_wet.value();
+                for g in &mut self.gains[..len] {
+                    *g = util::db_to_gain_fast(gain.next());
+                }
+                for ch in outputs.iter_mut() {
+                    for ((o, &x), &g) in
+                        ch[start..start + len].iter_mut().zip(&self.mono[..len]).zip(&self.gains[..len])
+                    {
+                        let dry = if o.is_finite() { *o } else { 0.0 };
+                        *o = finish(w * x + (1.0 - w) * dry, g);
+                    }
+                }
+                start += len;
+                continue;
+            }
             let Some((first, rest)) = outputs.split_first_mut() else {
                 start += len;
                 continue;

@@ -99,6 +99,8 @@ pub struct OfflineHost {
     right: Vec<f32>,
     buffer: Buffer<'static>,
     stats: RenderStats,
+    /// The audio input layout is active, and its signal (left, right) from sample 0.
+    input: Option<(Vec<f32>, Vec<f32>)>,
 }
 
 /// Load figures of the `process()` calls an [`OfflineHost`] has made (`struck render
@@ -117,6 +119,8 @@ pub struct RenderStats {
     pub peak_modes: usize,
     /// Σ sounding modes × samples of each call: the mode-samples the engine ran.
     pub mode_samples: u64,
+    /// The host's sample rate, Hz.
+    pub sample_rate: f64,
 }
 
 impl RenderStats {
@@ -200,13 +204,22 @@ impl OfflineHost {
             left: vec![0.0; max_block],
             right: vec![0.0; max_block],
             buffer: Buffer::default(),
+            input: None,
         };
         host.activate();
         Ok(host)
     }
 
+    /// Activates the plugin again with its audio input layout (2 in, 2 out), the input
+    /// playing `left` and `right` from sample 0 (then silence), and resets the clock.
+    /// Allocates (not in `process()`).
+    pub fn set_input(&mut self, left: Vec<f32>, right: Vec<f32>) {
+        self.input = Some((left, right));
+        self.activate();
+    }
+
     fn activate(&mut self) {
-        let layout = Struck::AUDIO_IO_LAYOUTS[0];
+        let layout = Struck::AUDIO_IO_LAYOUTS[if self.input.is_some() { 1 } else { 0 }];
         let config = BufferConfig {
             sample_rate: self.sample_rate,
             min_buffer_size: None,
@@ -359,9 +372,18 @@ impl OfflineHost {
 
     /// One `process()` call of `n` samples with `block_events`, into `left`/`right`.
     fn process_block(&mut self, n: usize) {
-        // Garbage in the host's buffers must not leak out: the plugin writes every sample.
-        self.left[..n].fill(f32::NAN);
-        self.right[..n].fill(f32::NAN);
+        if let Some((l, r)) = &self.input {
+            // The input layout: the host's buffers hold the input (in place, as hosts do).
+            let at = |x: &[f32], i: usize| x.get(self.clock as usize + i).copied().unwrap_or(0.0);
+            for i in 0..n {
+                self.left[i] = at(l, i);
+                self.right[i] = at(r, i);
+            }
+        } else {
+            // Garbage in the host's buffers must not leak out: the plugin writes every sample.
+            self.left[..n].fill(f32::NAN);
+            self.right[..n].fill(f32::NAN);
+        }
         let (left, right) = (&mut self.left[..n], &mut self.right[..n]);
         // SAFETY: the slices live until the end of this function, where `buffer` is cleared
         // again before they are touched; the 'static lifetime never escapes this call.
@@ -394,6 +416,7 @@ impl OfflineHost {
         if let Some(engine) = self.plugin.engine() {
             let (voices, modes) = (engine.active_voices(), engine.active_modes());
             let st = &mut self.stats;
+            st.sample_rate = f64::from(self.sample_rate);
             st.samples += n as u64;
             st.peak_voices = st.peak_voices.max(voices);
             st.peak_modes = st.peak_modes.max(modes);

@@ -336,6 +336,13 @@ pub struct StruckParams {
     /// What a lasting contact does at the path's ends.
     #[id = "contactends"]
     pub path_ends: EnumParam<PathEnds>,
+    /// With the host's audio-input layout: the input drives the object at the strike
+    /// position (moving like a lasting contact at *Contact speed*).
+    #[id = "audioin"]
+    pub audio_in: BoolParam,
+    /// Audio in: share of the object's sound in the output (the rest is the input, dry).
+    #[id = "drywet"]
+    pub dry_wet: FloatParam,
     /// Editor window size in logical points `[width, height]`, so it reopens at that size.
     #[persist = "editor-size"]
     pub editor_size: Mutex<[u32; 2]>,
@@ -649,6 +656,11 @@ impl StruckParams {
             .with_string_to_value(s2v_number()),
             contact_direction: EnumParam::new("Contact direction", ContactDirection::Forward),
             path_ends: EnumParam::new("Path ends", PathEnds::Bounce),
+            audio_in: BoolParam::new("Audio in", true),
+            dry_wet: FloatParam::new("Dry/wet", 1.0, FloatRange::Linear { min: 0.0, max: 1.0 })
+                .with_value_to_string(formatters::v2s_f32_percentage(0))
+                .with_unit("%")
+                .with_string_to_value(formatters::s2v_f32_percentage()),
             editor_size: Mutex::new(DEFAULT_EDITOR_SIZE),
             capture: Mutex::new(None),
         }

@@ -496,9 +496,17 @@ fn the_excitation_controls_are_there() {
     let plugin = Struck::default();
     let mut h = harness(&plugin);
     h.run_steps(2);
-    for name in
-        ["Excitation", "Contact speed", "Texture", "Texture scale", "Ball radius", "Contact direction", "Path ends"]
-    {
+    for name in [
+        "Excitation",
+        "Contact speed",
+        "Texture",
+        "Texture scale",
+        "Ball radius",
+        "Contact direction",
+        "Path ends",
+        "Audio in",
+        "Dry/wet",
+    ] {
         h.get_by_label(&format!("{name} slider"));
     }
     assert!(h.query_by_label_contains("Held keys keep contact").is_none());

@@ -107,6 +107,25 @@ pub struct Gesture {
     pub speed_curve: Option<String>,
     /// `--force-curve "t:0..1,…"`: the normal force over time (every note's pressure).
     pub force_curve: Option<String>,
+    /// `--input in.wav`: audio in (the plugin's input layout): the WAV drives the object.
+    pub input: Option<PathBuf>,
+    /// The render's sample rate is the input's (no `--sample-rate` was given).
+    pub input_sets_rate: bool,
+}
+
+/// The `--input` WAV as (left, right, sample rate): a mono file feeds both channels, a file
+/// of more channels its first two. Allocates.
+///
+/// # Errors
+/// As [`estimator::load_wav`]: unreadable, corrupt, not 8–192 kHz, silent (one line).
+pub fn read_input(path: &Path) -> Result<(Vec<f32>, Vec<f32>, u32), String> {
+    let left = estimator::load_wav(path, Some(0)).map_err(|e| format!("--input: {e}"))?;
+    let right = if left.channels >= 2 {
+        estimator::load_wav(path, Some(1)).map_err(|e| format!("--input: {e}"))?.samples
+    } else {
+        left.samples.clone()
+    };
+    Ok((left.samples, right, left.sample_rate))
 }
 
 /// Interval between the events that play a gesture's curves, samples.
@@ -549,7 +568,7 @@ pub const MAX_WAV_FRAMES: u64 = (u32::MAX as u64 - WAV_HEADER_BYTES_COUNTED) / W
 /// The files a render reads (`--midi`, and `--object` / `--material` given as files): the
 /// output must be none of them.
 fn render_inputs(opts: &RenderOptions) -> Vec<PathBuf> {
-    let mut inputs: Vec<PathBuf> = opts.midi.iter().cloned().collect();
+    let mut inputs: Vec<PathBuf> = opts.midi.iter().chain(&opts.gesture.input).cloned().collect();
     for q in [&opts.sound.object, &opts.sound.material] {
         if Path::new(q).is_file() {
             inputs.push(PathBuf::from(q));
@@ -572,6 +591,23 @@ pub fn render_with_stats(opts: &RenderOptions) -> Result<(String, RenderStats), 
     if opts.block_size == 0 || opts.block_size > 65_536 {
         return Err(format!("--block-size {} is outside 1..=65536", opts.block_size));
     }
+    let input = match &opts.gesture.input {
+        Some(path) => Some(read_input(path)?),
+        None => None,
+    };
+    let mut owned = opts.clone();
+    if let Some((_, _, rate)) = &input {
+        if opts.gesture.input_sets_rate {
+            owned.sound.sample_rate = *rate;
+        } else if *rate != opts.sound.sample_rate {
+            return Err(format!(
+                "--input is {rate} Hz but --sample-rate is {} Hz: leave --sample-rate out to render at the input's rate",
+                opts.sound.sample_rate
+            ));
+        }
+    }
+    let opts = &owned;
+    let input_len = input.as_ref().map_or(0, |(l, _, _)| l.len());
     struck::offline::check_sample_rate(opts.sound.sample_rate as f32).map_err(|e| e.to_string())?;
     let sr = f64::from(opts.sound.sample_rate);
     let mut events = Vec::new();
@@ -582,11 +618,11 @@ pub fn render_with_stats(opts: &RenderOptions) -> Result<(String, RenderStats), 
         let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
         events.extend(crate::midi_file::read_midi(&bytes, sr).map_err(|e| format!("{}: {e}", path.display()))?);
     }
-    if opts.notes.is_none() && opts.midi.is_none() {
+    if opts.notes.is_none() && opts.midi.is_none() && input.is_none() {
         events = note_events(&demo_notes(), sr);
     }
     events.sort_by_key(|e| e.sample);
-    let last = events.last().map_or(0, |e| e.sample) as f64 / sr;
+    let last = (events.last().map_or(0, |e| e.sample) as f64 / sr).max(input_len as f64 / sr);
     // Without --seconds: until the output has stayed under −90 dBFS for 0.1 s after the last
     // event, at most MAX_TAIL_S later.
     let auto = opts.seconds.is_none();
@@ -626,6 +662,8 @@ pub fn render_with_stats(opts: &RenderOptions) -> Result<(String, RenderStats), 
         set_timing(&mut e.event, 0);
     }
     let last_event = events.iter().filter(|e| e.sample < total as u64).map(|e| e.sample).max().unwrap_or(0) as usize;
+    // With an input, the render goes on at least until the input has played.
+    let last_event = last_event.max(input_len.min(total));
     // Check the output before spending time rendering.
     let inputs = render_inputs(opts);
     let input_refs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
@@ -692,6 +730,9 @@ pub fn render_with_stats(opts: &RenderOptions) -> Result<(String, RenderStats), 
     let (gain, length) = match opts.normalize {
         Some(target) => {
             let mut host = configured_host(&sound, opts.block_size)?;
+            if let Some((l, r, _)) = &input {
+                host.set_input(l.clone(), r.clone());
+            }
             let pass = render_pass(&mut host, &events, opts.block_size, &ending, 1.0, |_, _| Ok(()))
                 .map_err(|e: hound::Error| e.to_string())?;
             if pass.peak <= 0.0 {
@@ -703,6 +744,9 @@ pub fn render_with_stats(opts: &RenderOptions) -> Result<(String, RenderStats), 
     };
     let ending = Ending { auto: auto && length.is_none(), total: length.unwrap_or(total), ..ending };
     let mut host = configured_host(&sound, opts.block_size)?;
+    if let Some((l, r, _)) = &input {
+        host.set_input(l.clone(), r.clone());
+    }
     let mut file = presets::output::AtomicFile::create(&opts.out).map_err(|e| e.to_string())?;
     let spec = hound::WavSpec {
         channels: 2,

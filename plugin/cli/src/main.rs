@@ -139,6 +139,10 @@ enum Command {
         /// note's pressure; without it a note's force is its velocity.
         #[arg(long, value_name = "T:V,…")]
         force_curve: Option<String>,
+        /// Audio in: this WAV drives the object at the strike position (moving at the contact
+        /// speed; `--set drywet=…` mixes the input back in), rendered at its sample rate.
+        #[arg(long, value_name = "WAV")]
+        input: Option<PathBuf>,
     },
 }
 
@@ -156,9 +160,9 @@ struct SoundArgs {
     /// Strike position 0..=1 along the object's strike points.
     #[arg(long)]
     position: Option<f32>,
-    /// Sample rate in Hz.
-    #[arg(long, default_value_t = 48_000)]
-    sample_rate: u32,
+    /// Sample rate in Hz (default 48000; `render --input`: the input's).
+    #[arg(long)]
+    sample_rate: Option<u32>,
     /// Set any parameter: `--set id=value` (plain units; repeatable; see `struck params`).
     #[arg(long = "set", value_name = "ID=VALUE")]
     set: Vec<String>,
@@ -175,7 +179,7 @@ impl SoundArgs {
             material: self.material.clone(),
             size: self.size,
             position: self.position,
-            sample_rate: self.sample_rate,
+            sample_rate: self.sample_rate.unwrap_or(48_000),
             set: self.set.clone(),
             pitch: self.pitch.clone(),
         }
@@ -216,7 +220,9 @@ fn run(cli: Cli) -> Result<(), String> {
             texture,
             speed_curve,
             force_curve,
+            input,
         } => {
+            let input_sets_rate = sound.sample_rate.is_none();
             let opts = RenderOptions {
                 sound: sound.options(),
                 notes,
@@ -225,12 +231,19 @@ fn run(cli: Cli) -> Result<(), String> {
                 block_size,
                 out,
                 normalize,
-                gesture: struck_cli::cli::Gesture { excitation, texture, speed_curve, force_curve },
+                gesture: struck_cli::cli::Gesture {
+                    excitation,
+                    texture,
+                    speed_curve,
+                    force_curve,
+                    input,
+                    input_sets_rate,
+                },
             };
             let (summary, load) = cli::render_with_stats(&opts)?;
             eprintln!("{summary}");
             if stats {
-                eprintln!("{}", cli::stats_line(&load, f64::from(opts.sound.sample_rate)));
+                eprintln!("{}", cli::stats_line(&load, load.sample_rate));
             }
             Ok(())
         }

@@ -744,3 +744,97 @@ fn render_stats_counts_the_voices_and_the_modes_that_ring() {
     assert!(line.contains(&format!("sounding modes peak {listed} ")), "{line}; modes lists {listed}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Reads a WAV written by `render` (32-bit float stereo): (left channel, sample rate).
+fn read_render(path: &Path) -> (Vec<f32>, u32) {
+    let mut r = hound::WavReader::open(path).unwrap();
+    let rate = r.spec().sample_rate;
+    let x: Vec<f32> = r.samples::<f32>().map(Result::unwrap).collect();
+    (x.chunks(2).map(|c| c[0]).collect(), rate)
+}
+
+/// Issue 16's command line: a scrape gesture renders sound while the note is held; bad
+/// gestures are one-line errors that leave an existing output alone.
+#[test]
+fn render_plays_gestures_and_refuses_bad_ones() {
+    let dir = scratch("gesture");
+    let out = dir.join("g.wav");
+    let out_s = out.to_str().unwrap();
+    let args = [
+        "render",
+        "--notes",
+        "60:90~1.5",
+        "--excitation",
+        "scrape",
+        "--texture",
+        "grooves",
+        "--speed-curve",
+        "0:0.1,1:0.5",
+        "--force-curve",
+        "0:0.3,1.5:1",
+        "--seconds",
+        "2.5",
+        "--out",
+        out_s,
+    ];
+    let o = struck(&dir, &args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let (x, rate) = read_render(&out);
+    assert_eq!((x.len(), rate), (120_000, 48_000));
+    let rms = |a: &[f32]| (a.iter().map(|v| v * v).sum::<f32>() / a.len() as f32).sqrt();
+    // Still sounding late in the hold (a strike alone has died away by then on the glass bar).
+    assert!(rms(&x[60_000..72_000]) > 1e-3, "held: {}", rms(&x[60_000..72_000]));
+    let before = std::fs::read(&out).unwrap();
+    let bad: &[(&[&str], &str)] = &[
+        (&["--excitation", "rub"], "--excitation 'rub'"),
+        (&["--texture", "velvet"], "--texture 'velvet'"),
+        (&["--speed-curve", "0:0.1,x"], "--speed-curve 'x'"),
+        (&["--speed-curve", "0:2"], "outside 0..=1"),
+        (&["--force-curve", "1:0.5,0:0.2"], "must ascend"),
+        (&["--force-curve", ""], "no points"),
+    ];
+    for (extra, names) in bad {
+        let e = error_line(&struck(&dir, &[&["render", "--notes", "60:90~1", "--out", out_s][..], extra].concat()));
+        assert!(e.contains(names), "{extra:?}: {e}");
+    }
+    assert_eq!(std::fs::read(&out).unwrap(), before, "a refused render changed the output");
+}
+
+/// `render --input`: the WAV drives the object at its own sample rate, the render lasts at
+/// least as long as the input, an explicit other rate is a one-line error, and the input is
+/// never overwritten.
+#[test]
+fn render_input_drives_the_object_at_the_inputs_rate() {
+    let dir = scratch("input");
+    let input = dir.join("in.wav");
+    let spec = hound::WavSpec {
+        channels: 1,
+        sample_rate: 44_100,
+        bits_per_sample: 16,
+        sample_format: hound::SampleFormat::Int,
+    };
+    let mut w = hound::WavWriter::create(&input, spec).unwrap();
+    let mut seed = 1u32;
+    for _ in 0..44_100 {
+        seed ^= seed << 13;
+        seed ^= seed >> 17;
+        seed ^= seed << 5;
+        w.write_sample((seed >> 20) as i16 - 2048).unwrap();
+    }
+    w.finalize().unwrap();
+    let input_s = input.to_str().unwrap();
+    let out = dir.join("o.wav");
+    let out_s = out.to_str().unwrap();
+    let o = struck(&dir, &["render", "--input", input_s, "--object", "fem-bowl", "--out", out_s]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let (x, rate) = read_render(&out);
+    assert_eq!(rate, 44_100);
+    assert!(x.len() >= 44_100, "{} samples", x.len());
+    assert!(x[..44_100].iter().any(|v| v.abs() > 1e-3), "silent");
+    let e = error_line(&struck(&dir, &["render", "--input", input_s, "--sample-rate", "48000", "--out", out_s]));
+    assert!(e.contains("44100 Hz") && e.contains("--sample-rate"), "{e}");
+    let before = std::fs::read(&input).unwrap();
+    let e = error_line(&struck(&dir, &["render", "--input", input_s, "--out", input_s]));
+    assert!(e.contains("also an input"), "{e}");
+    assert_eq!(std::fs::read(&input).unwrap(), before);
+}

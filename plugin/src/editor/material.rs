@@ -195,6 +195,8 @@ fn knob_groups(ui: &mut egui::Ui, cx: &PanelCtx) {
             param_row(ui, setter, &p.ball_radius_mm);
             param_row(ui, setter, &p.contact_direction);
             param_row(ui, setter, &p.path_ends);
+            param_row(ui, setter, &p.audio_in);
+            param_row(ui, setter, &p.dry_wet);
         });
         if p.excitation.value() != crate::params::ExcitationParam::Strike {
             ui.label(
