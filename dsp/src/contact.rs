@@ -384,15 +384,17 @@ pub struct ContactState {
 }
 
 impl ContactState {
-    /// A contact starting at `position` (0..=1 along the strike path) moving `forward` (or
-    /// back), with the micro noise read from an offset drawn from `seed`.
-    pub fn start(position: f32, forward: bool, seed: u32, surface: &Surface) -> Self {
+    /// A contact starting at `position` (0..=1 along the strike path) moving in `direction`
+    /// along it (1: towards its end, −1: towards its start, 0: across it, staying at
+    /// `position`: round a rim, along a ring), with the micro noise read from an offset drawn
+    /// from `seed`.
+    pub fn start(position: f32, direction: f64, seed: u32, surface: &Surface) -> Self {
         let mut r = Noise::new(seed);
         let micro_offset = 0.5 * (f64::from(r.next_sample()) + 1.0) * MICRO_LEN as f64;
         let mut s = ContactState {
             micro_offset,
             position: f64::from(position.clamp(0.0, 1.0)),
-            direction: if forward { 1.0 } else { -1.0 },
+            direction: direction.clamp(-1.0, 1.0),
             ..Default::default()
         };
         s.resync(surface);
@@ -545,7 +547,7 @@ mod tests {
             // The ball's rotation modulation is a separate test; a point tool here.
             let s = surface(&smooth, &noise, Tool::Point);
             for speed in [0.3, 0.9] {
-                let mut c = ContactState::start(0.5, true, 3, &s);
+                let mut c = ContactState::start(0.5, 1.0, 3, &s);
                 let x: Vec<f64> = (0..(1 << 19)).map(|_| f64::from(c.next(&s, speed, 1.0))).collect();
                 let p = octave_power(&x, 48_000.0, &bands);
                 for w in p.windows(2) {
@@ -568,7 +570,7 @@ mod tests {
         let silent = FractalNoise { table: vec![0.0; MICRO_LEN], beta: 1.0 };
         for (speed, scale) in [(0.2, 1.0), (0.37, 1.0), (0.5, 2.5)] {
             let s = Surface { scale, ..surface(&grooves, &silent, Tool::Point) };
-            let mut c = ContactState::start(0.0, true, 1, &s);
+            let mut c = ContactState::start(0.0, 1.0, 1, &s);
             let mut impulses = Vec::new();
             for n in 0..48_000 {
                 let u = c.next(&s, speed, 1.0);
@@ -636,7 +638,7 @@ mod tests {
         let (r, v) = (5e-3, 0.4);
         let s = surface(&smooth, &noise, Tool::Ball(r));
         let p = surface(&smooth, &noise, Tool::Point);
-        let (mut a, mut b) = (ContactState::start(0.3, true, 9, &s), ContactState::start(0.3, true, 9, &p));
+        let (mut a, mut b) = (ContactState::start(0.3, 1.0, 9, &s), ContactState::start(0.3, 1.0, 9, &p));
         // The ratio of the two is the modulation 1 + ε·cos(v t / r).
         let mut ratio = Vec::new();
         for _ in 0..24_000 {
@@ -663,7 +665,7 @@ mod tests {
         let smooth = TextureKind::Smooth.texture();
         let noise = FractalNoise::new(1.0, 1);
         let s = surface(&smooth, &noise, Tool::Point);
-        let mut c = ContactState::start(0.8, true, 1, &s);
+        let mut c = ContactState::start(0.8, 1.0, 1, &s);
         // 0.1 m/s for 1 s = 0.1 m = 0.4 of the path: up to 1, back to 0.8.
         for _ in 0..48_000 {
             c.next(&s, 0.1, 1.0);
@@ -671,12 +673,19 @@ mod tests {
         assert!((c.position() - 0.8).abs() < 1e-4 && c.direction < 0.0, "{}", c.position());
         assert!((c.odometer_m() - 0.1).abs() < 1e-9);
         let w = Surface { wrap: true, ..s };
-        let mut c = ContactState::start(0.8, true, 1, &w);
+        let mut c = ContactState::start(0.8, 1.0, 1, &w);
         for _ in 0..48_000 {
             c.next(&w, 0.1, 1.0);
         }
         assert!((c.position() - 0.2).abs() < 1e-4, "{}", c.position());
         assert!((c.position_after(0.025, &w) - 0.3).abs() < 1e-4);
+        // Across the path: the position stays, the texture still passes.
+        let mut c = ContactState::start(0.35, 0.0, 1, &s);
+        for _ in 0..48_000 {
+            c.next(&s, 0.1, 1.0);
+        }
+        assert_eq!(c.position(), 0.35);
+        assert!((c.odometer_m() - 0.1).abs() < 1e-9);
     }
 
     #[test]

@@ -198,8 +198,9 @@ pub struct ContactParams {
     pub texture_scale: f64,
     /// Radius of the rolling ball, m.
     pub ball_radius_m: f64,
-    /// The contact starts moving towards the path's end (true) or its start.
-    pub forward: bool,
+    /// Where the contact moves along the strike path: 1 towards its end, −1 towards its
+    /// start, 0 across it (it stays at its position while sliding: round a rim).
+    pub direction: f64,
     /// At the path's ends the contact wraps round (true) or bounces back.
     pub wrap: bool,
 }
@@ -212,7 +213,7 @@ impl Default for ContactParams {
             texture: TextureKind::FineGrit,
             texture_scale: 1.0,
             ball_radius_m: 0.01,
-            forward: true,
+            direction: 1.0,
             wrap: false,
         }
     }
@@ -1378,7 +1379,7 @@ impl Engine {
                 input: None,
             };
             let seed = self.strikes.wrapping_mul(0x9E37_79B9) ^ u32::from(voice.note.key);
-            voice.contact = ContactState::start(position, p.contact.forward, seed, &env.surface(voice.excitation));
+            voice.contact = ContactState::start(position, p.contact.direction, seed, &env.surface(voice.excitation));
             voice.lasting = true;
         }
         voice.contact_len = (contact * fs).ceil().max(1.0) as usize + PULSE_PREROLL;
@@ -1537,8 +1538,8 @@ impl Engine {
             self.voices[v].lasting = false;
         } else if self.input_on && self.voices[v].lasting && position != self.input_position {
             let env = self.contact_env(0);
-            let forward = self.target.contact.forward;
-            self.voices[v].contact = ContactState::start(position, forward, 1, &env.surface(Excitation::Scrape));
+            let direction = self.target.contact.direction;
+            self.voices[v].contact = ContactState::start(position, direction, 1, &env.surface(Excitation::Scrape));
         }
         self.input_on = on;
         self.input_position = position;
@@ -1601,7 +1602,7 @@ impl Engine {
             phase: 0,
             input: None,
         };
-        voice.contact = ContactState::start(voice.position, p.contact.forward, 1, &env.surface(Excitation::Scrape));
+        voice.contact = ContactState::start(voice.position, p.contact.direction, 1, &env.surface(Excitation::Scrape));
         voice.lasting = true;
         voice.energy = voice.bank.energy();
     }

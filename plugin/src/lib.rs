@@ -157,7 +157,11 @@ impl Struck {
                 texture: p.texture.value().kind(),
                 texture_scale: f64::from(p.texture_scale.value()),
                 ball_radius_m: 1e-3 * f64::from(p.ball_radius_mm.value()),
-                forward: p.contact_direction.value() == params::ContactDirection::Forward,
+                direction: match p.contact_direction.value() {
+                    params::ContactDirection::Forward => 1.0,
+                    params::ContactDirection::Backward => -1.0,
+                    params::ContactDirection::Across => 0.0,
+                },
                 wrap: p.path_ends.value() == params::PathEnds::Wrap,
             },
         }

@@ -180,7 +180,7 @@ impl TextureParam {
     }
 }
 
-/// Where a lasting contact first moves along the strike path.
+/// Where a lasting contact moves along the strike path.
 #[derive(Enum, Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ContactDirection {
     /// Towards the path's end (position 1).
@@ -189,6 +189,10 @@ pub enum ContactDirection {
     /// Towards the path's start (position 0).
     #[id = "backward"]
     Backward,
+    /// Across the path: the contact stays at the strike position while it slides (round a
+    /// bowl's rim or a bell's, along a bar's length when its points run across it).
+    #[id = "across"]
+    Across,
 }
 
 /// What a lasting contact does at the strike path's ends.
