@@ -31,7 +31,8 @@ use crate::exciter::{Noise, FASTEST_STRIKE_M_PER_S};
 /// Path length of one micro-noise table sample, m. The table's harmonics stop at a quarter of
 /// its Nyquist frequency ([`MICRO_OVERSAMPLING`]), so the cubic interpolation between its
 /// samples is accurate; its band then reaches v·24 kHz per m/s: 24 kHz at 1 m/s (fixed in Hz,
-/// whatever the engine's sample rate).
+/// whatever the engine's sample rate; at 44.1 kHz the top of the band folds back above
+/// 0.92 m/s, where the 1/f^β spectrum is 30–60 dB down).
 pub const MICRO_TEXEL_M: f64 = 1.0 / 192_000.0;
 /// The micro table's harmonics end at its Nyquist frequency over this factor.
 pub const MICRO_OVERSAMPLING: usize = 4;

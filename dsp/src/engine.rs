@@ -227,6 +227,9 @@ impl Default for ContactParams {
 /// −8…+4 dB of the input's RMS (measured with `struck render --input`).
 pub const AUDIO_IN_RATE: f64 = 3000.0;
 
+/// The audio-in voice's note id (no host's: its end is not reported).
+const INPUT_VOICE_ID: i32 = i32::MIN;
+
 /// The textures and micro-noise tables every engine shares, built once per process (the
 /// noise tables take a few tens of ms and 2 MiB each).
 #[derive(Debug)]
@@ -255,6 +258,8 @@ struct ContactEnv<'a> {
     phase: usize,
     /// The audio input over the chunk (none: silence).
     input: Option<&'a [f32]>,
+    /// The mod wheel's speed, if moved.
+    wheel_speed: Option<f64>,
 }
 
 impl ContactEnv<'_> {
@@ -738,7 +743,7 @@ fn render_voice(voice: &mut Voice, buf: &mut [Vec<f32>; 3], lanes: &mut [f32], e
     let n = lanes.len() / LANES;
     let mut i = 0;
     let surface = env.surface(voice.excitation);
-    let speed = voice.speed.unwrap_or(env.params.speed_mps);
+    let speed = voice.speed.or(env.wheel_speed).unwrap_or(env.params.speed_mps);
     let force = f64::from(voice.force);
     while i < n {
         if !voice.forced() {
@@ -770,7 +775,8 @@ fn render_voice(voice: &mut Voice, buf: &mut [Vec<f32>; 3], lanes: &mut [f32], e
             } else if voice.input {
                 // Audio in: the input signal is the contact's force (see `AUDIO_IN_RATE`).
                 voice.contact.travel(&surface, speed);
-                let x = env.input.map_or(0.0, |x| x[i + j]) * env.input_scale();
+                let x = env.input.map_or(0.0, |x| x[i + j]);
+                let x = if x.is_finite() { x * env.input_scale() } else { 0.0 };
                 let t = (env.phase + i + j) as f32 * (1.0 / CONTROL_INTERVAL as f32);
                 (x * (1.0 - t), x * t)
             } else if voice.lasting {
@@ -1003,6 +1009,8 @@ pub struct Engine {
     tables: &'static ContactTables,
     /// Voices notes can take (`voices[pool]` is the audio-in voice).
     pool: usize,
+    /// The mod wheel's speed, m/s, once moved (see [`Engine::set_wheel_speed`]).
+    wheel_speed: Option<f64>,
     /// Audio in is wanted, and where its contact starts on the strike path.
     input_on: bool,
     input_position: f32,
@@ -1046,6 +1054,7 @@ impl Engine {
             rendered_in_call: 0,
             tables: contact_tables(),
             pool: max_voices,
+            wheel_speed: None,
             input_on: false,
             input_position: 0.5,
         }
@@ -1081,6 +1090,7 @@ impl Engine {
         self.strikes = 0;
         self.variation_rng = Noise::new(VARIATION_SEED);
         self.num_terminated = 0;
+        self.wheel_speed = None;
         self.params = self.target;
         self.glide = Glide {
             modulus_ratio: self.target.modulus_ratio,
@@ -1204,7 +1214,7 @@ impl Engine {
         voice.pending = Some(strike.velocity);
         voice.excitation = self.target.contact.excitation;
         voice.lasting = false;
-        voice.force = strike.velocity.clamp(0.0, 1.0);
+        voice.force = if strike.velocity.is_finite() { strike.velocity.clamp(0.0, 1.0) } else { 0.0 };
     }
 
     /// Releases a note: it rings on, damped by the release damping; a lasting contact ends
@@ -1215,6 +1225,14 @@ impl Engine {
             v.dirty = true;
             v.lasting = false;
         }
+    }
+
+    /// Sliding speed of every lasting contact without its own (the mod wheel), m/s; `None`:
+    /// the controls' ([`ContactParams::speed_mps`]). Sample-accurate (takes effect at the
+    /// next rendered sample). Realtime-safe.
+    pub fn set_wheel_speed(&mut self, speed_mps: Option<f64>) {
+        self.wheel_speed =
+            speed_mps.map(|s| if s.is_finite() { s.clamp(0.0, contact::MAX_SPEED_M_PER_S) } else { 0.0 });
     }
 
     /// Per-note sliding speed of a lasting contact, m/s (0..=1; per-note expression).
@@ -1329,6 +1347,11 @@ impl Engine {
         // A lasting contact travels the whole path: it takes every ringing mode whose largest
         // gain over the strike points passes the quality threshold.
         let lasting = voice.excitation.is_lasting();
+        if lasting {
+            // Slots kept from an earlier strike start without contact until the next tick.
+            voice.gain_from[..voice.bank.len()].fill(0.0);
+            voice.gain_to[..voice.bank.len()].fill(0.0);
+        }
         let max_gain = if lasting { obj.max_gain.iter().fold(0.0f32, |a, &g| a.max(g)) } else { 0.0 };
         let gain_threshold = max_gain * 10f32.powf(-p.quality_db / 20.0);
         for m in 0..n {
@@ -1377,10 +1400,12 @@ impl Engine {
                 fs,
                 phase: 0,
                 input: None,
+                wheel_speed: self.wheel_speed,
             };
             let seed = self.strikes.wrapping_mul(0x9E37_79B9) ^ u32::from(voice.note.key);
             voice.contact = ContactState::start(position, p.contact.direction, seed, &env.surface(voice.excitation));
-            voice.lasting = true;
+            // A note released at its own note-on's sample only strikes.
+            voice.lasting = !voice.released;
         }
         voice.contact_len = (contact * fs).ceil().max(1.0) as usize + PULSE_PREROLL;
         voice.contact_pos = 0;
@@ -1421,7 +1446,7 @@ impl Engine {
     /// gains move continuously, with no steps).
     fn contact_tick(&mut self, v: usize) {
         let env = self.contact_env(0);
-        let speed = self.voices[v].speed.unwrap_or(self.params.contact.speed_mps);
+        let speed = self.voices[v].speed.or(self.wheel_speed).unwrap_or(self.params.contact.speed_mps);
         let voice = &mut self.voices[v];
         let surface = env.surface(voice.excitation);
         let ahead = voice.contact.position_after(speed * CONTROL_INTERVAL as f64 / self.sample_rate, &surface);
@@ -1445,6 +1470,7 @@ impl Engine {
             fs: self.sample_rate,
             phase,
             input: None,
+            wheel_speed: self.wheel_speed,
         }
     }
 
@@ -1502,7 +1528,10 @@ impl Engine {
                 let note = voice.note;
                 voice.clear();
                 self.live_stale = true;
-                self.push_terminated(note, self.rendered_in_call);
+                // The audio-in voice is no host's note.
+                if note.voice_id != Some(INPUT_VOICE_ID) {
+                    self.push_terminated(note, self.rendered_in_call);
+                }
             }
         }
     }
@@ -1552,12 +1581,24 @@ impl Engine {
         if !self.input_on || (self.voices[v].lasting && self.voices[v].object == self.object) {
             return;
         }
+        if self.voices[v].active {
+            // Still ringing (another object, or audio in turned off and on): it rings out in a
+            // free voice rather than being cut; with none free, it is cut.
+            if let Some(free) = (0..self.pool).find(|&i| !self.voices[i].active) {
+                self.voices.swap(v, free);
+                let old = &mut self.voices[free];
+                old.input = false;
+                old.lasting = false;
+                old.released = true;
+                self.voices[v].active = false;
+            }
+        }
         let voice = &mut self.voices[v];
         voice.clear();
         voice.active = true;
         voice.input = true;
         voice.excitation = Excitation::Scrape;
-        voice.note = NoteId { voice_id: Some(i32::MIN), channel: 0, key: 0 };
+        voice.note = NoteId { voice_id: Some(INPUT_VOICE_ID), channel: 0, key: 0 };
         voice.object = self.object;
         voice.lambda_factor = 1.0;
         voice.position = self.input_position;
@@ -1601,6 +1642,7 @@ impl Engine {
             fs,
             phase: 0,
             input: None,
+            wheel_speed: None,
         };
         voice.contact = ContactState::start(voice.position, p.contact.direction, 1, &env.surface(Excitation::Scrape));
         voice.lasting = true;
@@ -1666,6 +1708,7 @@ impl Engine {
                     fs: self.sample_rate,
                     phase,
                     input: input.map(|x| &x[pos..pos + n]),
+                    wheel_speed: self.wheel_speed,
                 };
                 render_voices(
                     &mut self.voices,

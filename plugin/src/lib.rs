@@ -40,8 +40,6 @@ pub struct Struck {
     /// The last MIDI CC 74 (MPE timbre) of each channel, 0..=1: the strike position of that
     /// channel's next notes (MPE sends a note's initial timbre just before its note-on).
     channel_timbre: [Option<f32>; 16],
-    /// The mod wheel's last value (0..=1 of the fastest contact speed), once one arrived.
-    mod_wheel: Option<f32>,
     /// The host activated the layout with an audio input.
     has_input: bool,
     /// The input mixed to mono, and the output gain per sample, for one chunk.
@@ -73,7 +71,6 @@ impl Struck {
             editor_shared: Arc::new(shared::EditorShared::default()),
             clip_player: shared::ClipPlayer::default(),
             channel_timbre: [None; 16],
-            mod_wheel: None,
             has_input: false,
             input_mono: Vec::new(),
             gains: Vec::new(),
@@ -151,9 +148,7 @@ impl Struck {
             support_c,
             contact: ContactParams {
                 excitation: p.excitation.value().excitation(),
-                speed_mps: f64::from(
-                    self.mod_wheel.unwrap_or_else(|| p.contact_speed.value() / dsp::contact::MAX_SPEED_M_PER_S as f32),
-                ) * dsp::contact::MAX_SPEED_M_PER_S,
+                speed_mps: f64::from(p.contact_speed.value()),
                 texture: p.texture.value().kind(),
                 texture_scale: f64::from(p.texture_scale.value()),
                 ball_radius_m: 1e-3 * f64::from(p.ball_radius_mm.value()),
@@ -234,12 +229,16 @@ impl Struck {
     }
 
     fn handle_event(&mut self, event: NoteEvent<()>) {
+        let lasting = self.params.excitation.value() != params::ExcitationParam::Strike;
+        // The channel's last MPE timbre (CC 74): the next note's strike position, or in a
+        // lasting excitation its speed.
+        let timbre = |channel: &Channel, timbre: &[Option<f32>; 16]| {
+            channel.number().and_then(|c| timbre.get(usize::from(c))).copied().flatten()
+        };
         let strike = match &event {
             NoteEvent::NoteOn { key: Key::Number(key), velocity, channel, .. } => {
                 let mut strike = self.strike_for(*key, *velocity);
-                if let Some(position) =
-                    channel.number().and_then(|c| self.channel_timbre.get(usize::from(c))).copied().flatten()
-                {
+                if let Some(position) = timbre(channel, &self.channel_timbre).filter(|_| !lasting) {
                     strike.position = position;
                 }
                 self.tune_to_strongest(*key, &mut strike);
@@ -247,8 +246,11 @@ impl Struck {
             }
             _ => None,
         };
-        let lasting = self.params.excitation.value() != params::ExcitationParam::Strike;
         let speed_of = |x: f32| f64::from(x.clamp(0.0, 1.0)) * dsp::contact::MAX_SPEED_M_PER_S;
+        let initial_speed = match &event {
+            NoteEvent::NoteOn { channel, .. } if lasting => timbre(channel, &self.channel_timbre),
+            _ => None,
+        };
         let Some(engine) = self.engine.as_mut() else { return };
         // nice-plug's identifiers may be wildcards; the engine's NoteId::ANY matches all.
         let note = |voice_id: VoiceID, channel: Channel, key: Key| NoteId {
@@ -260,6 +262,10 @@ impl Struck {
             NoteEvent::NoteOn { voice_id, channel, key, .. } => {
                 if let Some(s) = strike {
                     engine.note_on(note(voice_id, channel, key), s);
+                    // MPE sends a note's initial timbre (its speed here) before its note-on.
+                    if let Some(v) = initial_speed {
+                        engine.set_note_speed(note(voice_id, channel, key), speed_of(v));
+                    }
                 }
             }
             NoteEvent::NoteOff { voice_id, channel, key, .. } => engine.note_off(note(voice_id, channel, key)),
@@ -278,8 +284,11 @@ impl Struck {
             }
             // The mod wheel sets the contact speed of every note without its own (0..1 of the
             // fastest), in place of *Contact speed*, from now on.
-            NoteEvent::MidiCC { cc: 1, value, .. } => self.mod_wheel = Some(value.clamp(0.0, 1.0)),
+            NoteEvent::MidiCC { cc: 1, value, .. } => engine.set_wheel_speed(Some(speed_of(value))),
             NoteEvent::MidiCC { channel, cc: 74, value, .. } if lasting => {
+                if let Some(slot) = self.channel_timbre.get_mut(usize::from(channel)) {
+                    *slot = Some(value);
+                }
                 engine.set_note_speed(NoteId { voice_id: None, channel, key: NoteId::ANY }, speed_of(value))
             }
             NoteEvent::MidiChannelPressure { channel, pressure, .. } => engine.set_channel_pressure(channel, pressure),
@@ -365,7 +374,6 @@ impl Plugin for Struck {
 
     fn reset(&mut self) {
         self.channel_timbre = [None; 16];
-        self.mod_wheel = None;
         self.audition_contact = None;
         let sp = self.sound_params();
         let object = self.object_index();

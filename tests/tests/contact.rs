@@ -165,3 +165,33 @@ fn a_note_off_ends_the_contact() {
     assert!(during > 1e-3 && after < 1e-4 * during, "during {during}, after {after}");
     assert!(sent.iter().any(|(_, e)| matches!(e, NoteEvent::VoiceTerminated { .. })), "the voice did not end");
 }
+
+/// A note released at its own note-on's sample only strikes: no contact is left running, the
+/// voice ends.
+#[test]
+fn a_note_released_at_once_only_strikes() {
+    let set = [("excite", SCRAPE), ("texture", BUMPS), ("speed", 0.4), ("release", 60.0)];
+    let mut h = host("rect-plate", "steel-sterling-hybrid", SR, &set);
+    let events = note_events(&[held(60, 100, 0.0, 0.0)], f64::from(SR));
+    let (_, sent) = h.render(&events, 4 * SR as usize, 512);
+    assert!(sent.iter().any(|(_, e)| matches!(e, NoteEvent::VoiceTerminated { .. })), "the voice did not end");
+}
+
+/// The mod wheel sets the contact speed at its event's sample: the same wheel moves give the
+/// same output whatever the host's block size.
+#[test]
+fn the_mod_wheel_moves_the_contact_sample_accurately() {
+    let set = [("excite", SCRAPE), ("texture", GROOVES)];
+    let mut events = note_events(&[held(60, 100, 0.0, 0.9)], f64::from(SR));
+    for (sample, value) in [(1_001u64, 0.1f32), (9_333, 0.6), (20_017, 0.3)] {
+        events.push(TimedEvent { sample, event: NoteEvent::MidiCC { timing: 0, channel: 0, cc: 1, value } });
+    }
+    events.sort_by_key(|e| e.sample);
+    let reference = play(&set, &events, 1.0, 512);
+    for block in [1, 37, 4096] {
+        assert_eq!(play(&set, &events, 1.0, block), reference, "block {block}");
+    }
+    // The wheel did move the contact: the same render without it differs.
+    let still = play(&set, &note_events(&[held(60, 100, 0.0, 0.9)], f64::from(SR)), 1.0, 512);
+    assert_ne!(still, reference);
+}
