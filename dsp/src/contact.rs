@@ -120,10 +120,13 @@ pub enum TextureKind {
     Grooves,
     /// Random raised-cosine bumps (0.1–0.3 mm high, 1.5 mm wide) about 8 mm apart.
     Bumps,
+    /// The user's profile (the engine's [`set_user_texture`](crate::engine::Engine::set_user_texture));
+    /// smooth until one is given. Not in [`TextureKind::ALL`] (the factory textures).
+    User,
 }
 
 impl TextureKind {
-    /// Every factory texture.
+    /// Every factory texture (not [`TextureKind::User`]).
     pub const ALL: [TextureKind; 5] =
         [TextureKind::Smooth, TextureKind::FineGrit, TextureKind::CoarseGrit, TextureKind::Grooves, TextureKind::Bumps];
 
@@ -135,6 +138,7 @@ impl TextureKind {
             TextureKind::CoarseGrit => "Coarse grit",
             TextureKind::Grooves => "Grooves",
             TextureKind::Bumps => "Bumps",
+            TextureKind::User => "User",
         }
     }
 
@@ -148,7 +152,7 @@ impl TextureKind {
             (0..n).map(|_| amp * f64::from(r.next_sample())).collect::<Vec<f64>>()
         };
         match self {
-            TextureKind::Smooth => Texture { heights: vec![0.0; 2], texel_m: 1e-3 },
+            TextureKind::Smooth | TextureKind::User => Texture { heights: vec![0.0; 2], texel_m: 1e-3 },
             TextureKind::FineGrit => Texture { heights: white(4096, 3e-6, 0xF1E), texel_m: 40e-6 },
             TextureKind::CoarseGrit => Texture { heights: white(4096, 30e-6, 0xC0A), texel_m: 250e-6 },
             TextureKind::Grooves => {

@@ -260,17 +260,43 @@ struct ContactEnv<'a> {
     input: Option<&'a [f32]>,
     /// The mod wheel's speed, if moved.
     wheel_speed: Option<f64>,
+    /// The user's texture, if one was given ([`Engine::set_user_texture`]).
+    user: Option<&'a Texture>,
 }
 
-impl ContactEnv<'_> {
+/// The [`ContactEnv`] of the engine's current controls (phase 0, no input), from its fields (a
+/// macro, so it borrows them, not the whole engine).
+macro_rules! contact_env {
+    ($e:expr) => {
+        ContactEnv {
+            tables: $e.tables,
+            params: $e.params.contact,
+            path_m: contact::PATH_LENGTH_M * $e.glide.size,
+            fs: $e.sample_rate,
+            phase: 0,
+            input: None,
+            wheel_speed: $e.wheel_speed,
+            user: $e.user_texture.as_deref(),
+        }
+    };
+}
+
+impl<'a> ContactEnv<'a> {
     /// An input sample's impulse, in units of a velocity-1 strike's: [`AUDIO_IN_RATE`] / fs.
     fn input_scale(&self) -> f32 {
         (AUDIO_IN_RATE / self.fs) as f32
     }
 
-    fn surface(&self, excitation: Excitation) -> Surface<'static> {
+    fn surface(&self, excitation: Excitation) -> Surface<'a> {
         let p = &self.params;
-        let texture = &self.tables.textures[TextureKind::ALL.iter().position(|k| *k == p.texture).unwrap_or(0)];
+        let factory =
+            |k: TextureKind| &self.tables.textures[TextureKind::ALL.iter().position(|f| *f == k).unwrap_or(0)];
+        // The user's texture, or smooth until one is given.
+        let texture: &'a Texture = match (p.texture, self.user) {
+            (TextureKind::User, Some(t)) => t,
+            (TextureKind::User, None) => factory(TextureKind::Smooth),
+            (k, _) => factory(k),
+        };
         let noise = match excitation {
             Excitation::Strike | Excitation::Scrape => &self.tables.noise[0],
             Excitation::Slide => &self.tables.noise[1],
@@ -1009,6 +1035,8 @@ pub struct Engine {
     tables: &'static ContactTables,
     /// Voices notes can take (`voices[pool]` is the audio-in voice).
     pool: usize,
+    /// The user's texture (*Texture* = User).
+    user_texture: Option<Box<Texture>>,
     /// The mod wheel's speed, m/s, once moved (see [`Engine::set_wheel_speed`]).
     wheel_speed: Option<f64>,
     /// Audio in is wanted, and where its contact starts on the strike path.
@@ -1054,6 +1082,7 @@ impl Engine {
             rendered_in_call: 0,
             tables: contact_tables(),
             pool: max_voices,
+            user_texture: None,
             wheel_speed: None,
             input_on: false,
             input_position: 0.5,
@@ -1225,6 +1254,13 @@ impl Engine {
             v.dirty = true;
             v.lasting = false;
         }
+    }
+
+    /// Sets the user's texture (played when the texture is [`TextureKind::User`]) and returns
+    /// the one it replaces, for the caller to free off the audio thread. Realtime-safe (no
+    /// allocation, nothing freed).
+    pub fn set_user_texture(&mut self, texture: Option<Box<Texture>>) -> Option<Box<Texture>> {
+        std::mem::replace(&mut self.user_texture, texture)
     }
 
     /// Sliding speed of every lasting contact without its own (the mod wheel), m/s; `None`:
@@ -1401,6 +1437,7 @@ impl Engine {
                 phase: 0,
                 input: None,
                 wheel_speed: self.wheel_speed,
+                user: self.user_texture.as_deref(),
             };
             let seed = self.strikes.wrapping_mul(0x9E37_79B9) ^ u32::from(voice.note.key);
             voice.contact = ContactState::start(position, p.contact.direction, seed, &env.surface(voice.excitation));
@@ -1445,7 +1482,7 @@ impl Engine {
     /// on become the interval's end; its start is the last interval's end (so the drive's
     /// gains move continuously, with no steps).
     fn contact_tick(&mut self, v: usize) {
-        let env = self.contact_env(0);
+        let env = contact_env!(self);
         let speed = self.voices[v].speed.or(self.wheel_speed).unwrap_or(self.params.contact.speed_mps);
         let voice = &mut self.voices[v];
         let surface = env.surface(voice.excitation);
@@ -1459,18 +1496,6 @@ impl Engine {
         }
         if voice.contact_pos >= voice.contact_len {
             voice.apply_contact_gains();
-        }
-    }
-
-    fn contact_env(&self, phase: usize) -> ContactEnv<'static> {
-        ContactEnv {
-            tables: self.tables,
-            params: self.params.contact,
-            path_m: contact::PATH_LENGTH_M * self.glide.size,
-            fs: self.sample_rate,
-            phase,
-            input: None,
-            wheel_speed: self.wheel_speed,
         }
     }
 
@@ -1566,7 +1591,7 @@ impl Engine {
         if !on {
             self.voices[v].lasting = false;
         } else if self.input_on && self.voices[v].lasting && position != self.input_position {
-            let env = self.contact_env(0);
+            let env = contact_env!(self);
             let direction = self.target.contact.direction;
             self.voices[v].contact = ContactState::start(position, direction, 1, &env.surface(Excitation::Scrape));
         }
@@ -1643,6 +1668,7 @@ impl Engine {
             phase: 0,
             input: None,
             wheel_speed: None,
+            user: self.user_texture.as_deref(),
         };
         voice.contact = ContactState::start(voice.position, p.contact.direction, 1, &env.surface(Excitation::Scrape));
         voice.lasting = true;
@@ -1709,6 +1735,7 @@ impl Engine {
                     phase,
                     input: input.map(|x| &x[pos..pos + n]),
                     wheel_speed: self.wheel_speed,
+                    user: self.user_texture.as_deref(),
                 };
                 render_voices(
                     &mut self.voices,

@@ -95,6 +95,22 @@ impl Struck {
         &self.editor_shared
     }
 
+    /// Plays `file` as the user texture (*Texture* = User file) and keeps it with the project.
+    /// Not for the audio thread (allocates; the editor goes through [`EditorShared::send_texture`]).
+    ///
+    /// # Errors
+    /// A profile the engine refuses (one line).
+    pub fn set_user_texture(&mut self, file: presets::texture::TextureFile) -> Result<(), String> {
+        let t = dsp::contact::Texture::new(file.heights_m.clone(), file.texel_m)?;
+        if let Ok(mut slot) = self.params.user_texture.lock() {
+            *slot = Some(file);
+        }
+        if let Some(e) = self.engine.as_mut() {
+            e.set_user_texture(Some(Box::new(t)));
+        }
+        Ok(())
+    }
+
     /// The engine, once activated.
     pub fn engine(&self) -> Option<&Engine> {
         self.engine.as_ref()
@@ -360,6 +376,13 @@ impl Plugin for Struck {
         if rebuild {
             self.engine = Some(Engine::new(self.library.object_modes(), MAX_VOICES, f64::from(config.sample_rate)));
         }
+        // The project's user texture (not on the audio thread: activation may allocate).
+        let saved = self.params.user_texture.lock().ok().and_then(|t| t.clone());
+        if let (Some(file), Some(e)) = (saved, self.engine.as_mut()) {
+            if let Ok(t) = dsp::contact::Texture::new(file.heights_m, file.texel_m) {
+                e.set_user_texture(Some(Box::new(t)));
+            }
+        }
         let max = (config.max_buffer_size as usize).clamp(1, MAX_BLOCK);
         if self.mono.len() < max {
             self.mono = vec![0.0; max];
@@ -412,6 +435,10 @@ impl Plugin for Struck {
             e.set_params(sp);
             e.set_object(object);
             e.set_audio_input(take_input, input_position);
+        }
+        // A user texture from the editor.
+        if let Some(e) = self.engine.as_mut() {
+            self.editor_shared.take_texture(e);
         }
         // Editor auditions (clicks on the object view): lock-free pops, no allocation.
         while let Some(a) = self.editor_shared.audition.pop() {

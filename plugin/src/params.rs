@@ -164,6 +164,10 @@ pub enum TextureParam {
     /// Random bumps.
     #[id = "bumps"]
     Bumps,
+    /// The user's texture file (loaded in the editor or with `render --texture FILE`).
+    #[id = "user"]
+    #[name = "User file"]
+    User,
 }
 
 impl TextureParam {
@@ -176,6 +180,7 @@ impl TextureParam {
             TextureParam::CoarseGrit => T::CoarseGrit,
             TextureParam::Grooves => T::Grooves,
             TextureParam::Bumps => T::Bumps,
+            TextureParam::User => T::User,
         }
     }
 }
@@ -353,6 +358,9 @@ pub struct StruckParams {
     /// The editor's last capture (features and fits, no audio), so reopening shows it.
     #[persist = "capture"]
     pub capture: Mutex<Option<crate::shared::CaptureRecord>>,
+    /// The user's texture (*Texture* = User file), kept with the project.
+    #[persist = "user-texture"]
+    pub user_texture: Mutex<Option<presets::texture::TextureFile>>,
 }
 
 /// Values of the *Custom* material knobs (plain units) that reproduce a damping law.
@@ -667,6 +675,7 @@ impl StruckParams {
                 .with_string_to_value(formatters::s2v_f32_percentage()),
             editor_size: Mutex::new(DEFAULT_EDITOR_SIZE),
             capture: Mutex::new(None),
+            user_texture: Mutex::new(None),
         }
     }
 

@@ -517,6 +517,37 @@ fn the_excitation_controls_are_there() {
     screenshot(&mut h, "excitation");
 }
 
+/// Issue 16: a texture file loads through the field: kept with the project, queued for the
+/// audio thread, *Texture* set to User file; a bad path is refused with its reason.
+#[test]
+fn a_texture_file_loads_from_the_editor() {
+    let plugin = Struck::default();
+    // Tall enough that the excitation controls are on screen (clicks need them there).
+    let mut h = harness_sized(&plugin, 1600.0);
+    h.run_steps(2);
+    let bad = tmp("missing.csv");
+    h.get_by_label("Texture file path");
+    h.state_mut().ui.set_texture_path(&bad.display().to_string());
+    h.run_steps(1);
+    h.get_by_label("Load texture").click();
+    h.run_steps(2);
+    assert!(h.state().ui.texture_message().is_some_and(|m| m.contains("cannot read")));
+    assert!(plugin.struck_params().user_texture.lock().unwrap().is_none());
+    let good = tmp("ribs.csv");
+    std::fs::write(&good, "texel_mm = 0.5\n0 0 0 -0.2 -0.4 -0.2\n").unwrap();
+    // The field holds the bad path: replace it.
+    h.state_mut().ui.set_texture_path(&good.display().to_string());
+    h.run_steps(1);
+    h.get_by_label("Load texture").click();
+    h.run_steps(2);
+    assert_eq!(plugin.struck_params().texture.value(), struck::params::TextureParam::User);
+    let saved = plugin.struck_params().user_texture.lock().unwrap().clone().expect("kept with the project");
+    assert_eq!(saved.heights_m.len(), 6);
+    assert_eq!(plugin.editor_shared().textures.len(), 1, "queued for the audio thread");
+    assert!(h.state().ui.texture_message().is_some_and(|m| m.contains("6 texels of 0.500 mm")));
+    let _ = std::fs::remove_file(good);
+}
+
 /// Issue 11 part 6: the object view draws the object itself — its surface from the bank,
 /// shaded — with the strike path on it. For every factory object: something is painted, the
 /// strike points the camera sees lie on the painted picture, flat objects show every point

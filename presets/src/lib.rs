@@ -25,6 +25,7 @@ pub mod factory;
 mod json;
 mod material;
 pub mod output;
+pub mod texture;
 
 pub use bank::{Bank, BankReference, DrawSurface, StrikePoint, MAX_BANK_MODES, MAX_BANK_POINTS, MAX_DRAW_TRIANGLES};
 pub use damping::{DampingModel, DampingSpec, AUDIBLE_LAMBDA_MAX, AUDIBLE_LAMBDA_MIN, MAX_EXPONENT};

@@ -101,7 +101,8 @@ pub struct RenderOptions {
 pub struct Gesture {
     /// `--excitation strike|scrape|slide|roll`.
     pub excitation: Option<String>,
-    /// `--texture smooth|finegrit|coarsegrit|grooves|bumps`.
+    /// `--texture smooth|finegrit|coarsegrit|grooves|bumps`, or a texture file (.csv, .txt,
+    /// .wav, .png; see `presets::texture`).
     pub texture: Option<String>,
     /// `--speed-curve "t:m/s,…"`: the contact speed over time (the mod wheel's way).
     pub speed_curve: Option<String>,
@@ -185,7 +186,8 @@ fn choice(option: &str, names: &[&str], name: &str) -> Result<usize, String> {
 
 /// Excitation ids in the order of the plugin's *Excitation* parameter.
 pub const EXCITATIONS: [&str; 4] = ["strike", "scrape", "slide", "roll"];
-/// Texture ids in the order of the plugin's *Texture* parameter.
+/// Factory texture ids in the order of the plugin's *Texture* parameter (its next value,
+/// `TEXTURES.len()`, is *User file*).
 pub const TEXTURES: [&str; 5] = ["smooth", "finegrit", "coarsegrit", "grooves", "bumps"];
 
 fn find(names: &[(&str, &str)], what: &str, query: &str) -> Result<usize, String> {
@@ -569,6 +571,9 @@ pub const MAX_WAV_FRAMES: u64 = (u32::MAX as u64 - WAV_HEADER_BYTES_COUNTED) / W
 /// output must be none of them.
 fn render_inputs(opts: &RenderOptions) -> Vec<PathBuf> {
     let mut inputs: Vec<PathBuf> = opts.midi.iter().chain(&opts.gesture.input).cloned().collect();
+    if let Some(t) = opts.gesture.texture.as_deref().filter(|t| Path::new(t).is_file()) {
+        inputs.push(PathBuf::from(t));
+    }
     for q in [&opts.sound.object, &opts.sound.material] {
         if Path::new(q).is_file() {
             inputs.push(PathBuf::from(q));
@@ -677,9 +682,31 @@ pub fn render_with_stats(opts: &RenderOptions) -> Result<(String, RenderStats), 
     if let Some(e) = &g.excitation {
         sound.set.push(format!("excite={}", choice("excitation", &EXCITATIONS, e)?));
     }
+    let mut user_texture = None;
     if let Some(t) = &g.texture {
-        sound.set.push(format!("texture={}", choice("texture", &TEXTURES, t)?));
+        let index = match choice("texture", &TEXTURES, t) {
+            Ok(i) => i,
+            // Not a factory texture's name: a texture file (its extension says which format).
+            Err(_) if Path::new(t).extension().is_some() || Path::new(t).is_file() => {
+                user_texture =
+                    Some(presets::texture::TextureFile::load(Path::new(t)).map_err(|e| format!("--texture: {e}"))?);
+                TEXTURES.len()
+            }
+            Err(e) => return Err(format!("{e}, or a texture file (.csv, .txt, .wav, .png)")),
+        };
+        sound.set.push(format!("texture={index}"));
     }
+    // A configured host with the render's input and user texture.
+    let configured = |sound: &SoundOptions| -> Result<OfflineHost, String> {
+        let mut host = configured_host(sound, opts.block_size)?;
+        if let Some(f) = &user_texture {
+            host.plugin_mut().set_user_texture(f.clone())?;
+        }
+        if let Some((l, r, _)) = &input {
+            host.set_input(l.clone(), r.clone());
+        }
+        Ok(host)
+    };
     let probe = configured_host(&sound, opts.block_size)?;
     if probe.param("excite").map_err(|e| e.to_string())? >= 1.0 {
         // In a lasting excitation the brightness expression sets a note's speed: a note's
@@ -729,10 +756,7 @@ pub fn render_with_stats(opts: &RenderOptions) -> Result<(String, RenderStats), 
     // so the second pass, scaled, is the same audio.
     let (gain, length) = match opts.normalize {
         Some(target) => {
-            let mut host = configured_host(&sound, opts.block_size)?;
-            if let Some((l, r, _)) = &input {
-                host.set_input(l.clone(), r.clone());
-            }
+            let mut host = configured(&sound)?;
             let pass = render_pass(&mut host, &events, opts.block_size, &ending, 1.0, |_, _| Ok(()))
                 .map_err(|e: hound::Error| e.to_string())?;
             if pass.peak <= 0.0 {
@@ -743,10 +767,7 @@ pub fn render_with_stats(opts: &RenderOptions) -> Result<(String, RenderStats), 
         None => (1.0, None),
     };
     let ending = Ending { auto: auto && length.is_none(), total: length.unwrap_or(total), ..ending };
-    let mut host = configured_host(&sound, opts.block_size)?;
-    if let Some((l, r, _)) = &input {
-        host.set_input(l.clone(), r.clone());
-    }
+    let mut host = configured(&sound)?;
     let mut file = presets::output::AtomicFile::create(&opts.out).map_err(|e| e.to_string())?;
     let spec = hound::WavSpec {
         channels: 2,

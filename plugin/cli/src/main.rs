@@ -128,7 +128,8 @@ enum Command {
         /// held: scrape, slide, roll (the *Excitation* parameter).
         #[arg(long, value_name = "strike|scrape|slide|roll")]
         excitation: Option<String>,
-        /// The surface a lasting contact runs over: smooth, finegrit, coarsegrit, grooves, bumps.
+        /// The surface a lasting contact runs over: smooth, finegrit, coarsegrit, grooves, bumps,
+        /// or a texture file (.csv/.txt heights in mm, .wav, .png; see the README).
         #[arg(long)]
         texture: Option<String>,
         /// Contact speed over time, "seconds:m/s,…" (e.g. "0:0.1,1:0.5,2:0"; linear between

@@ -787,7 +787,7 @@ fn render_plays_gestures_and_refuses_bad_ones() {
     let before = std::fs::read(&out).unwrap();
     let bad: &[(&[&str], &str)] = &[
         (&["--excitation", "rub"], "--excitation 'rub'"),
-        (&["--texture", "velvet"], "--texture 'velvet'"),
+        (&["--texture", "velvet"], "or a texture file"),
         (&["--speed-curve", "0:0.1,x"], "--speed-curve 'x'"),
         (&["--speed-curve", "0:2"], "outside 0..=1"),
         (&["--force-curve", "1:0.5,0:0.2"], "must ascend"),
@@ -798,6 +798,34 @@ fn render_plays_gestures_and_refuses_bad_ones() {
         assert!(e.contains(names), "{extra:?}: {e}");
     }
     assert_eq!(std::fs::read(&out).unwrap(), before, "a refused render changed the output");
+    // A texture file: it plays; a malformed one is a one-line error naming it.
+    let csv = dir.join("ribs.csv");
+    std::fs::write(&csv, "texel_mm = 0.5\n0 0 0 -0.2 -0.4 -0.2\n").unwrap();
+    let o = struck(
+        &dir,
+        &[
+            "render",
+            "--notes",
+            "60:90~1",
+            "--excitation",
+            "scrape",
+            "--texture",
+            csv.to_str().unwrap(),
+            "--seconds",
+            "1.2",
+            "--out",
+            out_s,
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    std::fs::write(&csv, "0 0 zero\n").unwrap();
+    let e = error_line(&struck(
+        &dir,
+        &["render", "--notes", "60:90~1", "--texture", csv.to_str().unwrap(), "--out", out_s],
+    ));
+    assert!(e.contains("ribs.csv") && e.contains("'zero' is not a height"), "{e}");
+    let e = error_line(&struck(&dir, &["render", "--texture", csv.to_str().unwrap(), "--out", csv.to_str().unwrap()]));
+    assert!(e.contains("also an input") || e.contains("'zero'"), "{e}");
 }
 
 /// `render --input`: the WAV drives the object at its own sample rate, the render lasts at

@@ -23,6 +23,9 @@ pub(super) struct MaterialPanel {
     pub loaded_user: Option<String>,
     /// Last error or note.
     pub message: Option<String>,
+    /// The texture file field, and the last load's result.
+    pub texture_path: String,
+    pub texture_message: Option<String>,
 }
 
 /// Lists `dir`'s `.json` materials, sorted by file name.
@@ -54,7 +57,41 @@ impl MaterialPanel {
         ui.heading("Material");
         self.chooser(ui, cx);
         t60_plot(ui, cx);
-        knob_groups(ui, cx);
+        knob_groups(ui, cx, self);
+    }
+
+    /// Loads the texture file in the field: kept with the project, sent to the audio thread,
+    /// *Texture* set to User file. The result (or the one-line error) is shown under the field.
+    pub fn load_texture(&mut self, cx: &PanelCtx) {
+        if self.texture_path.trim().is_empty() {
+            self.texture_message = Some("type the path of a texture file (.csv, .txt, .wav, .png)".into());
+            return;
+        }
+        let path = PathBuf::from(self.texture_path.trim());
+        let file = match presets::texture::TextureFile::load(&path) {
+            Ok(f) => f,
+            Err(e) => {
+                self.texture_message = Some(e);
+                return;
+            }
+        };
+        let texture = match dsp::contact::Texture::new(file.heights_m.clone(), file.texel_m) {
+            Ok(t) => t,
+            Err(e) => {
+                self.texture_message = Some(e);
+                return;
+            }
+        };
+        if cx.shared.send_texture(Box::new(texture)).is_err() {
+            self.texture_message = Some("the audio thread is busy: load it again".into());
+            return;
+        }
+        self.texture_message =
+            Some(format!("{}: {} texels of {:.3} mm", file.name, file.heights_m.len(), file.texel_m * 1e3));
+        if let Ok(mut slot) = cx.params.user_texture.lock() {
+            *slot = Some(file);
+        }
+        set_param(cx.setter, &cx.params.texture, crate::params::TextureParam::User);
     }
 
     /// Factory, Custom and user materials in one list; a user material loads into the Custom
@@ -159,7 +196,7 @@ fn t60_plot(ui: &mut egui::Ui, cx: &PanelCtx) {
 }
 
 /// The sound controls in groups: custom law, mallet, material and object, keys, output.
-fn knob_groups(ui: &mut egui::Ui, cx: &PanelCtx) {
+fn knob_groups(ui: &mut egui::Ui, cx: &PanelCtx, panel: &mut MaterialPanel) {
     let (lib, p, setter) = (cx.library, cx.params, cx.setter);
     let selected = p.material.value().max(0) as usize;
     let custom = lib.custom_material_index();
@@ -198,6 +235,21 @@ fn knob_groups(ui: &mut egui::Ui, cx: &PanelCtx) {
             param_row(ui, setter, &p.audio_in);
             param_row(ui, setter, &p.dry_wet);
         });
+        ui.horizontal(|ui| {
+            ui.label("Texture file");
+            ui.add(egui::TextEdit::singleline(&mut panel.texture_path).desired_width(170.0))
+                .accessible_name("Texture file path");
+            if ui.button("Load texture").clicked() {
+                panel.load_texture(cx);
+            }
+        });
+        let shown = panel
+            .texture_message
+            .clone()
+            .or_else(|| p.user_texture.lock().ok().and_then(|t| t.as_ref().map(|f| format!("User file: {}", f.name))));
+        if let Some(m) = shown {
+            ui.label(egui::RichText::new(m).weak());
+        }
         if p.excitation.value() != crate::params::ExcitationParam::Strike {
             ui.label(
                 egui::RichText::new("Held keys keep contact: pressure = force, mod wheel / MPE slide = speed.").weak(),

@@ -132,6 +132,16 @@ impl EditorUi {
         self.capture.add_file(path)
     }
 
+    /// The last texture load's result or error.
+    pub fn texture_message(&self) -> Option<&str> {
+        self.material.texture_message.as_deref()
+    }
+
+    /// Sets the texture file field (as typing would).
+    pub fn set_texture_path(&mut self, path: &str) {
+        self.material.texture_path = path.to_string();
+    }
+
     /// The recordings the next analysis will use.
     pub fn capture_files(&self) -> &[PathBuf] {
         &self.capture.files

@@ -1,0 +1,239 @@
+//! User textures for lasting contact (issue 16): a surface's height profile along the
+//! contact's path, read from a file.
+//!
+//! Formats (the file's extension chooses):
+//! - **CSV / text** (`.csv`, `.txt`): heights in millimetres, one per texel, separated by commas,
+//!   semicolons, spaces or new lines; `#` starts a comment. An optional line `texel_mm = L`
+//!   sets the texel length (default [`DEFAULT_TEXEL_MM`]).
+//! - **WAV** (`.wav`): the first channel's samples are the heights, full scale =
+//!   [`WAV_FULL_SCALE_MM`], one per [`DEFAULT_TEXEL_MM`].
+//! - **Image** (`.png`): a grayscale (or colour, taken as luma) picture; its middle row is the
+//!   profile, black = 0 and white = [`IMAGE_DEPTH_MM`], one pixel per [`DEFAULT_TEXEL_MM`].
+//!
+//! The profile repeats along the path. *Texture scale* stretches it as it does the factory
+//! textures.
+
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Texel length when the file does not give one, mm.
+pub const DEFAULT_TEXEL_MM: f64 = 0.1;
+/// Height of a full-scale WAV sample, mm.
+pub const WAV_FULL_SCALE_MM: f64 = 1.0;
+/// Height of a white pixel, mm.
+pub const IMAGE_DEPTH_MM: f64 = 0.5;
+/// Most texels a texture may hold (a 1 M-texel profile takes 8 MiB).
+pub const MAX_TEXELS: usize = 1 << 20;
+/// Largest height (mm, either sign) a texture may have: more is taken as a wrong unit.
+pub const MAX_HEIGHT_MM: f64 = 10.0;
+/// Texel lengths accepted, mm.
+pub const TEXEL_MM_RANGE: (f64, f64) = (1e-4, 100.0);
+
+/// A texture read from a file: its name (the file's stem), texel length and heights (m).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TextureFile {
+    /// The file's name without its extension.
+    pub name: String,
+    /// Length of one texel, m.
+    pub texel_m: f64,
+    /// Heights along the path, m (at least 2).
+    pub heights_m: Vec<f64>,
+}
+
+impl TextureFile {
+    /// Checks a profile (any source): 2..=[`MAX_TEXELS`] finite heights within
+    /// ±[`MAX_HEIGHT_MM`], a texel in [`TEXEL_MM_RANGE`].
+    ///
+    /// # Errors
+    /// A one-line reason.
+    pub fn new(name: &str, texel_mm: f64, heights_mm: &[f64]) -> Result<TextureFile, String> {
+        if heights_mm.len() < 2 {
+            return Err(format!("texture {name}: {} heights; a texture needs at least 2", heights_mm.len()));
+        }
+        if heights_mm.len() > MAX_TEXELS {
+            return Err(format!(
+                "texture {name}: {} heights, over the {MAX_TEXELS} a texture may hold",
+                heights_mm.len()
+            ));
+        }
+        if let Some(i) = heights_mm.iter().position(|h| !h.is_finite()) {
+            return Err(format!("texture {name}: height {} is not a number", i + 1));
+        }
+        let top = heights_mm.iter().fold(0.0f64, |m, h| m.max(h.abs()));
+        if top > MAX_HEIGHT_MM {
+            return Err(format!(
+                "texture {name}: heights reach {top} mm, over {MAX_HEIGHT_MM} mm (heights are in millimetres: a file in µm needs dividing by 1000)"
+            ));
+        }
+        if !(texel_mm.is_finite() && (TEXEL_MM_RANGE.0..=TEXEL_MM_RANGE.1).contains(&texel_mm)) {
+            return Err(format!(
+                "texture {name}: texel_mm {texel_mm} is outside {}..={} mm",
+                TEXEL_MM_RANGE.0, TEXEL_MM_RANGE.1
+            ));
+        }
+        Ok(TextureFile {
+            name: name.to_string(),
+            texel_m: texel_mm * 1e-3,
+            heights_m: heights_mm.iter().map(|h| h * 1e-3).collect(),
+        })
+    }
+
+    /// Reads a texture file (see the module documentation for the formats).
+    ///
+    /// # Errors
+    /// A one-line reason naming the file: unreadable, an unknown extension, malformed, or a
+    /// profile [`TextureFile::new`] refuses.
+    pub fn load(path: &Path) -> Result<TextureFile, String> {
+        let name = path.file_stem().map_or_else(|| "texture".to_string(), |s| s.to_string_lossy().into_owned());
+        let shown = path.display();
+        let ext = path.extension().map(|e| e.to_string_lossy().to_lowercase()).unwrap_or_default();
+        match ext.as_str() {
+            "csv" | "txt" => {
+                let meta = std::fs::metadata(path).map_err(|e| format!("cannot read {shown}: {e}"))?;
+                // At most ~40 bytes per height.
+                if meta.len() > 40 * MAX_TEXELS as u64 {
+                    return Err(format!("{shown}: {} bytes, too large for a texture", meta.len()));
+                }
+                let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {shown}: {e}"))?;
+                let (texel, heights) = parse_text(&text).map_err(|e| format!("{shown}: {e}"))?;
+                TextureFile::new(&name, texel, &heights).map_err(|e| format!("{shown}: {e}"))
+            }
+            "wav" => {
+                let mut r = hound::WavReader::open(path).map_err(|e| format!("cannot read {shown} as WAV: {e}"))?;
+                let spec = r.spec();
+                let channels = usize::from(spec.channels.max(1));
+                let frames = r.duration() as usize;
+                if frames > MAX_TEXELS {
+                    return Err(format!("{shown}: {frames} samples, over the {MAX_TEXELS} a texture may hold"));
+                }
+                let scale = WAV_FULL_SCALE_MM;
+                let samples: Result<Vec<f64>, String> = match spec.sample_format {
+                    hound::SampleFormat::Float => r
+                        .samples::<f32>()
+                        .step_by(channels)
+                        .map(|s| s.map(|v| f64::from(v) * scale).map_err(|e| e.to_string()))
+                        .collect(),
+                    hound::SampleFormat::Int => {
+                        let full = f64::from(1u32 << (spec.bits_per_sample.clamp(1, 32) - 1));
+                        r.samples::<i32>()
+                            .step_by(channels)
+                            .map(|s| s.map(|v| f64::from(v) / full * scale).map_err(|e| e.to_string()))
+                            .collect()
+                    }
+                };
+                let heights = samples.map_err(|e| format!("{shown}: {e}"))?;
+                TextureFile::new(&name, DEFAULT_TEXEL_MM, &heights).map_err(|e| format!("{shown}: {e}"))
+            }
+            "png" => {
+                let img = image::ImageReader::open(path)
+                    .map_err(|e| format!("cannot read {shown}: {e}"))?
+                    .with_guessed_format()
+                    .map_err(|e| format!("cannot read {shown}: {e}"))?;
+                let (w, h) = img.into_dimensions().map_err(|e| format!("{shown}: not a readable PNG ({e})"))?;
+                if w as usize > MAX_TEXELS || u64::from(w) * u64::from(h) > 64 << 20 {
+                    return Err(format!("{shown}: {w} × {h} pixels, too large for a texture"));
+                }
+                let img = image::open(path).map_err(|e| format!("{shown}: not a readable PNG ({e})"))?.to_luma8();
+                let row = img.height() / 2;
+                let heights: Vec<f64> =
+                    (0..img.width()).map(|x| f64::from(img.get_pixel(x, row).0[0]) / 255.0 * IMAGE_DEPTH_MM).collect();
+                TextureFile::new(&name, DEFAULT_TEXEL_MM, &heights).map_err(|e| format!("{shown}: {e}"))
+            }
+            _ => Err(format!("{shown}: a texture is a .csv, .txt, .wav or .png file")),
+        }
+    }
+}
+
+/// Parses the text format: (texel length mm, heights mm).
+fn parse_text(text: &str) -> Result<(f64, Vec<f64>), String> {
+    let mut texel = DEFAULT_TEXEL_MM;
+    let mut heights = Vec::new();
+    for (n, line) in text.lines().enumerate() {
+        let line = line.split('#').next().unwrap_or("").trim();
+        if line.is_empty() {
+            continue;
+        }
+        if let Some((key, value)) = line.split_once('=') {
+            if key.trim() != "texel_mm" {
+                return Err(format!("line {}: unknown setting '{}' (only texel_mm)", n + 1, key.trim()));
+            }
+            texel = value
+                .trim()
+                .parse()
+                .map_err(|_| format!("line {}: texel_mm '{}' is not a number", n + 1, value.trim()))?;
+            continue;
+        }
+        for item in line.split([',', ';', ' ', '\t']).map(str::trim).filter(|s| !s.is_empty()) {
+            let h: f64 = item.parse().map_err(|_| format!("line {}: '{item}' is not a height in mm", n + 1))?;
+            heights.push(h);
+            if heights.len() > MAX_TEXELS {
+                return Err(format!("over the {MAX_TEXELS} heights a texture may hold"));
+            }
+        }
+    }
+    Ok((texel, heights))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tmp(name: &str) -> std::path::PathBuf {
+        std::env::temp_dir().join(format!("struck-texture-{}-{name}", std::process::id()))
+    }
+
+    #[test]
+    fn reads_text_with_a_texel_length_and_comments() {
+        let p = tmp("a.csv");
+        std::fs::write(&p, "# grooves\ntexel_mm = 0.25\n0, 0, 0,0\n-0.15;-0.3 -0.15\n").unwrap();
+        let t = TextureFile::load(&p).unwrap();
+        assert_eq!(t.name, "struck-texture-".to_string() + &std::process::id().to_string() + "-a");
+        assert_eq!(t.texel_m, 0.25e-3);
+        assert_eq!(t.heights_m, vec![0.0, 0.0, 0.0, 0.0, -0.15e-3, -0.3e-3, -0.15e-3]);
+        for (text, why) in [
+            ("0.1\n", "at least 2"),
+            ("0, x\n", "'x' is not a height"),
+            ("speed = 3\n0 1\n", "unknown setting"),
+            ("0, 2000\n", "in µm needs dividing"),
+            ("texel_mm = 0\n0 1\n", "outside"),
+        ] {
+            std::fs::write(&p, text).unwrap();
+            let e = TextureFile::load(&p).unwrap_err();
+            assert!(e.contains(why) && !e.contains('\n'), "{text:?}: {e}");
+        }
+        let _ = std::fs::remove_file(p);
+    }
+
+    #[test]
+    fn reads_wav_and_png_and_refuses_other_files() {
+        let p = tmp("b.wav");
+        let spec = hound::WavSpec {
+            channels: 2,
+            sample_rate: 48_000,
+            bits_per_sample: 16,
+            sample_format: hound::SampleFormat::Int,
+        };
+        let mut w = hound::WavWriter::create(&p, spec).unwrap();
+        for v in [0i16, 16384, -16384, 0] {
+            w.write_sample(v).unwrap();
+            w.write_sample(1000).unwrap(); // the second channel is not read
+        }
+        w.finalize().unwrap();
+        let t = TextureFile::load(&p).unwrap();
+        assert_eq!(t.heights_m, vec![0.0, 0.5e-3, -0.5e-3, 0.0]);
+        assert_eq!(t.texel_m, DEFAULT_TEXEL_MM * 1e-3);
+        let q = tmp("c.png");
+        let img =
+            image::GrayImage::from_fn(4, 3, |x, y| image::Luma([if y == 1 { [0, 255, 51, 0][x as usize] } else { 9 }]));
+        img.save(&q).unwrap();
+        let t = TextureFile::load(&q).unwrap();
+        assert_eq!(t.heights_m, vec![0.0, IMAGE_DEPTH_MM * 1e-3, 0.2 * IMAGE_DEPTH_MM * 1e-3, 0.0]);
+        let r = tmp("d.jpg");
+        std::fs::write(&r, b"x").unwrap();
+        assert!(TextureFile::load(&r).unwrap_err().contains(".csv, .txt, .wav or .png"));
+        assert!(TextureFile::load(&tmp("missing.csv")).unwrap_err().contains("cannot read"));
+        for f in [p, q, r] {
+            let _ = std::fs::remove_file(f);
+        }
+    }
+}
