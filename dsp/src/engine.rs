@@ -478,6 +478,7 @@ impl Voice {
     fn matches(&self, note: &NoteId) -> bool {
         self.active
             && !self.input
+            && self.note.voice_id != Some(INPUT_VOICE_ID)
             && match (note.voice_id, self.note.voice_id) {
                 (Some(a), Some(b)) => a == b,
                 _ => {
@@ -1332,6 +1333,10 @@ impl Engine {
     }
 
     fn push_terminated(&mut self, note: NoteId, offset: u32) {
+        // The audio-in voice (also once it rings out in a pool voice) is no host's note.
+        if note.voice_id == Some(INPUT_VOICE_ID) {
+            return;
+        }
         if self.num_terminated < MAX_TERMINATED {
             self.terminated[self.num_terminated] = Terminated { note, offset };
             self.num_terminated += 1;
@@ -1384,7 +1389,8 @@ impl Engine {
         // gain over the strike points passes the quality threshold.
         let lasting = voice.excitation.is_lasting();
         if lasting {
-            // Slots kept from an earlier strike start without contact until the next tick.
+            // Slots kept from an earlier strike that the contact does not take stay undriven
+            // (the ones it takes get their gains below).
             voice.gain_from[..voice.bank.len()].fill(0.0);
             voice.gain_to[..voice.bank.len()].fill(0.0);
         }
@@ -1553,10 +1559,7 @@ impl Engine {
                 let note = voice.note;
                 voice.clear();
                 self.live_stale = true;
-                // The audio-in voice is no host's note.
-                if note.voice_id != Some(INPUT_VOICE_ID) {
-                    self.push_terminated(note, self.rendered_in_call);
-                }
+                self.push_terminated(note, self.rendered_in_call);
             }
         }
     }
@@ -1615,6 +1618,7 @@ impl Engine {
                 old.input = false;
                 old.lasting = false;
                 old.released = true;
+                old.dirty = true;
                 self.voices[v].active = false;
             }
         }
@@ -1931,6 +1935,40 @@ mod tests {
         let a: Vec<f32> = (0..20).map(|k| if k % 2 == 0 { 1.0 } else { -1.0 }).collect();
         let b: Vec<f32> = (0..20).map(|_| 1.0).collect();
         ObjectModes::new(lambdas, &[a, b])
+    }
+
+    /// Audio in on another object: the input voice restarts there and its ringing goes on in
+    /// a free voice (not cut); neither is matched by the host's wildcard events nor reported
+    /// when it ends.
+    #[test]
+    fn the_input_voice_rings_out_in_a_free_voice_and_is_never_reported() {
+        let mut e = Engine::new(vec![two_point_object(), two_point_object()], 4, 48_000.0);
+        e.set_params(SoundParams { release_damping: 200.0, ..SoundParams::default() });
+        e.reset();
+        e.set_audio_input(true, 0.5);
+        let mut input = vec![0.0f32; 512];
+        input[0] = 16.0;
+        let mut out = vec![0.0f32; 512];
+        e.render_input(&input, &mut out);
+        assert_eq!(e.active_voices(), 1);
+        e.set_object(1);
+        out.fill(0.0);
+        e.render_input(&[0.0; 512], &mut out);
+        assert_eq!(e.active_voices(), 2, "the old input rings on beside the new one");
+        assert!(out.iter().any(|x| x.abs() > 1e-4), "the tail was cut");
+        // A wildcard release and choke (all notes) leave both alone.
+        let all = NoteId { voice_id: None, channel: NoteId::ANY, key: NoteId::ANY };
+        e.note_off(all);
+        e.choke(all);
+        assert_eq!(e.active_voices(), 2);
+        e.set_audio_input(false, 0.5);
+        for _ in 0..400 {
+            e.render_input(&[0.0; 512], &mut out);
+        }
+        assert_eq!(e.active_voices(), 0, "both ended");
+        let mut notices = 0;
+        e.drain_terminated(|_| notices += 1);
+        assert_eq!(notices, 0);
     }
 
     /// The engine's output is bit-identical whatever the block size, with voices in contact

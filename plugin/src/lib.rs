@@ -10,6 +10,7 @@ pub mod library;
 pub mod offline;
 pub mod params;
 pub mod shared;
+pub mod user_texture;
 
 use dsp::engine::{ContactParams, Engine, NoteId, SoundParams, Strike};
 use dsp::ftz::DenormalGuard;
@@ -101,12 +102,9 @@ impl Struck {
     /// # Errors
     /// A profile the engine refuses (one line).
     pub fn set_user_texture(&mut self, file: presets::texture::TextureFile) -> Result<(), String> {
-        let t = dsp::contact::Texture::new(file.heights_m.clone(), file.texel_m)?;
-        if let Ok(mut slot) = self.params.user_texture.lock() {
-            *slot = Some(file);
-        }
+        self.params.user_texture.set_file(Some(file))?;
         if let Some(e) = self.engine.as_mut() {
-            e.set_user_texture(Some(Box::new(t)));
+            self.params.user_texture.apply(e);
         }
         Ok(())
     }
@@ -264,7 +262,10 @@ impl Struck {
         };
         let speed_of = |x: f32| f64::from(x.clamp(0.0, 1.0)) * dsp::contact::MAX_SPEED_M_PER_S;
         let initial_speed = match &event {
-            NoteEvent::NoteOn { channel, .. } if lasting => timbre(channel, &self.channel_timbre),
+            // Used once: MPE sends it before each note (a knob's CC 74 does not stick).
+            NoteEvent::NoteOn { channel, .. } if lasting => {
+                channel.number().and_then(|c| self.channel_timbre.get_mut(usize::from(c))).and_then(Option::take)
+            }
             _ => None,
         };
         let Some(engine) = self.engine.as_mut() else { return };
@@ -377,11 +378,8 @@ impl Plugin for Struck {
             self.engine = Some(Engine::new(self.library.object_modes(), MAX_VOICES, f64::from(config.sample_rate)));
         }
         // The project's user texture (not on the audio thread: activation may allocate).
-        let saved = self.params.user_texture.lock().ok().and_then(|t| t.clone());
-        if let (Some(file), Some(e)) = (saved, self.engine.as_mut()) {
-            if let Ok(t) = dsp::contact::Texture::new(file.heights_m, file.texel_m) {
-                e.set_user_texture(Some(Box::new(t)));
-            }
+        if let Some(e) = self.engine.as_mut() {
+            self.params.user_texture.restore(e);
         }
         let max = (config.max_buffer_size as usize).clamp(1, MAX_BLOCK);
         if self.mono.len() < max {
@@ -436,9 +434,9 @@ impl Plugin for Struck {
             e.set_object(object);
             e.set_audio_input(take_input, input_position);
         }
-        // A user texture from the editor.
+        // A user texture set since the last block (editor, command line, a loaded state).
         if let Some(e) = self.engine.as_mut() {
-            self.editor_shared.take_texture(e);
+            self.params.user_texture.apply(e);
         }
         // Editor auditions (clicks on the object view): lock-free pops, no allocation.
         while let Some(a) = self.editor_shared.audition.pop() {

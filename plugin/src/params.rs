@@ -360,7 +360,7 @@ pub struct StruckParams {
     pub capture: Mutex<Option<crate::shared::CaptureRecord>>,
     /// The user's texture (*Texture* = User file), kept with the project.
     #[persist = "user-texture"]
-    pub user_texture: Mutex<Option<presets::texture::TextureFile>>,
+    pub user_texture: crate::user_texture::UserTextureField,
 }
 
 /// Values of the *Custom* material knobs (plain units) that reproduce a damping law.
@@ -675,7 +675,7 @@ impl StruckParams {
                 .with_string_to_value(formatters::s2v_f32_percentage()),
             editor_size: Mutex::new(DEFAULT_EDITOR_SIZE),
             capture: Mutex::new(None),
-            user_texture: Mutex::new(None),
+            user_texture: Default::default(),
         }
     }
 

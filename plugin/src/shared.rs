@@ -137,10 +137,7 @@ pub struct EditorShared {
     pub clip_playing: AtomicBool,
     /// Audio → GUI: the sample rate of the last activation, Hz (`f32` bits; 0 before).
     pub sample_rate: AtomicU32,
-    /// GUI → audio: a new user texture for the engine.
-    pub textures: ArrayQueue<Box<dsp::contact::Texture>>,
-    /// Audio → GUI: replaced user textures, to be freed by the GUI.
-    pub textures_done: ArrayQueue<Box<dsp::contact::Texture>>,
+
     /// Audio → GUI: where the newest lasting contact is on the strike path (`f32` bits of
     /// 0..=1; NaN when none).
     pub contact_position: AtomicU32,
@@ -157,8 +154,7 @@ impl Default for EditorShared {
             stop_clip: AtomicBool::new(false),
             clip_playing: AtomicBool::new(false),
             sample_rate: AtomicU32::new(0),
-            textures: ArrayQueue::new(CLIP_QUEUE),
-            textures_done: ArrayQueue::new(CLIP_RETURN),
+
             contact_position: AtomicU32::new(f32::NAN.to_bits()),
         }
     }
@@ -195,32 +191,6 @@ impl EditorShared {
     /// Queues a strike; `false` if the queue is full (the strike is dropped).
     pub fn audition(&self, a: Audition) -> bool {
         self.audition.push(a).is_ok()
-    }
-
-    /// Queues a user texture for the engine (GUI side), freeing the ones the audio thread
-    /// handed back. `Err` gives it back if the queue is full.
-    pub fn send_texture(&self, t: Box<dsp::contact::Texture>) -> Result<(), Box<dsp::contact::Texture>> {
-        while self.textures_done.pop().is_some() {}
-        self.textures.push(t)
-    }
-
-    /// Gives the engine a queued user texture, handing the one it replaces back to the GUI.
-    ///
-    /// # Realtime safety
-    /// Lock-free queue operations; nothing is allocated or freed (a texture is taken only
-    /// while the return queue has room).
-    pub fn take_texture(&self, engine: &mut dsp::Engine) {
-        if self.textures_done.is_full() {
-            return;
-        }
-        if let Some(t) = self.textures.pop() {
-            if let Some(old) = engine.set_user_texture(Some(t)) {
-                // Room was checked above and only this thread pushes.
-                if let Err(old) = self.textures_done.push(old) {
-                    std::mem::forget(old); // unreachable: never free on the audio thread
-                }
-            }
-        }
     }
 
     /// Frees the clips the audio thread handed back (GUI side); returns how many.

@@ -532,7 +532,7 @@ fn a_texture_file_loads_from_the_editor() {
     h.get_by_label("Load texture").click();
     h.run_steps(2);
     assert!(h.state().ui.texture_message().is_some_and(|m| m.contains("cannot read")));
-    assert!(plugin.struck_params().user_texture.lock().unwrap().is_none());
+    assert!(!plugin.struck_params().user_texture.is_set());
     let good = tmp("ribs.csv");
     std::fs::write(&good, "texel_mm = 0.5\n0 0 0 -0.2 -0.4 -0.2\n").unwrap();
     // The field holds the bad path: replace it.
@@ -541,9 +541,8 @@ fn a_texture_file_loads_from_the_editor() {
     h.get_by_label("Load texture").click();
     h.run_steps(2);
     assert_eq!(plugin.struck_params().texture.value(), struck::params::TextureParam::User);
-    let saved = plugin.struck_params().user_texture.lock().unwrap().clone().expect("kept with the project");
+    let saved = plugin.struck_params().user_texture.file().expect("kept with the project");
     assert_eq!(saved.heights_m.len(), 6);
-    assert_eq!(plugin.editor_shared().textures.len(), 1, "queued for the audio thread");
     assert!(h.state().ui.texture_message().is_some_and(|m| m.contains("6 texels of 0.500 mm")));
     let _ = std::fs::remove_file(good);
 }

@@ -47,35 +47,45 @@ impl TextureFile {
     /// # Errors
     /// A one-line reason.
     pub fn new(name: &str, texel_mm: f64, heights_mm: &[f64]) -> Result<TextureFile, String> {
-        if heights_mm.len() < 2 {
-            return Err(format!("texture {name}: {} heights; a texture needs at least 2", heights_mm.len()));
+        let t = TextureFile {
+            name: name.to_string(),
+            texel_m: texel_mm * 1e-3,
+            heights_m: heights_mm.iter().map(|h| h * 1e-3).collect(),
+        };
+        t.check()?;
+        Ok(t)
+    }
+
+    /// Checks the limits of [`TextureFile::new`] (also for one read back from a saved state).
+    ///
+    /// # Errors
+    /// A one-line reason.
+    pub fn check(&self) -> Result<(), String> {
+        let name = &self.name;
+        let n = self.heights_m.len();
+        if n < 2 {
+            return Err(format!("texture {name}: {n} heights; a texture needs at least 2"));
         }
-        if heights_mm.len() > MAX_TEXELS {
-            return Err(format!(
-                "texture {name}: {} heights, over the {MAX_TEXELS} a texture may hold",
-                heights_mm.len()
-            ));
+        if n > MAX_TEXELS {
+            return Err(format!("texture {name}: {n} heights, over the {MAX_TEXELS} a texture may hold"));
         }
-        if let Some(i) = heights_mm.iter().position(|h| !h.is_finite()) {
+        if let Some(i) = self.heights_m.iter().position(|h| !h.is_finite()) {
             return Err(format!("texture {name}: height {} is not a number", i + 1));
         }
-        let top = heights_mm.iter().fold(0.0f64, |m, h| m.max(h.abs()));
+        let top = self.heights_m.iter().fold(0.0f64, |m, h| m.max(h.abs())) * 1e3;
         if top > MAX_HEIGHT_MM {
             return Err(format!(
                 "texture {name}: heights reach {top} mm, over {MAX_HEIGHT_MM} mm (heights are in millimetres: a file in µm needs dividing by 1000)"
             ));
         }
+        let texel_mm = self.texel_m * 1e3;
         if !(texel_mm.is_finite() && (TEXEL_MM_RANGE.0..=TEXEL_MM_RANGE.1).contains(&texel_mm)) {
             return Err(format!(
                 "texture {name}: texel_mm {texel_mm} is outside {}..={} mm",
                 TEXEL_MM_RANGE.0, TEXEL_MM_RANGE.1
             ));
         }
-        Ok(TextureFile {
-            name: name.to_string(),
-            texel_m: texel_mm * 1e-3,
-            heights_m: heights_mm.iter().map(|h| h * 1e-3).collect(),
-        })
+        Ok(())
     }
 
     /// Reads a texture file (see the module documentation for the formats).
@@ -125,15 +135,21 @@ impl TextureFile {
                 TextureFile::new(&name, DEFAULT_TEXEL_MM, &heights).map_err(|e| format!("{shown}: {e}"))
             }
             "png" => {
-                let img = image::ImageReader::open(path)
-                    .map_err(|e| format!("cannot read {shown}: {e}"))?
-                    .with_guessed_format()
-                    .map_err(|e| format!("cannot read {shown}: {e}"))?;
-                let (w, h) = img.into_dimensions().map_err(|e| format!("{shown}: not a readable PNG ({e})"))?;
-                if w as usize > MAX_TEXELS || u64::from(w) * u64::from(h) > 64 << 20 {
-                    return Err(format!("{shown}: {w} × {h} pixels, too large for a texture"));
+                let open = || {
+                    image::ImageReader::open(path)
+                        .map_err(|e| format!("cannot read {shown}: {e}"))?
+                        .with_guessed_format()
+                        .map_err(|e| format!("cannot read {shown}: {e}"))
+                };
+                let (w, h) = open()?.into_dimensions().map_err(|e| format!("{shown}: not a readable PNG ({e})"))?;
+                if w as usize > MAX_TEXELS || u64::from(w) * u64::from(h) > 16 << 20 {
+                    return Err(format!("{shown}: {w} × {h} pixels, too large for a texture (at most 16 M pixels)"));
                 }
-                let img = image::open(path).map_err(|e| format!("{shown}: not a readable PNG ({e})"))?.to_luma8();
+                let mut reader = open()?;
+                let mut limits = image::Limits::default();
+                limits.max_alloc = Some(256 << 20);
+                reader.limits(limits);
+                let img = reader.decode().map_err(|e| format!("{shown}: not a readable PNG ({e})"))?.to_luma8();
                 let row = img.height() / 2;
                 let heights: Vec<f64> =
                     (0..img.width()).map(|x| f64::from(img.get_pixel(x, row).0[0]) / 255.0 * IMAGE_DEPTH_MM).collect();
@@ -146,7 +162,7 @@ impl TextureFile {
 
 /// Parses the text format: (texel length mm, heights mm).
 fn parse_text(text: &str) -> Result<(f64, Vec<f64>), String> {
-    let mut texel = DEFAULT_TEXEL_MM;
+    let mut texel = None;
     let mut heights = Vec::new();
     for (n, line) in text.lines().enumerate() {
         let line = line.split('#').next().unwrap_or("").trim();
@@ -157,11 +173,19 @@ fn parse_text(text: &str) -> Result<(f64, Vec<f64>), String> {
             if key.trim() != "texel_mm" {
                 return Err(format!("line {}: unknown setting '{}' (only texel_mm)", n + 1, key.trim()));
             }
-            texel = value
-                .trim()
-                .parse()
-                .map_err(|_| format!("line {}: texel_mm '{}' is not a number", n + 1, value.trim()))?;
+            if texel.is_some() {
+                return Err(format!("line {}: texel_mm is given twice", n + 1));
+            }
+            texel = Some(
+                value
+                    .trim()
+                    .parse()
+                    .map_err(|_| format!("line {}: texel_mm '{}' is not a number", n + 1, value.trim()))?,
+            );
             continue;
+        }
+        if line.contains(';') && line.contains(',') {
+            return Err(format!("line {}: commas with semicolons: decimal commas are not read (use points)", n + 1));
         }
         for item in line.split([',', ';', ' ', '\t']).map(str::trim).filter(|s| !s.is_empty()) {
             let h: f64 = item.parse().map_err(|_| format!("line {}: '{item}' is not a height in mm", n + 1))?;
@@ -171,7 +195,7 @@ fn parse_text(text: &str) -> Result<(f64, Vec<f64>), String> {
             }
         }
     }
-    Ok((texel, heights))
+    Ok((texel.unwrap_or(DEFAULT_TEXEL_MM), heights))
 }
 
 #[cfg(test)]
@@ -196,6 +220,8 @@ mod tests {
             ("speed = 3\n0 1\n", "unknown setting"),
             ("0, 2000\n", "in µm needs dividing"),
             ("texel_mm = 0\n0 1\n", "outside"),
+            ("texel_mm = 1\ntexel_mm = 2\n0 1\n", "given twice"),
+            ("0,5;0,3\n", "decimal commas"),
         ] {
             std::fs::write(&p, text).unwrap();
             let e = TextureFile::load(&p).unwrap_err();

@@ -230,5 +230,14 @@ fn a_user_texture_plays_and_is_kept_with_the_project() {
     let a = h.render(&events, SR as usize, 512).0;
     let b = r.render(&events, SR as usize, 512).0;
     assert_eq!(a, b, "the restored instance plays differently");
+    // A state loaded into a running instance (a host loading a preset) changes its texture
+    // at the next block: back to none (smooth), the clicks are gone.
+    let mut empty = h.plugin().struck_params().serialize_fields();
+    empty.insert("user-texture".into(), "null".into());
+    h.plugin().struck_params().deserialize_fields(&empty);
+    h.reset();
+    let c = h.render(&events, SR as usize, 512).0;
+    assert_ne!(c, a, "the loaded state did not reach the engine");
+    assert!(!h.plugin().struck_params().user_texture.is_set());
     let _ = std::fs::remove_dir_all(dir);
 }

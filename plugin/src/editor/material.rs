@@ -75,22 +75,12 @@ impl MaterialPanel {
                 return;
             }
         };
-        let texture = match dsp::contact::Texture::new(file.heights_m.clone(), file.texel_m) {
-            Ok(t) => t,
-            Err(e) => {
-                self.texture_message = Some(e);
-                return;
-            }
-        };
-        if cx.shared.send_texture(Box::new(texture)).is_err() {
-            self.texture_message = Some("the audio thread is busy: load it again".into());
+        let note = format!("{}: {} texels of {:.3} mm", file.name, file.heights_m.len(), file.texel_m * 1e3);
+        if let Err(e) = cx.params.user_texture.set_file(Some(file)) {
+            self.texture_message = Some(e);
             return;
         }
-        self.texture_message =
-            Some(format!("{}: {} texels of {:.3} mm", file.name, file.heights_m.len(), file.texel_m * 1e3));
-        if let Ok(mut slot) = cx.params.user_texture.lock() {
-            *slot = Some(file);
-        }
+        self.texture_message = Some(note);
         set_param(cx.setter, &cx.params.texture, crate::params::TextureParam::User);
     }
 
@@ -243,10 +233,7 @@ fn knob_groups(ui: &mut egui::Ui, cx: &PanelCtx, panel: &mut MaterialPanel) {
                 panel.load_texture(cx);
             }
         });
-        let shown = panel
-            .texture_message
-            .clone()
-            .or_else(|| p.user_texture.lock().ok().and_then(|t| t.as_ref().map(|f| format!("User file: {}", f.name))));
+        let shown = panel.texture_message.clone().or_else(|| p.user_texture.name().map(|n| format!("User file: {n}")));
         if let Some(m) = shown {
             ui.label(egui::RichText::new(m).weak());
         }
