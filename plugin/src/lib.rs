@@ -97,7 +97,7 @@ impl Struck {
     }
 
     /// Plays `file` as the user texture (*Texture* = User file) and keeps it with the project.
-    /// Not for the audio thread (allocates; the editor goes through [`EditorShared::send_texture`]).
+    /// Not for the audio thread (allocates; setters queue the texture for it, see [`user_texture`]).
     ///
     /// # Errors
     /// A profile the engine refuses (one line).
