@@ -83,8 +83,10 @@ pub struct ObjectModes {
     support_q: Vec<f64>,
     /// Mode indices in ascending λ (so in ascending frequency at any λ scale).
     by_lambda: Vec<u16>,
-    /// Each mode's largest |gain| over the strike points (a lasting contact travels them all).
+    /// Each mode's largest |gain| over the strike points (a lasting contact travels them all),
+    /// and the largest of those.
     max_gain: Vec<f32>,
+    max_gain_peak: f32,
 }
 
 impl ObjectModes {
@@ -112,8 +114,26 @@ impl ObjectModes {
         let support_q = lambdas.iter().enumerate().map(|(i, &l)| support_quantile(i, l)).collect();
         let mut by_lambda: Vec<u16> = (0..m as u16).collect();
         by_lambda.sort_by(|&a, &b| lambdas[usize::from(a)].total_cmp(&lambdas[usize::from(b)]));
-        let max_gain = (0..m).map(|i| gains.iter().map(|row| row[i].abs()).fold(0.0f32, f32::max)).collect();
-        ObjectModes { lambdas, gains: flat, num_points: gains.len(), norm, support_q, by_lambda, max_gain }
+        let max_gain: Vec<f32> = (0..m).map(|i| gains.iter().map(|row| row[i].abs()).fold(0.0f32, f32::max)).collect();
+        let max_gain_peak = max_gain.iter().fold(0.0f32, |a, &g| a.max(g));
+        ObjectModes {
+            lambdas,
+            gains: flat,
+            num_points: gains.len(),
+            norm,
+            support_q,
+            by_lambda,
+            max_gain,
+            max_gain_peak,
+        }
+    }
+
+    /// Whether a lasting contact (or the audio input) takes mode `m`, ringing or not (`rings`):
+    /// its largest gain over the strike points passes the quality threshold `quality_db` under
+    /// the object's largest.
+    fn contact_takes(&self, m: usize, rings: bool, quality_db: f32) -> bool {
+        let g = self.max_gain[m];
+        rings && g > 0.0 && g >= self.max_gain_peak * 10f32.powf(-quality_db / 20.0)
     }
 
     /// Number of modes.
@@ -224,7 +244,7 @@ impl Default for ContactParams {
 /// full scale, held for a second, is this many strikes' impulse (so the response does not
 /// depend on the sample rate). An impulse of height fs/AUDIO_IN_RATE is a velocity-1 strike
 /// with an ideal (instant) contact. The value puts white noise through the factory objects at
-/// −8…+4 dB of the input's RMS (measured with `struck render --input`).
+/// −8.6…+3.1 dB of the input's RMS (measured with `struck render --input`, 0.1 RMS noise).
 pub const AUDIO_IN_RATE: f64 = 3000.0;
 
 /// The audio-in voice's note id (no host's: its end is not reported).
@@ -1394,16 +1414,11 @@ impl Engine {
             voice.gain_from[..voice.bank.len()].fill(0.0);
             voice.gain_to[..voice.bank.len()].fill(0.0);
         }
-        let max_gain = if lasting { obj.max_gain.iter().fold(0.0f32, |a, &g| a.max(g)) } else { 0.0 };
-        let gain_threshold = max_gain * 10f32.powf(-p.quality_db / 20.0);
         for m in 0..n {
             let a = self.amps[m];
             let rings = self.poles[m].1 > 0.0;
-            let wanted = if lasting {
-                rings && obj.max_gain[m] > 0.0 && obj.max_gain[m] >= gain_threshold
-            } else {
-                a != 0.0 && a.abs() >= threshold
-            };
+            let wanted =
+                if lasting { obj.contact_takes(m, rings, p.quality_db) } else { a != 0.0 && a.abs() >= threshold };
             if !wanted {
                 continue;
             }
@@ -1435,16 +1450,7 @@ impl Engine {
         }
         if lasting {
             voice.contact_norm = plan.norm;
-            let env = ContactEnv {
-                tables: self.tables,
-                params: p.contact,
-                path_m: contact::PATH_LENGTH_M * self.glide.size,
-                fs,
-                phase: 0,
-                input: None,
-                wheel_speed: self.wheel_speed,
-                user: self.user_texture.as_deref(),
-            };
+            let env = contact_env!(self);
             let seed = self.strikes.wrapping_mul(0x9E37_79B9) ^ u32::from(voice.note.key);
             voice.contact = ContactState::start(position, p.contact.direction, seed, &env.surface(voice.excitation));
             // A note released at its own note-on's sample only strikes.
@@ -1647,12 +1653,10 @@ impl Engine {
             voice.active = false;
             return;
         };
-        let max_gain = obj.max_gain.iter().fold(0.0f32, |a, &g| a.max(g));
-        let gain_threshold = max_gain * 10f32.powf(-p.quality_db / 20.0);
         voice.bank.clear_forcing();
         for m in 0..obj.num_modes() {
             let (d, omega) = self.poles[m];
-            if !(omega > 0.0 && obj.max_gain[m] > 0.0 && obj.max_gain[m] >= gain_threshold) {
+            if !obj.contact_takes(m, omega > 0.0, p.quality_db) {
                 continue;
             }
             let Some(k) = voice.bank.push(ModeCoeffs::new(d, omega, fs)) else { break };
@@ -1664,16 +1668,7 @@ impl Engine {
         }
         voice.contact_norm = plan.norm;
         voice.apply_contact_gains();
-        let env = ContactEnv {
-            tables: self.tables,
-            params: p.contact,
-            path_m: contact::PATH_LENGTH_M * self.glide.size,
-            fs,
-            phase: 0,
-            input: None,
-            wheel_speed: None,
-            user: self.user_texture.as_deref(),
-        };
+        let env = contact_env!(self);
         voice.contact = ContactState::start(voice.position, p.contact.direction, 1, &env.surface(Excitation::Scrape));
         voice.lasting = true;
         voice.energy = voice.bank.energy();
@@ -1696,10 +1691,8 @@ impl Engine {
         let Some(plan) = modes.plan(&p, 1.0, 1.0, &gains, &mut amps, &mut poles) else {
             return Vec::new();
         };
-        let max_gain = obj.max_gain.iter().fold(0.0f32, |a, &g| a.max(g));
-        let threshold = max_gain * 10f32.powf(-p.quality_db / 20.0);
         (0..n)
-            .filter(|&m| poles[m].1 > 0.0 && obj.max_gain[m] > 0.0 && obj.max_gain[m] >= threshold)
+            .filter(|&m| obj.contact_takes(m, poles[m].1 > 0.0, p.quality_db))
             .map(|m| (m, poles[m].1 / (2.0 * PI), poles[m].0, gains[m] * plan.norm))
             .collect()
     }
