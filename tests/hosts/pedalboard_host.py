@@ -4,7 +4,8 @@
 Run by `cargo xtask test` after the Rust tests (which leave the CLAP render of the same
 phrase in target/host-renders/clap-phrase.wav):
 
-    python tests/hosts/pedalboard_host.py path/to/Struck.vst3 target/host-renders/clap-phrase.wav
+    python tests/hosts/pedalboard_host.py path/to/Struck.vst3 target/host-renders/clap-phrase.wav \
+        [path/to/StruckResonator.vst3]
 
 What it asserts, each a measured property:
 - load: the plugin loads in at most 2 s (its 2,080 MIDI-CC proxy parameters are named the way
@@ -15,7 +16,11 @@ What it asserts, each a measured property:
 - expression: MIDI CC 74 (MPE timbre: strike position) and channel pressure (damping) still
   reach the plugin through VST3, each changing the sound;
 - state: a changed parameter survives `raw_state` into a fresh instance, which then renders
-  like the changed one and unlike a default one.
+  like the changed one and unlike a default one;
+- the effect (StruckResonator.vst3, when given): loads as an effect, which is how every host
+  reaches *Audio in*; the impulse of target/host-renders/resonator-in.wav played through it
+  gives, sample for sample (1e-5), what the CLAP binary gave (resonator-out.wav, written by
+  tests/tests/clap_host.rs); silence in gives exact silence out.
 Prints one line per check and a closing "pedalboard: N passed, M failed"; exits non-zero on
 any failure.
 """
@@ -75,6 +80,7 @@ def render(plugin, sr, seconds, messages):
 
 def main():
     vst3, clap_wav = sys.argv[1], sys.argv[2]
+    fx_vst3 = sys.argv[3] if len(sys.argv) > 3 else None
     sr, seconds, messages = load_phrase()
     results = []
 
@@ -156,14 +162,46 @@ def main():
         assert d_default > 1e-3, f"the change made no difference ({d_default:.2e})"
         return f"{len(saved)} bytes; restored vs changed {d_same:.1e}, default vs changed {d_default:.2e}"
 
+    def effect_loads():
+        t0 = time.perf_counter()
+        fx = pedalboard.load_plugin(fx_vst3)
+        took = time.perf_counter() - t0
+        state["fx"] = fx
+        assert fx.is_effect and not fx.is_instrument, "Struck Resonator does not load as an effect"
+        assert took <= 2.0, f"loading took {took:.2f} s (> 2 s)"
+        names = list(fx.parameters.keys())
+        assert "audio_in" in names and "dry_wet" in names, f"parameters: {names}"
+        return f"{took:.3f} s, {len(names)} parameters"
+
+    def effect_matches_clap():
+        fx = state["fx"]
+        renders = os.path.dirname(os.path.abspath(clap_wav))
+        x = read_float_wav(os.path.join(renders, "resonator-in.wav"))
+        ref = read_float_wav(os.path.join(renders, "resonator-out.wav"))
+        out = fx.process(x, sample_rate=sr, buffer_size=512, reset=True)
+        assert out.shape == ref.shape, f"VST3 render {out.shape}, CLAP render {ref.shape}"
+        rms = float(np.sqrt(np.mean(out.astype(np.float64) ** 2)))
+        assert rms > 1e-4, f"the effect's render is silent (RMS {rms:.2e})"
+        diff = float(np.max(np.abs(out.astype(np.float64) - ref.astype(np.float64))))
+        assert diff <= 1e-5, f"VST3 and CLAP renders of the impulse differ by {diff:.3e}"
+        quiet = fx.process(np.zeros_like(x), sample_rate=sr, buffer_size=512, reset=True)
+        assert not np.any(quiet), "silence in gave sound out"
+        return f"max |VST3 - CLAP| = {diff:.2e}, RMS {rms:.3e}; silence in, silence out"
+
     check("loads in <= 2 s with Struck's parameters only", load)
     if "plugin" in state:
         check("the MIDI phrase renders as the CLAP binary renders it", phrase_matches_clap)
         check("MPE CC 74 and channel pressure reach the plugin", expression_reaches_the_plugin)
         check("raw_state carries a changed parameter into a new instance", state_round_trip)
+    if fx_vst3:
+        check("Struck Resonator loads as an effect", effect_loads)
+        if "fx" in state:
+            check("an impulse through the effect plays as in the CLAP host", effect_matches_clap)
     passed, failed = sum(results), len(results) - sum(results)
     if "plugin" not in state:
         failed += 3
+    if fx_vst3 and "fx" not in state:
+        failed += 1
     print(f"pedalboard: {passed} passed, {failed} failed")
     return 1 if failed else 0
 

@@ -2,13 +2,20 @@
 //! `process()` on its layout with an audio input (offline host, allocation assertions on).
 
 use dsp::engine::AUDIO_IN_RATE;
-use struck::offline::OfflineHost;
+use struck::offline::{note_off, note_on, OfflineHost, TimedEvent};
+use struck::{Effect, Instrument, StruckPlugin, Variant};
 
 const SR: f32 = 48_000.0;
 
-/// A host playing `left`/`right` into the plugin's audio input.
+/// A host playing `left`/`right` into the instrument's audio input.
 fn host(set: &[(&str, f32)], left: Vec<f32>, right: Vec<f32>) -> OfflineHost {
-    let mut h = OfflineHost::new(SR, 512).expect("host");
+    host_of::<Instrument>(set, left, right)
+}
+
+/// A host playing `left`/`right` into the input of either variant (the effect's only layout
+/// has it; the instrument's second).
+fn host_of<V: Variant>(set: &[(&str, f32)], left: Vec<f32>, right: Vec<f32>) -> OfflineHost<V> {
+    let mut h = OfflineHost::with_plugin(StruckPlugin::<V>::default(), SR, 512).expect("host");
     for (k, v) in [("object", 2.0), ("safety", 0.0)].iter().chain(set) {
         h.set_param(k, *v).expect("param");
     }
@@ -29,10 +36,20 @@ fn mode_sum(modes: &[(usize, f64, f64, f32)], k: f64) -> f64 {
 /// amplitudes are the bank's gains at the position times one level.
 #[test]
 fn an_input_impulse_rings_the_modes_at_the_position() {
+    impulse_rings_the_modes::<Instrument>();
+}
+
+/// The same through the effect, *Struck Resonator*: the closed form again.
+#[test]
+fn the_effect_rings_the_modes_of_an_input_impulse() {
+    impulse_rings_the_modes::<Effect>();
+}
+
+fn impulse_rings_the_modes<V: Variant>() {
     let at = 300usize;
     let mut x = vec![0.0f32; 4_000];
     x[at] = (f64::from(SR) / AUDIO_IN_RATE) as f32;
-    let mut h = host(&[("pos", 0.3), ("speed", 0.0)], x.clone(), x);
+    let mut h = host_of::<V>(&[("pos", 0.3), ("speed", 0.0)], x.clone(), x);
     let (out, _) = h.render(&[], 4_000, 512);
     let engine = h.plugin().engine().expect("engine");
     let modes = engine.input_modes(0.3);
@@ -190,4 +207,46 @@ fn an_input_impulse_is_a_strike_with_an_ideal_contact() {
 
 fn amplitude(x: &[f32], sr: f64, f: f64, start: usize, len: usize) -> f64 {
     struck_tests::amplitude(x, sr, f, start, len)
+}
+
+/// The effect plays what the instrument's input layout plays, sample for sample: a moving
+/// contact driven by noise, with a note struck on top (the effect takes notes too), at two
+/// block sizes; and silence in gives exact silence out.
+#[test]
+fn the_effect_plays_what_the_instruments_input_plays() {
+    let n = 12_000;
+    let mut r = dsp::exciter::Noise::new(21);
+    let (l, rr): (Vec<f32>, Vec<f32>) = (0..n).map(|_| (0.2 * r.next_sample(), 0.05 * r.next_sample())).unzip();
+    let set = [("speed", 0.4), ("drywet", 0.7)];
+    let events =
+        [TimedEvent { sample: 1_000, event: note_on(64, 0.8) }, TimedEvent { sample: 7_000, event: note_off(64) }];
+    let (instrument, _) = host_of::<Instrument>(&set, l.clone(), rr.clone()).render(&events, n, 512);
+    for block in [512, 97] {
+        let (effect, _) = host_of::<Effect>(&set, l.clone(), rr.clone()).render(&events, n, block);
+        assert_eq!(effect, instrument, "block {block}");
+    }
+    let (quiet, _) = host_of::<Effect>(&[("speed", 0.5)], vec![0.0; n], vec![0.0; n]).render(&[], n, 256);
+    assert!(quiet.iter().all(|ch| ch.iter().all(|&y| y == 0.0)));
+}
+
+/// In the effect, *Audio in* off stops the input driving the object but keeps it in the
+/// output: (1 − wet) of it, per channel, as an effect's dry path (the instrument drops it).
+#[test]
+fn the_effect_keeps_its_dry_signal_with_audio_in_off() {
+    let n = 4_000;
+    let mut r = dsp::exciter::Noise::new(4);
+    let (l, rr): (Vec<f32>, Vec<f32>) = (0..n).map(|_| (0.3 * r.next_sample(), -0.2 * r.next_sample())).unzip();
+    let (out, _) = host_of::<Effect>(&[("audioin", 0.0), ("drywet", 0.25)], l.clone(), rr.clone()).render(&[], n, 512);
+    for (c, input) in [&l, &rr].into_iter().enumerate() {
+        for k in 0..n {
+            assert!(
+                (out[c][k] - 0.75 * input[k]).abs() <= 1e-7,
+                "channel {c} sample {k}: {} vs {}",
+                out[c][k],
+                input[k]
+            );
+        }
+    }
+    let (instrument, _) = host(&[("audioin", 0.0), ("drywet", 0.25)], l, rr).render(&[], n, 512);
+    assert!(instrument.iter().all(|ch| ch.iter().all(|&y| y == 0.0)));
 }

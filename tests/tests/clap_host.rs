@@ -35,6 +35,7 @@ use struck::offline::{note_off, note_on, TimedEvent};
 use struck_cli::cli::{configured_host, note_events, NoteSpec, SoundOptions};
 
 const PLUGIN_ID: &CStr = c"org.struck.struck";
+const RESONATOR_ID: &CStr = c"org.struck.resonator";
 const SAMPLE_RATE: u32 = 48_000;
 const BLOCK: usize = 512;
 const KEY: u8 = 60;
@@ -118,31 +119,52 @@ fn plugin_binary() -> PathBuf {
 }
 
 fn load_entry() -> PluginEntry {
-    let path = plugin_binary();
+    load_entry_from(&plugin_binary(), PLUGIN_ID)
+}
+
+/// The effect's binary: `$STRUCK_RESONATOR_CLAP` if set (`cargo xtask test` sets it to
+/// `target/test-bundled/StruckResonator.clap`), else the debug cdylib, else the bundle.
+fn resonator_binary() -> PathBuf {
+    if let Some(p) = std::env::var_os("STRUCK_RESONATOR_CLAP") {
+        let p = PathBuf::from(p);
+        assert!(p.exists(), "STRUCK_RESONATOR_CLAP={} does not exist", p.display());
+        return p;
+    }
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("workspace root");
+    let candidates = [
+        root.join("target/debug/libstruck_resonator.so"),
+        root.join("target/debug/deps/libstruck_resonator.so"),
+        root.join("target/bundled/StruckResonator.clap"),
+    ];
+    candidates.iter().find(|p| p.exists()).cloned().unwrap_or_else(|| {
+        panic!(
+            "no Struck Resonator CLAP binary found (looked for $STRUCK_RESONATOR_CLAP, {}): \
+             build it with `cargo build -p struck-resonator`",
+            candidates.map(|p| p.display().to_string()).join(", ")
+        )
+    })
+}
+
+fn load_entry_from(path: &Path, id: &CStr) -> PluginEntry {
     println!("loading CLAP plugin binary {}", path.display());
     // SAFETY: the file is Struck's own build output, a CLAP binary made by nice-plug, whose
     // `clap_entry` follows the CLAP ABI that clack relies on.
-    let entry = unsafe { PluginEntry::load(&path) }.unwrap_or_else(|e| panic!("cannot load {}: {e}", path.display()));
+    let entry = unsafe { PluginEntry::load(path) }.unwrap_or_else(|e| panic!("cannot load {}: {e}", path.display()));
     let factory = entry.get_plugin_factory().expect("the entry has no plugin factory");
     let ids: Vec<String> =
         factory.plugin_descriptors().filter_map(|d| d.id()).map(|id| id.to_string_lossy().into_owned()).collect();
-    assert!(
-        ids.iter().any(|id| id.as_bytes() == PLUGIN_ID.to_bytes()),
-        "plugin factory lists {ids:?}, not {PLUGIN_ID:?}"
-    );
+    assert!(ids.iter().any(|i| i.as_bytes() == id.to_bytes()), "plugin factory lists {ids:?}, not {id:?}");
     entry
 }
 
 fn instantiate(entry: &PluginEntry) -> PluginInstance<TestHost> {
+    instantiate_id(entry, PLUGIN_ID)
+}
+
+fn instantiate_id(entry: &PluginEntry, id: &CStr) -> PluginInstance<TestHost> {
     let info = HostInfo::new("struck-tests", "Struck developers", "https://example.invalid/struck", "0.1.0").unwrap();
-    PluginInstance::<TestHost>::new(
-        |_| TestHostShared { callback_requested: false.into() },
-        |_| (),
-        entry,
-        PLUGIN_ID,
-        &info,
-    )
-    .expect("instantiate Struck")
+    PluginInstance::<TestHost>::new(|_| TestHostShared { callback_requested: false.into() }, |_| (), entry, id, &info)
+        .unwrap_or_else(|e| panic!("instantiate {id:?}: {e}"))
 }
 
 /// A note event of a test phrase: note-on (key, velocity 1..=127) or note-off (key).
@@ -386,6 +408,11 @@ fn clap_binary_renders_the_host_phrase() {
     println!("phrase: CLAP vs offline max |diff| {d:.3e}");
     assert!(d <= 1e-5, "phrase: CLAP and offline differ by {d:e} at channel {ch}, sample {i}");
 
+    write_host_render("clap-phrase.wav", &clap);
+}
+
+/// Writes `audio` as `target/host-renders/NAME` (32-bit float, stereo) for the VST3 host test.
+fn write_host_render(name: &str, audio: &[Vec<f32>; 2]) {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("workspace root").join("target/host-renders");
     std::fs::create_dir_all(&dir).expect("create target/host-renders");
     let spec = hound::WavSpec {
@@ -394,13 +421,117 @@ fn clap_binary_renders_the_host_phrase() {
         bits_per_sample: 32,
         sample_format: hound::SampleFormat::Float,
     };
-    let tmp = dir.join("clap-phrase.wav.tmp");
-    let mut w = hound::WavWriter::create(&tmp, spec).expect("create the phrase WAV");
-    for i in 0..num_samples {
-        w.write_sample(clap[0][i]).and_then(|()| w.write_sample(clap[1][i])).expect("write the phrase WAV");
+    let tmp = dir.join(format!("{name}.tmp"));
+    let mut w = hound::WavWriter::create(&tmp, spec).expect("create the WAV");
+    for (l, r) in audio[0].iter().zip(&audio[1]) {
+        w.write_sample(*l).and_then(|()| w.write_sample(*r)).expect("write the WAV");
     }
-    w.finalize().expect("finish the phrase WAV");
-    std::fs::rename(&tmp, dir.join("clap-phrase.wav")).expect("rename the phrase WAV");
+    w.finalize().expect("finish the WAV");
+    std::fs::rename(&tmp, dir.join(name)).expect("rename the WAV");
+}
+
+/// Activates `instance` (48 kHz, blocks of at most 512), plays `input` (stereo) through its
+/// stereo input port with no events, and deactivates it again; the output.
+fn render_through(instance: &mut PluginInstance<TestHost>, input: &[Vec<f32>; 2]) -> [Vec<f32>; 2] {
+    let num_samples = input[0].len();
+    let config = PluginAudioConfiguration {
+        sample_rate: f64::from(SAMPLE_RATE),
+        min_frames_count: 1,
+        max_frames_count: BLOCK as u32,
+    };
+    let stopped = instance.activate(|_, _| (), config).expect("activate");
+    let mut processor = stopped.start_processing().expect("start processing");
+    let in_events = EventBuffer::with_capacity(0);
+    let mut out_events = EventBuffer::with_capacity(256);
+    let mut block_in = [vec![0.0f32; BLOCK], vec![0.0f32; BLOCK]];
+    let mut block = [vec![0.0f32; BLOCK], vec![0.0f32; BLOCK]];
+    let mut input_ports = AudioPorts::with_capacity(2, 1);
+    let mut output_ports = AudioPorts::with_capacity(2, 1);
+    let mut out = [Vec::with_capacity(num_samples), Vec::with_capacity(num_samples)];
+    let mut pos = 0;
+    while pos < num_samples {
+        let n = BLOCK.min(num_samples - pos);
+        for (b, x) in block_in.iter_mut().zip(input) {
+            b[..n].copy_from_slice(&x[pos..pos + n]);
+        }
+        for ch in &mut block {
+            ch.fill(f32::NAN); // the plugin must write every output sample
+        }
+        let audio_in = input_ports.with_input_buffers([AudioPortBuffer {
+            latency: 0,
+            channels: AudioPortBufferType::f32_input_only(
+                block_in.iter_mut().map(|ch| InputChannel::variable(&mut ch[..n])),
+            ),
+        }]);
+        let mut audio_out = output_ports.with_output_buffers([AudioPortBuffer {
+            latency: 0,
+            channels: AudioPortBufferType::f32_output_only(block.iter_mut().map(|ch| &mut ch[..n])),
+        }]);
+        out_events.clear();
+        processor
+            .process(
+                &audio_in,
+                &mut audio_out,
+                &in_events.as_input(),
+                &mut out_events.as_output(),
+                Some(pos as u64),
+                None,
+            )
+            .expect("process");
+        for (o, b) in out.iter_mut().zip(&block) {
+            o.extend_from_slice(&b[..n]);
+        }
+        pos += n;
+    }
+    instance.deactivate(processor.stop_processing());
+    out
+}
+
+/// The effect's binary, *Struck Resonator*, in a real CLAP host: one stereo input and one
+/// stereo output port; an input impulse plays, sample for sample (1e-5), what the offline host
+/// plays through the plugin's `process()` (which `audio_in.rs` checks against the closed-form
+/// sum of the modes), in the impulse's own sample; silence in gives exact silence out. Leaves
+/// the input and the output in `target/host-renders/resonator-{in,out}.wav` for the VST3 host
+/// test, which must play the same.
+#[test]
+fn the_resonator_binary_rings_the_object_from_its_input() {
+    let _one_at_a_time = serial();
+    let entry = load_entry_from(&resonator_binary(), RESONATOR_ID);
+    let mut fx = instantiate_id(&entry, RESONATOR_ID);
+    {
+        let ports: PluginAudioPorts = fx.plugin_shared_handle().get_extension().expect("no audio-ports extension");
+        let handle = fx.plugin_handle();
+        assert_eq!(ports.count(&handle, true), 1, "audio input ports");
+        assert_eq!(ports.count(&handle, false), 1, "audio output ports");
+        let mut port_buf = AudioPortInfoBuffer::new();
+        for is_input in [true, false] {
+            let port = ports.get(&handle, 0, is_input, &mut port_buf).expect("port 0 info");
+            assert_eq!(port.channel_count, 2, "port channels (input: {is_input})");
+        }
+    }
+    let n = SAMPLE_RATE as usize / 2;
+    let at = 1_000;
+    let mut impulse = vec![0.0f32; n];
+    impulse[at] = 0.5;
+    let input = [impulse.clone(), impulse.iter().map(|x| 0.5 * x).collect()];
+    let clap = render_through(&mut fx, &input);
+    let mut offline =
+        struck::offline::OfflineHost::with_plugin(struck::StruckResonator::default(), SAMPLE_RATE as f32, BLOCK)
+            .expect("offline host");
+    offline.set_input(input[0].clone(), input[1].clone());
+    let (reference, _) = offline.render(&[], n, BLOCK);
+    assert!(clap.iter().all(|ch| ch[..at].iter().all(|&y| y == 0.0)), "output before the impulse");
+    assert!(clap[0][at] != 0.0, "no output in the impulse's sample (latency)");
+    assert!(rms(&clap[0]) > 1e-4, "the resonator's render is silent");
+    let (d, i, ch) = max_diff(&clap, &reference);
+    println!("resonator: CLAP vs offline max |diff| {d:.3e}, RMS {:.3e}", rms(&clap[0]));
+    assert!(d <= 1e-5, "resonator: CLAP and offline differ by {d:e} at channel {ch}, sample {i}");
+    write_host_render("resonator-in.wav", &input);
+    write_host_render("resonator-out.wav", &clap);
+
+    let silence = [vec![0.0f32; n], vec![0.0f32; n]];
+    let quiet = render_through(&mut fx, &silence);
+    assert!(quiet.iter().all(|ch| ch.iter().all(|&y| y == 0.0)), "silence in, sound out");
 }
 
 /// An X server for the GUI test: `$DISPLAY` if set, else a private Xvfb (killed on drop).

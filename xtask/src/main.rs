@@ -1,4 +1,4 @@
-//! Project tasks: `cargo xtask bundle struck --release` (nice-plug-xtask), plus
+//! Project tasks: `cargo xtask bundle -p struck -p struck-resonator --release` (nice-plug-xtask), plus
 //! `cargo xtask demo` (bundles, then renders the demo phrase), `cargo xtask banks`
 //! (regenerates the factory FEM banks) and `cargo xtask test` (installs what the tests need,
 //! bundles the debug plugin into `target/test-bundled`, runs the whole test suite, the
@@ -18,7 +18,8 @@ fn cargo(args: &[&str]) -> Result<(), String> {
 }
 
 fn bundle(release: bool) -> Result<(), String> {
-    let mut args = vec!["bundle".to_string(), "struck".to_string()];
+    // The instrument and the effect (issue 16), one plugin per bundle.
+    let mut args = ["bundle", "-p", "struck", "-p", "struck-resonator"].map(String::from).to_vec();
     if release {
         args.push("--release".into());
     }
@@ -263,7 +264,16 @@ fn bundle_for_tests() -> Result<(), String> {
     }
     let built = nice_plug_xtask::main_with_args(
         "cargo xtask",
-        ["bundle", "struck", "--features", "assert_process_allocs"].map(String::from),
+        [
+            "bundle",
+            "-p",
+            "struck",
+            "-p",
+            "struck-resonator",
+            "--features",
+            "struck/assert_process_allocs,struck-resonator/assert_process_allocs",
+        ]
+        .map(String::from),
     )
     .map_err(|e| format!("bundling the test plugin failed: {e:#}"));
     let moved = built.and_then(|()| {
@@ -312,21 +322,30 @@ fn test(extra: &[String]) -> Result<(), String> {
     let root = std::env::current_dir().map_err(|e| e.to_string())?;
     let clap = root.join(TEST_BUNDLES).join("Struck.clap");
     let vst3 = root.join(TEST_BUNDLES).join("Struck.vst3");
+    let fx_clap = root.join(TEST_BUNDLES).join("StruckResonator.clap");
+    let fx_vst3 = root.join(TEST_BUNDLES).join("StruckResonator.vst3");
     let mut failed = Vec::new();
 
     let cargo_bin = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let mut cargo_test = Command::new(&cargo_bin);
-    cargo_test.args(["test", "--workspace", "--no-fail-fast"]).args(extra).env("STRUCK_CLAP", &clap);
+    cargo_test
+        .args(["test", "--workspace", "--no-fail-fast"])
+        .args(extra)
+        .env("STRUCK_CLAP", &clap)
+        .env("STRUCK_RESONATOR_CLAP", &fx_clap);
     if !step("cargo test --workspace --no-fail-fast", &mut cargo_test) {
         failed.push("cargo test");
     }
 
     let validate = root.join("../shared/validators/validate");
     if validate.exists() {
-        let mut v = Command::new("bash");
-        v.arg(&validate).arg(&clap).arg(&vst3).arg("--extensive");
-        if !step("third-party validators (clap-validator, vst3-validator --extensive)", &mut v) {
-            failed.push("validators");
+        for (name, c, v3) in [("Struck", &clap, &vst3), ("StruckResonator", &fx_clap, &fx_vst3)] {
+            let mut v = Command::new("bash");
+            v.arg(&validate).arg(c).arg(v3).arg("--extensive");
+            if !step(&format!("third-party validators on {name} (clap-validator, vst3-validator --extensive)"), &mut v)
+            {
+                failed.push("validators");
+            }
         }
     } else if std::env::var_os("CI").is_some() {
         eprintln!("xtask: the validators are missing: expected {}", validate.display());
@@ -337,7 +356,7 @@ fn test(extra: &[String]) -> Result<(), String> {
 
     let python = root.join("target/test-venv/bin/python");
     let mut pb = Command::new(python);
-    pb.arg("tests/hosts/pedalboard_host.py").arg(&vst3).arg("target/host-renders/clap-phrase.wav");
+    pb.arg("tests/hosts/pedalboard_host.py").arg(&vst3).arg("target/host-renders/clap-phrase.wav").arg(&fx_vst3);
     if !step("pedalboard VST3 host test", &mut pb) {
         failed.push("pedalboard");
     }
@@ -379,7 +398,10 @@ fn run() -> Result<(), String> {
                 "--out",
                 &out,
             ])?;
-            eprintln!("bundles: target/bundled/Struck.clap, target/bundled/Struck.vst3; demo: {out}");
+            eprintln!(
+                "bundles: target/bundled/Struck.clap, target/bundled/Struck.vst3 (instrument), \
+                 target/bundled/StruckResonator.clap, target/bundled/StruckResonator.vst3 (effect); demo: {out}"
+            );
             Ok(())
         }
         Some("banks") => banks(),

@@ -1,10 +1,10 @@
-//! An offline host: drives [`Struck`] through its own `activate()`, `reset()` and
+//! An offline host: drives [`Struck`] (or the effect, [`crate::StruckResonator`]) through its own `activate()`, `reset()` and
 //! `process()` the way a DAW does, for the command-line renderer and the tests.
 //!
 //! With the `assert_process_allocs` feature (and debug assertions) every `process()` call runs
 //! under nice-plug's allocation assertion: an allocation in the audio path aborts the test.
 
-use crate::Struck;
+use crate::{Instrument, Struck, StruckPlugin, Variant};
 use nice_plug::prelude::*;
 use std::collections::HashMap;
 
@@ -27,7 +27,7 @@ struct Context<'a> {
     transport: Transport,
 }
 
-impl ProcessContext<Struck> for Context<'_> {
+impl<V: Variant> ProcessContext<StruckPlugin<V>> for Context<'_> {
     fn plugin_api(&self) -> PluginApi {
         PluginApi::Clap
     }
@@ -58,7 +58,7 @@ impl ProcessContext<Struck> for Context<'_> {
 }
 
 struct Activate;
-impl ActivateContext<Struck> for Activate {
+impl<V: Variant> ActivateContext<StruckPlugin<V>> for Activate {
     fn plugin_api(&self) -> PluginApi {
         PluginApi::Clap
     }
@@ -86,9 +86,9 @@ pub fn check_sample_rate(sample_rate: f32) -> Result<(), HostError> {
     }
 }
 
-/// Hosts one instance of the plugin offline.
-pub struct OfflineHost {
-    plugin: Struck,
+/// Hosts one instance of the plugin offline: the instrument unless told otherwise.
+pub struct OfflineHost<V: Variant = Instrument> {
+    plugin: StruckPlugin<V>,
     params: HashMap<String, ParamPtr>,
     sample_rate: f32,
     max_block: usize,
@@ -101,6 +101,8 @@ pub struct OfflineHost {
     stats: RenderStats,
     /// The audio input layout is active, and its signal (left, right) from sample 0.
     input: Option<(Vec<f32>, Vec<f32>)>,
+    /// The active layout has an input (the effect's always has).
+    input_layout: bool,
 }
 
 /// Load figures of the `process()` calls an [`OfflineHost`] has made (`struck render
@@ -174,19 +176,21 @@ pub enum HostError {
 }
 
 impl OfflineHost {
-    /// A fresh plugin activated at `sample_rate` with blocks of at most `max_block` samples.
+    /// A fresh instrument activated at `sample_rate` with blocks of at most `max_block` samples.
     ///
     /// # Errors
     /// If the sample rate is outside 8 kHz..=768 kHz or `max_block` is 0 or over 65536.
     pub fn new(sample_rate: f32, max_block: usize) -> Result<Self, HostError> {
         Self::with_plugin(Struck::default(), sample_rate, max_block)
     }
+}
 
+impl<V: Variant> OfflineHost<V> {
     /// Hosts `plugin` (e.g. one whose parameters were set already).
     ///
     /// # Errors
-    /// As [`new`](Self::new).
-    pub fn with_plugin(plugin: Struck, sample_rate: f32, max_block: usize) -> Result<Self, HostError> {
+    /// As [`OfflineHost::new`].
+    pub fn with_plugin(plugin: StruckPlugin<V>, sample_rate: f32, max_block: usize) -> Result<Self, HostError> {
         check_sample_rate(sample_rate)?;
         if max_block == 0 || max_block > 65_536 {
             return Err(HostError::Config(format!("block size {max_block} is outside 1..=65536")));
@@ -205,12 +209,13 @@ impl OfflineHost {
             right: vec![0.0; max_block],
             buffer: Buffer::default(),
             input: None,
+            input_layout: false,
         };
         host.activate();
         Ok(host)
     }
 
-    /// Activates the plugin again with its audio input layout (2 in, 2 out), the input
+    /// Activates the plugin again with its stereo audio input layout (2 in, 2 out), the input
     /// playing `left` and `right` from sample 0 (then silence), and resets the clock.
     /// Allocates (not in `process()`).
     pub fn set_input(&mut self, left: Vec<f32>, right: Vec<f32>) {
@@ -219,7 +224,15 @@ impl OfflineHost {
     }
 
     fn activate(&mut self) {
-        let layout = Struck::AUDIO_IO_LAYOUTS[if self.input.is_some() { 1 } else { 0 }];
+        // The default layout, or with an input the first stereo one that has it.
+        let layouts = StruckPlugin::<V>::AUDIO_IO_LAYOUTS;
+        let layout = if self.input.is_some() {
+            layouts.iter().find(|l| l.main_input_channels.is_some_and(|c| c.get() == 2)).unwrap_or(&layouts[0])
+        } else {
+            &layouts[0]
+        };
+        let layout = *layout;
+        self.input_layout = layout.main_input_channels.is_some();
         let config = BufferConfig {
             sample_rate: self.sample_rate,
             min_buffer_size: None,
@@ -236,12 +249,12 @@ impl OfflineHost {
     }
 
     /// The hosted plugin.
-    pub fn plugin(&self) -> &Struck {
+    pub fn plugin(&self) -> &StruckPlugin<V> {
         &self.plugin
     }
 
     /// The hosted plugin, mutably (for the command line's queries that use its engine).
-    pub fn plugin_mut(&mut self) -> &mut Struck {
+    pub fn plugin_mut(&mut self) -> &mut StruckPlugin<V> {
         &mut self.plugin
     }
 
@@ -379,6 +392,10 @@ impl OfflineHost {
                 self.left[i] = at(l, i);
                 self.right[i] = at(r, i);
             }
+        } else if self.input_layout {
+            // An input port with nothing connected: silence.
+            self.left[..n].fill(0.0);
+            self.right[..n].fill(0.0);
         } else {
             // Garbage in the host's buffers must not leak out: the plugin writes every sample.
             self.left[..n].fill(f32::NAN);
