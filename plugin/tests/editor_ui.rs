@@ -547,6 +547,37 @@ fn a_texture_file_loads_from_the_editor() {
     let _ = std::fs::remove_file(good);
 }
 
+/// Issue 16: a texture file dropped on the *Play* view loads (a recording dropped on
+/// *Capture* is added there instead); with *Spiral through an image* an image is read along
+/// its spiral: π·R² texels for an inscribed circle of radius R pixels, against its width for
+/// the middle row.
+#[test]
+fn a_dropped_image_loads_as_the_texture_row_or_spiral() {
+    let plugin = Struck::default();
+    let mut h = harness_sized(&plugin, 1600.0);
+    h.run_steps(2);
+    let png = tmp("disc.png");
+    image::GrayImage::from_fn(201, 201, |x, y| image::Luma([((x * 7 + y * 13) % 256) as u8])).save(&png).unwrap();
+    h.input_mut().dropped_files.push(Arc::new(Dropped(png.clone())));
+    h.run_steps(2);
+    let row = plugin.struck_params().user_texture.file().expect("the dropped image is the texture");
+    assert_eq!(row.heights_m.len(), 201);
+    assert_eq!(plugin.struck_params().texture.value(), struck::params::TextureParam::User);
+    assert!(h.state().ui.capture_files().is_empty(), "a drop on Play is not a recording");
+    h.get_by_label_contains("Spiral through an image").click();
+    h.run_steps(1);
+    h.input_mut().dropped_files.push(Arc::new(Dropped(png.clone())));
+    h.run_steps(2);
+    let spiral = plugin.struck_params().user_texture.file().expect("the spiral texture");
+    let expected = std::f64::consts::PI * 100.0 * 100.0;
+    assert!(
+        (spiral.heights_m.len() as f64 / expected - 1.0).abs() < 0.01,
+        "{} texels, expected {expected:.0}",
+        spiral.heights_m.len()
+    );
+    let _ = std::fs::remove_file(png);
+}
+
 /// Issue 11 part 6: the object view draws the object itself — its surface from the bank,
 /// shaded — with the strike path on it. For every factory object: something is painted, the
 /// strike points the camera sees lie on the painted picture, flat objects show every point

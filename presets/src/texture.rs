@@ -7,8 +7,10 @@
 //!   sets the texel length (default [`DEFAULT_TEXEL_MM`]).
 //! - **WAV** (`.wav`): the first channel's samples are the heights, full scale =
 //!   [`WAV_FULL_SCALE_MM`], one per [`DEFAULT_TEXEL_MM`].
-//! - **Image** (`.png`): a grayscale (or colour, taken as luma) picture; its middle row is the
-//!   profile, black = 0 and white = [`IMAGE_DEPTH_MM`], one pixel per [`DEFAULT_TEXEL_MM`].
+//! - **Image** (`.png`): a grayscale (or colour, taken as luma) picture, black = 0 and white =
+//!   [`IMAGE_DEPTH_MM`], one pixel per [`DEFAULT_TEXEL_MM`]. [`ImagePath`] says which path
+//!   through it is the profile: its middle row (the default), or a spiral from the centre out
+//!   to the inscribed circle, as a record's groove or a tool circling a plate.
 //!
 //! The profile repeats along the path. *Texture scale* stretches it as it does the factory
 //! textures.
@@ -28,6 +30,65 @@ pub const MAX_TEXELS: usize = 1 << 20;
 pub const MAX_HEIGHT_MM: f64 = 10.0;
 /// Texel lengths accepted, mm.
 pub const TEXEL_MM_RANGE: (f64, f64) = (1e-4, 100.0);
+
+/// The path through an image that is read as the profile.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ImagePath {
+    /// The middle row, left to right.
+    #[default]
+    Row,
+    /// An Archimedean spiral from the centre out to the inscribed circle, counter-clockwise,
+    /// its turns one pixel apart (further apart when the spiral would exceed [`MAX_TEXELS`]),
+    /// read every pixel of arc length with bilinear interpolation.
+    Spiral,
+}
+
+impl ImagePath {
+    /// Parses `row` or `spiral` (the command line's `--image-path`).
+    ///
+    /// # Errors
+    /// Anything else, in one line.
+    pub fn parse(s: &str) -> Result<ImagePath, String> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "row" => Ok(ImagePath::Row),
+            "spiral" => Ok(ImagePath::Spiral),
+            other => Err(format!("image path '{other}': expected row or spiral")),
+        }
+    }
+}
+
+/// Luma (0..=1) along an Archimedean spiral r = p·θ/2π about the image's centre, from r = p/2
+/// out to the inscribed circle, one sample per pixel of arc length, bilinear between pixels;
+/// the pitch p is 1 pixel, or more when the spiral would be longer than `max_len` (its length
+/// is about π·R²/p).
+pub fn spiral_profile(img: &image::GrayImage, max_len: usize) -> Vec<f64> {
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    let (cx, cy) = ((w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0);
+    let outer = cx.min(cy);
+    if outer < 1.0 {
+        return Vec::new();
+    }
+    let pitch = (std::f64::consts::PI * outer * outer / max_len as f64).max(1.0);
+    let b = pitch / (2.0 * std::f64::consts::PI);
+    let luma = |x: f64, y: f64| {
+        let (x0, y0) = (x.floor().clamp(0.0, (w - 1) as f64), y.floor().clamp(0.0, (h - 1) as f64));
+        let (fx, fy) = (x - x0, y - y0);
+        let (i, j) = (x0 as u32, y0 as u32);
+        let (i1, j1) = ((i + 1).min(w as u32 - 1), (j + 1).min(h as u32 - 1));
+        let p = |a: u32, c: u32| f64::from(img.get_pixel(a, c).0[0]) / 255.0;
+        (1.0 - fy) * ((1.0 - fx) * p(i, j) + fx * p(i1, j)) + fy * ((1.0 - fx) * p(i, j1) + fx * p(i1, j1))
+    };
+    let mut out = Vec::new();
+    let mut theta = std::f64::consts::PI; // r = p/2
+    while b * theta <= outer && out.len() < max_len {
+        let r = b * theta;
+        // Image rows grow downwards: counter-clockwise on screen is −sin.
+        out.push(luma(cx + r * theta.cos(), cy - r * theta.sin()));
+        // One pixel of arc: ds = sqrt(r² + b²)·dθ.
+        theta += 1.0 / (r * r + b * b).sqrt();
+    }
+    out
+}
 
 /// A texture read from a file: its name (the file's stem), texel length and heights (m).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -94,6 +155,14 @@ impl TextureFile {
     /// A one-line reason naming the file: unreadable, an unknown extension, malformed, or a
     /// profile [`TextureFile::new`] refuses.
     pub fn load(path: &Path) -> Result<TextureFile, String> {
+        TextureFile::load_with(path, ImagePath::Row)
+    }
+
+    /// As [`TextureFile::load`], an image read along `image_path` (other formats ignore it).
+    ///
+    /// # Errors
+    /// As [`TextureFile::load`].
+    pub fn load_with(path: &Path, image_path: ImagePath) -> Result<TextureFile, String> {
         let name = path.file_stem().map_or_else(|| "texture".to_string(), |s| s.to_string_lossy().into_owned());
         let shown = path.display();
         let ext = path.extension().map(|e| e.to_string_lossy().to_lowercase()).unwrap_or_default();
@@ -150,9 +219,17 @@ impl TextureFile {
                 limits.max_alloc = Some(256 << 20);
                 reader.limits(limits);
                 let img = reader.decode().map_err(|e| format!("{shown}: not a readable PNG ({e})"))?.to_luma8();
-                let row = img.height() / 2;
-                let heights: Vec<f64> =
-                    (0..img.width()).map(|x| f64::from(img.get_pixel(x, row).0[0]) / 255.0 * IMAGE_DEPTH_MM).collect();
+                let heights: Vec<f64> = match image_path {
+                    ImagePath::Row => {
+                        let row = img.height() / 2;
+                        (0..img.width())
+                            .map(|x| f64::from(img.get_pixel(x, row).0[0]) / 255.0 * IMAGE_DEPTH_MM)
+                            .collect()
+                    }
+                    ImagePath::Spiral => {
+                        spiral_profile(&img, MAX_TEXELS).into_iter().map(|l| l * IMAGE_DEPTH_MM).collect()
+                    }
+                };
                 TextureFile::new(&name, DEFAULT_TEXEL_MM, &heights).map_err(|e| format!("{shown}: {e}"))
             }
             _ => Err(format!("{shown}: a texture is a .csv, .txt, .wav or .png file")),
@@ -261,5 +338,41 @@ mod tests {
         for f in [p, q, r] {
             let _ = std::fs::remove_file(f);
         }
+    }
+
+    /// The spiral reads the whole disc: an image whose grey level rises with the radius gives
+    /// heights rising as the closed form of an Archimedean spiral says (arc length s ≈ π·r²/p,
+    /// so r ≈ √(s·p/π)); its length is π·R²/p (1 %); an image of N black and white sectors is
+    /// crossed N times per turn, R/p turns in all (1 %).
+    #[test]
+    fn a_spiral_reads_the_image_from_the_centre_out() {
+        let (w, outer) = (401u32, 200.0f64);
+        let c = f64::from(w - 1) / 2.0;
+        let radial = image::GrayImage::from_fn(w, w, |x, y| {
+            let r = (f64::from(x) - c).hypot(f64::from(y) - c);
+            image::Luma([(255.0 * (r / outer).min(1.0)).round() as u8])
+        });
+        let p = spiral_profile(&radial, MAX_TEXELS);
+        let expected_len = std::f64::consts::PI * outer * outer;
+        assert!((p.len() as f64 / expected_len - 1.0).abs() < 0.01, "{} samples, expected {expected_len:.0}", p.len());
+        for i in [2_000usize, 20_000, 60_000, 120_000] {
+            let r = (i as f64 / std::f64::consts::PI).sqrt();
+            assert!((p[i] - r / outer).abs() < 0.01, "sample {i}: {} vs {}", p[i], r / outer);
+        }
+        let sectors = 12u32;
+        let spokes = image::GrayImage::from_fn(w, w, |x, y| {
+            let a = (c - f64::from(y)).atan2(f64::from(x) - c).rem_euclid(std::f64::consts::TAU);
+            image::Luma([if (a / std::f64::consts::TAU * f64::from(sectors)) as u32 % 2 == 0 { 255 } else { 0 }])
+        });
+        let q = spiral_profile(&spokes, MAX_TEXELS);
+        let crossings = q.windows(2).filter(|v| (v[0] - 0.5) * (v[1] - 0.5) < 0.0).count();
+        let expected = f64::from(sectors) * (outer - 0.5);
+        assert!((crossings as f64 / expected - 1.0).abs() < 0.02, "{crossings} crossings, expected {expected:.0}");
+        // A spiral longer than the limit opens its turns instead.
+        let short = spiral_profile(&radial, 10_000);
+        assert!(short.len() <= 10_000 && short.len() > 9_000, "{}", short.len());
+        assert!(short.last().is_some_and(|&l| l > 0.95));
+        assert_eq!(ImagePath::parse("Spiral"), Ok(ImagePath::Spiral));
+        assert!(ImagePath::parse("circle").unwrap_err().contains("row or spiral"));
     }
 }

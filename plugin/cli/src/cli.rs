@@ -104,6 +104,8 @@ pub struct Gesture {
     /// `--texture smooth|finegrit|coarsegrit|grooves|bumps`, or a texture file (.csv, .txt,
     /// .wav, .png; see `presets::texture`).
     pub texture: Option<String>,
+    /// `--image-path row|spiral`: the path through a .png texture (default: its middle row).
+    pub image_path: Option<String>,
     /// `--speed-curve "t:m/s,…"`: the contact speed over time (the mod wheel's way).
     pub speed_curve: Option<String>,
     /// `--force-curve "t:0..1,…"`: the normal force over time (every note's pressure).
@@ -683,13 +685,29 @@ pub fn render_with_stats(opts: &RenderOptions) -> Result<(String, RenderStats), 
         sound.set.push(format!("excite={}", choice("excitation", &EXCITATIONS, e)?));
     }
     let mut user_texture = None;
+    let image_path = match g.image_path.as_deref() {
+        None => presets::texture::ImagePath::Row,
+        Some(p) => {
+            let is_png = g
+                .texture
+                .as_deref()
+                .and_then(|t| Path::new(t).extension())
+                .is_some_and(|x| x.eq_ignore_ascii_case("png"));
+            if !is_png {
+                return Err("--image-path applies to a .png texture (--texture FILE.png)".into());
+            }
+            presets::texture::ImagePath::parse(p).map_err(|e| format!("--image-path: {e}"))?
+        }
+    };
     if let Some(t) = &g.texture {
         let index = match choice("texture", &TEXTURES, t) {
             Ok(i) => i,
             // Not a factory texture's name: a texture file (its extension says which format).
             Err(_) if Path::new(t).extension().is_some() || Path::new(t).is_file() => {
-                user_texture =
-                    Some(presets::texture::TextureFile::load(Path::new(t)).map_err(|e| format!("--texture: {e}"))?);
+                user_texture = Some(
+                    presets::texture::TextureFile::load_with(Path::new(t), image_path)
+                        .map_err(|e| format!("--texture: {e}"))?,
+                );
                 TEXTURES.len()
             }
             Err(e) => return Err(format!("{e}, or a texture file (.csv, .txt, .wav, .png)")),

@@ -132,6 +132,10 @@ enum Command {
         /// or a texture file (.csv/.txt heights in mm, .wav, .png; see the README).
         #[arg(long)]
         texture: Option<String>,
+        /// The path through a .png texture: its middle row (default) or a spiral from the
+        /// centre out, as a record's groove.
+        #[arg(long, value_name = "row|spiral")]
+        image_path: Option<String>,
         /// Contact speed over time, "seconds:m/s,…" (e.g. "0:0.1,1:0.5,2:0"; linear between
         /// points, held outside; 0..=1 m/s). Sent as the mod wheel.
         #[arg(long, value_name = "T:V,…")]
@@ -219,6 +223,7 @@ fn run(cli: Cli) -> Result<(), String> {
             out,
             excitation,
             texture,
+            image_path,
             speed_curve,
             force_curve,
             input,
@@ -235,6 +240,7 @@ fn run(cli: Cli) -> Result<(), String> {
                 gesture: struck_cli::cli::Gesture {
                     excitation,
                     texture,
+                    image_path,
                     speed_curve,
                     force_curve,
                     input,

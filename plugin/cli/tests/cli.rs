@@ -830,6 +830,52 @@ fn render_plays_gestures_and_refuses_bad_ones() {
     let e = error_line(&struck(&dir, &["render", "--texture", csv.to_str().unwrap(), "--out", csv.to_str().unwrap()]));
     assert!(e.contains("also an input"), "{e}");
     assert_eq!(std::fs::read(&csv).unwrap(), kept);
+    // An image read along a spiral: 24 black and white sectors, so the spiral crosses 24
+    // edges per turn while its middle row crosses only 2; a scrape over each is rendered, and
+    // the spiral's clicks make it louder. `--image-path` on anything but a PNG is refused.
+    let png = dir.join("sectors.png");
+    image::GrayImage::from_fn(301, 301, |x, y| {
+        let a = (150.0 - f64::from(y)).atan2(f64::from(x) - 150.0).rem_euclid(std::f64::consts::TAU);
+        image::Luma([if (a / std::f64::consts::TAU * 24.0) as u32 % 2 == 0 { 255 } else { 0 }])
+    })
+    .save(&png)
+    .unwrap();
+    let render_path = |path: &str| {
+        let o = struck(
+            &dir,
+            &[
+                "render",
+                "--notes",
+                "60:90~1.5",
+                "--excitation",
+                "scrape",
+                "--texture",
+                png.to_str().unwrap(),
+                "--image-path",
+                path,
+                "--seconds",
+                "1.5",
+                "--out",
+                out_s,
+            ],
+        );
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let (x, _) = read_render(&out);
+        rms(&x[24_000..72_000])
+    };
+    let (row, spiral) = (render_path("row"), render_path("spiral"));
+    println!("scrape RMS: row {row:.3e}, spiral {spiral:.3e}");
+    assert!(spiral > 1.5 * row, "spiral {spiral} vs row {row}");
+    let e = error_line(&struck(
+        &dir,
+        &["render", "--texture", csv.to_str().unwrap(), "--image-path", "spiral", "--out", out_s],
+    ));
+    assert!(e.contains("applies to a .png"), "{e}");
+    let e = error_line(&struck(
+        &dir,
+        &["render", "--texture", png.to_str().unwrap(), "--image-path", "circle", "--out", out_s],
+    ));
+    assert!(e.contains("row or spiral"), "{e}");
 }
 
 /// `render --input`: the WAV drives the object at its own sample rate, the render lasts at

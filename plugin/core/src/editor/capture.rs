@@ -125,9 +125,8 @@ impl CapturePanel {
         self.job.is_some()
     }
 
-    /// Files dropped on the window (when the windowing layer delivers them).
-    pub fn take_dropped_files(&mut self, ctx: &egui::Context) {
-        let dropped: Vec<PathBuf> = ctx.input(|i| i.raw.dropped_files.iter().map(|f| f.path().to_path_buf()).collect());
+    /// Adds files dropped on the window (when the windowing layer delivers them).
+    pub fn add_dropped_files(&mut self, dropped: Vec<PathBuf>) {
         for p in dropped {
             if let Err(e) = self.add_file(p) {
                 self.message = Some(e);

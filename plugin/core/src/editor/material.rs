@@ -26,6 +26,8 @@ pub(super) struct MaterialPanel {
     /// The texture file field, and the last load's result.
     pub texture_path: String,
     pub texture_message: Option<String>,
+    /// Read a .png texture along a spiral from its centre (else its middle row).
+    pub texture_spiral: bool,
 }
 
 /// Lists `dir`'s `.json` materials, sorted by file name.
@@ -60,6 +62,15 @@ impl MaterialPanel {
         knob_groups(ui, cx, self);
     }
 
+    /// Loads the first of the files dropped on the *Play* view as the texture (what typing its
+    /// path and *Load texture* do).
+    pub fn take_dropped_texture(&mut self, dropped: &[PathBuf], cx: &PanelCtx) {
+        if let Some(first) = dropped.first() {
+            self.texture_path = first.display().to_string();
+            self.load_texture(cx);
+        }
+    }
+
     /// Loads the texture file in the field: kept with the project, sent to the audio thread,
     /// *Texture* set to User file. The result (or the one-line error) is shown under the field.
     pub fn load_texture(&mut self, cx: &PanelCtx) {
@@ -68,7 +79,9 @@ impl MaterialPanel {
             return;
         }
         let path = PathBuf::from(self.texture_path.trim());
-        let file = match presets::texture::TextureFile::load(&path) {
+        let image_path =
+            if self.texture_spiral { presets::texture::ImagePath::Spiral } else { presets::texture::ImagePath::Row };
+        let file = match presets::texture::TextureFile::load_with(&path, image_path) {
             Ok(f) => f,
             Err(e) => {
                 self.texture_message = Some(e);
@@ -233,6 +246,13 @@ fn knob_groups(ui: &mut egui::Ui, cx: &PanelCtx, panel: &mut MaterialPanel) {
                 panel.load_texture(cx);
             }
         });
+        ui.checkbox(
+            &mut panel.texture_spiral,
+            "Spiral through an image (.png: from its centre out, else its middle row)",
+        );
+        if ui.ctx().input(|i| !i.raw.hovered_files.is_empty()) {
+            ui.colored_label(egui::Color32::from_rgb(255, 190, 60), "Drop a texture file to load it");
+        }
         let shown = panel.texture_message.clone().or_else(|| p.user_texture.name().map(|n| format!("User file: {n}")));
         if let Some(m) = shown {
             ui.label(egui::RichText::new(m).weak());

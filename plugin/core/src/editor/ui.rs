@@ -66,7 +66,6 @@ impl EditorUi {
     pub fn ui(&mut self, ui: &mut egui::Ui, setter: &ParamSetter) {
         self.capture.poll(&self.params);
         self.capture.poll_ab(&self.shared);
-        self.capture.take_dropped_files(ui.ctx());
         let material_dir = self.material_dir();
         let cx = PanelCtx {
             params: &self.params,
@@ -75,6 +74,15 @@ impl EditorUi {
             setter,
             material_dir: &material_dir,
         };
+        // Files dropped on the window: recordings on the Capture view, a texture on Play.
+        let dropped: Vec<PathBuf> =
+            ui.ctx().input(|i| i.raw.dropped_files.iter().map(|f| f.path().to_path_buf()).collect());
+        if !dropped.is_empty() {
+            match self.tab {
+                Tab::Capture => self.capture.add_dropped_files(dropped),
+                Tab::Play => self.material.take_dropped_texture(&dropped, &cx),
+            }
+        }
         // The status line (voices, sounding modes) is a bottom panel, so it is always whole
         // on screen; the views scroll above it.
         egui::Panel::bottom("struck-status").show(ui, |ui| self.status_line(ui));
@@ -135,6 +143,11 @@ impl EditorUi {
     /// The last texture load's result or error.
     pub fn texture_message(&self) -> Option<&str> {
         self.material.texture_message.as_deref()
+    }
+
+    /// Ticks or clears *Spiral through an image* (as a click would).
+    pub fn set_texture_spiral(&mut self, spiral: bool) {
+        self.material.texture_spiral = spiral;
     }
 
     /// Sets the texture file field (as typing would).
