@@ -878,6 +878,51 @@ fn render_plays_gestures_and_refuses_bad_ones() {
     assert!(e.contains("row or spiral"), "{e}");
 }
 
+/// Issue 16: a MIDI file's gesture. The file holds a scrape note with the mod wheel at 0 (a
+/// resting contact), then full (the fastest contact) from 0.5 s, then channel pressure 0 (no
+/// force) from 1.25 s: the render is quiet, loud, then quiet again where the file says.
+#[test]
+fn a_midi_files_mod_wheel_and_pressure_play_the_gesture() {
+    let dir = scratch("midi-gesture");
+    let (mid, out) = (dir.join("gesture.mid"), dir.join("gesture.wav"));
+    // 96 ticks per beat at 120 bpm: 192 ticks per second.
+    let track = [
+        0x00, 0xB0, 1, 0, // mod wheel 0
+        0x00, 0x90, 60, 100, // note on
+        0x60, 0xB0, 1, 127, // 0.5 s: mod wheel full
+        0x60, 0xD0, 0, // 1.0 s: channel pressure 0
+        0x81, 0x40, 0x80, 60, 0, // 2.0 s: note off
+        0x00, 0xFF, 0x2F, 0x00,
+    ];
+    std::fs::write(&mid, midi(&track)).unwrap();
+    let o = struck(
+        &dir,
+        &[
+            "render",
+            "--midi",
+            mid.to_str().unwrap(),
+            "--excitation",
+            "scrape",
+            "--texture",
+            "coarsegrit",
+            "--seconds",
+            "2",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let (x, rate) = read_render(&out);
+    let rms = |a: f64, b: f64| {
+        let s = &x[(a * f64::from(rate)) as usize..(b * f64::from(rate)) as usize];
+        (s.iter().map(|v| f64::from(*v).powi(2)).sum::<f64>() / s.len() as f64).sqrt()
+    };
+    let (resting, moving, released) = (rms(0.3, 0.5), rms(0.7, 0.95), rms(1.7, 1.95));
+    println!("MIDI gesture RMS: resting {resting:.3e}, moving {moving:.3e}, no force {released:.3e}");
+    assert!(moving > 3.0 * resting, "resting {resting}, moving {moving}");
+    assert!(released < moving / 3.0, "moving {moving}, without force {released}");
+}
+
 /// `render --input`: the WAV drives the object at its own sample rate, the render lasts at
 /// least as long as the input, an explicit other rate is a one-line error, and the input is
 /// never overwritten.
