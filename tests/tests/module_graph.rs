@@ -279,7 +279,8 @@ fn the_checker_finds_a_cycle_it_is_shown() {
 fn no_crate_has_an_import_cycle() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("workspace root");
     let mut found = Vec::new();
-    for krate in ["dsp", "estimator", "presets", "presets/fem", "plugin", "plugin/cli"] {
+    // `plugin` and `plugin/resonator` are one module each (the exports of `plugin/core`).
+    for krate in ["dsp", "estimator", "presets", "presets/fem", "plugin/core", "plugin/cli"] {
         let mods = modules(&root.join(krate).join("src"));
         assert!(mods.len() > 1, "{krate}: no modules found");
         if let Some(c) = find_cycle(&graph(&mods)) {
