@@ -133,6 +133,44 @@ fn clicking_a_strike_point_sets_the_position_and_strikes() {
     assert!(plugin.editor_shared().audition.pop().is_none(), "one click, one strike");
 }
 
+/// A right click on a strike point holds the object there (issue 10 part 6): *Support point*
+/// becomes that point and *Held at a point* turns on, each as one host gesture, and since the
+/// default glass records no support damping, *Support* becomes *Amount*; the strike position
+/// does not move and nothing strikes.
+#[test]
+fn right_clicking_a_point_holds_the_object_there() {
+    let plugin = Struck::default();
+    let mut h = harness(&plugin);
+    h.run_steps(2);
+    let n = plugin.library().banks[0].points.len();
+    let k = distinct_point(&plugin, usize::MAX);
+    let at = point_on_screen(&h, &plugin, k);
+    let position = plugin.struck_params().strike_position.value();
+    h.hover_at(at);
+    h.run_steps(1);
+    for pressed in [true, false] {
+        h.input_mut().events.push(egui::Event::PointerButton {
+            pos: at,
+            button: egui::PointerButton::Secondary,
+            pressed,
+            modifiers: egui::Modifiers::NONE,
+        });
+        h.run_steps(1);
+    }
+    h.run_steps(1);
+    let p = plugin.struck_params();
+    let want = k as f32 / (n - 1) as f32;
+    assert!((p.support_point.value() - want).abs() < 1e-6, "support {} vs point {k} = {want}", p.support_point.value());
+    assert!(p.support_at_point.value());
+    assert_eq!(p.support_mode.value(), struck::params::SupportMode::Amount);
+    assert_eq!(p.strike_position.value(), position, "a right click does not strike");
+    assert!(plugin.editor_shared().audition.pop().is_none(), "a right click does not strike");
+    let ctx = h.state().ctx.clone();
+    let g = ctx.gestures();
+    assert!(g.contains(&Gesture::Begin("supportpt".into())) && g.contains(&Gesture::End("supportat".into())), "{g:?}");
+    assert!(ctx.gestures_well_formed(), "{g:?}");
+}
+
 #[test]
 fn dragging_across_points_is_one_gesture_striking_each_point() {
     let plugin = Struck::default();

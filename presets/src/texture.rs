@@ -26,6 +26,9 @@ pub const WAV_FULL_SCALE_MM: f64 = 1.0;
 pub const IMAGE_DEPTH_MM: f64 = 0.5;
 /// Most texels a texture may hold (a 1 M-texel profile takes 8 MiB).
 pub const MAX_TEXELS: usize = 1 << 20;
+/// Most texels a spiral through an image gives (6.5 m of path at 0.1 mm; the texture is kept
+/// with the project, so a photo must not make every saved state tens of MB).
+pub const SPIRAL_MAX_TEXELS: usize = 1 << 16;
 /// Largest height (mm, either sign) a texture may have: more is taken as a wrong unit.
 pub const MAX_HEIGHT_MM: f64 = 10.0;
 /// Texel lengths accepted, mm.
@@ -38,7 +41,8 @@ pub enum ImagePath {
     #[default]
     Row,
     /// An Archimedean spiral from the centre out to the inscribed circle, counter-clockwise,
-    /// its turns one pixel apart (further apart when the spiral would exceed [`MAX_TEXELS`]),
+    /// its turns one pixel apart (further apart when the spiral would exceed
+    /// [`SPIRAL_MAX_TEXELS`]),
     /// read every pixel of arc length with bilinear interpolation.
     Spiral,
 }
@@ -227,7 +231,11 @@ impl TextureFile {
                             .collect()
                     }
                     ImagePath::Spiral => {
-                        spiral_profile(&img, MAX_TEXELS).into_iter().map(|l| l * IMAGE_DEPTH_MM).collect()
+                        let p = spiral_profile(&img, SPIRAL_MAX_TEXELS);
+                        if p.len() < 2 {
+                            return Err(format!("{shown}: {w} × {h} pixels, too small for a spiral (at least 3 × 3)"));
+                        }
+                        p.into_iter().map(|l| l * IMAGE_DEPTH_MM).collect()
                     }
                 };
                 TextureFile::new(&name, DEFAULT_TEXEL_MM, &heights).map_err(|e| format!("{shown}: {e}"))
@@ -372,6 +380,11 @@ mod tests {
         let short = spiral_profile(&radial, 10_000);
         assert!(short.len() <= 10_000 && short.len() > 9_000, "{}", short.len());
         assert!(short.last().is_some_and(|&l| l > 0.95));
+        let tiny = tmp("tiny.png");
+        image::GrayImage::from_pixel(2, 2, image::Luma([128])).save(&tiny).unwrap();
+        let e = TextureFile::load_with(&tiny, ImagePath::Spiral).unwrap_err();
+        assert!(e.contains("too small for a spiral") && !e.contains('\n'), "{e}");
+        let _ = std::fs::remove_file(tiny);
         assert_eq!(ImagePath::parse("Spiral"), Ok(ImagePath::Spiral));
         assert!(ImagePath::parse("circle").unwrap_err().contains("row or spiral"));
     }

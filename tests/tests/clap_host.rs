@@ -12,6 +12,8 @@
 //! - a parameter changed through the CLAP params extension (`flush`) is carried by the CLAP state
 //!   extension: a second instance loading the saved state plays identically to the first, and
 //!   differently from a fresh instance;
+//! - the effect's binary (*Struck Resonator*, `org.struck.resonator`) has one stereo input and
+//!   one stereo output port and plays an input impulse as the offline host does (1e-5);
 //! - the editor, through the CLAP `gui` extension, embeds in a real X11 window (Xvfb when there
 //!   is no `$DISPLAY`) at its default size, paints, follows a host resize, reopens at the size
 //!   it was left at and scales with the host's `set_scale` (the host serves
@@ -19,7 +21,7 @@
 //!
 //! Which binary: `$STRUCK_CLAP` if set (`cargo xtask test` bundles the debug plugin and sets
 //! it to `target/test-bundled/Struck.clap`), else `target/debug/libstruck.so` (built by `cargo test`
-//! as the tests' dependency), else `target/bundled/Struck.clap` (the test does not build it: run `cargo xtask bundle struck` or
+//! as the tests' dependency), else `target/bundled/Struck.clap` (the test does not build it: run `cargo xtask bundle -p struck -p struck-resonator` or
 //! `cargo build -p struck` first, or the test may exercise a stale binary).
 
 use std::ffi::CStr;
@@ -123,7 +125,9 @@ fn load_entry() -> PluginEntry {
 }
 
 /// The effect's binary: `$STRUCK_RESONATOR_CLAP` if set (`cargo xtask test` sets it to
-/// `target/test-bundled/StruckResonator.clap`), else the debug cdylib, else the bundle.
+/// `target/test-bundled/StruckResonator.clap`, built fresh), else the newer of the debug
+/// cdylibs (`cargo build -p struck-resonator` makes them; `cargo test` alone does not, since
+/// no test links the effect's crate).
 fn resonator_binary() -> PathBuf {
     if let Some(p) = std::env::var_os("STRUCK_RESONATOR_CLAP") {
         let p = PathBuf::from(p);
@@ -131,12 +135,10 @@ fn resonator_binary() -> PathBuf {
         return p;
     }
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("workspace root");
-    let candidates = [
-        root.join("target/debug/libstruck_resonator.so"),
-        root.join("target/debug/deps/libstruck_resonator.so"),
-        root.join("target/bundled/StruckResonator.clap"),
-    ];
-    candidates.iter().find(|p| p.exists()).cloned().unwrap_or_else(|| {
+    let candidates =
+        [root.join("target/debug/libstruck_resonator.so"), root.join("target/debug/deps/libstruck_resonator.so")];
+    let modified = |p: &PathBuf| std::fs::metadata(p).and_then(|m| m.modified()).ok();
+    candidates.iter().filter(|p| p.exists()).max_by_key(|p| modified(p)).cloned().unwrap_or_else(|| {
         panic!(
             "no Struck Resonator CLAP binary found (looked for $STRUCK_RESONATOR_CLAP, {}): \
              build it with `cargo build -p struck-resonator`",

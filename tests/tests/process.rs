@@ -343,3 +343,48 @@ fn modes_lists_exactly_the_modes_the_engine_rings() {
         }
     }
 }
+
+/// *Held at a point* (issue 10 part 6, the editor's support points): a free–free bar held at
+/// its centre (the end of its strike path, which runs from one end to the centre). Its second
+/// bending mode has a node there, so it keeps the decay it has unheld (within 0.1 %; that is
+/// the material file's law within 1 %) though 20 s⁻¹ of support damping are applied; its fundamental
+/// moves most there and decays at the free rate plus ½·20·g²/⟨g²⟩ (its squared gain at the
+/// centre over the mean over the bank's modes, read from the bank; 1 %).
+#[test]
+fn a_mode_with_a_node_where_the_bar_is_held_keeps_its_free_decay() {
+    let set = [("support", 2.0), ("supportamt", 20.0), ("supportat", 1.0), ("supportpt", 1.0)];
+    let mut h = host("bar", "glass-ren2013", SR, &set);
+    let x = render(&mut h, &[note(36, 100, None)], 1.6, 512);
+    let free = render(&mut host("bar", "glass-ren2013", SR, &[("support", 0.0)]), &[note(36, 100, None)], 1.6, 512);
+    let truth = expected_modes("bar", "glass-ren2013", 36);
+    let lib = struck::library::Library::factory();
+    let bank = &lib.banks[lib.bank_index("bar").expect("bar")];
+    let mid = bank.points.len() - 1;
+    let g = |m: usize| f64::from(bank.gains[mid][m]);
+    let mean_sq = (0..bank.lambdas.len()).map(|m| g(m) * g(m)).sum::<f64>() / bank.lambdas.len() as f64;
+    let mut order: Vec<usize> = (0..truth.len()).collect();
+    order.sort_by(|&a, &b| truth[a].freq_hz.total_cmp(&truth[b].freq_hz));
+    let (first, second) = (order[0], order[1]);
+    let peak = (0..bank.lambdas.len()).map(|m| g(m).abs()).fold(0.0, f64::max);
+    assert!(g(second).abs() < 1e-3 * peak, "the second mode's gain at the centre: {}", g(second));
+    let sr = f64::from(SR);
+    // 0.2 s windows from 20 ms in, 1.5/d apart (as the decay test above).
+    let (start, len) = (960, 9_600);
+    let gap = |d: f64| ((1.5 / d).clamp(0.05, 0.3) * sr) as usize;
+    let (_, d2) = measure_mode(&x, sr, truth[second].freq_hz, start, len, gap(truth[second].decay_per_s));
+    let (_, d2_free) = measure_mode(&free, sr, truth[second].freq_hz, start, len, gap(truth[second].decay_per_s));
+    assert!(
+        (d2_free / truth[second].decay_per_s - 1.0).abs() < 0.01,
+        "free: {d2_free} vs {}",
+        truth[second].decay_per_s
+    );
+    assert!((d2 / d2_free - 1.0).abs() < 1e-3, "node: held {d2} vs free {d2_free}");
+    let want = truth[first].decay_per_s + 0.5 * 20.0 * g(first) * g(first) / mean_sq;
+    let (_, d1) = measure_mode(&x, sr, truth[first].freq_hz, start, len, gap(want));
+    println!(
+        "held at the centre: fundamental {d1:.3}/s (free {:.3}, expected {want:.3}); second mode {d2:.4}/s (free {d2_free:.4})",
+        truth[first].decay_per_s
+    );
+    assert!((d1 / want - 1.0).abs() < 0.01, "antinode: {d1} vs {want}");
+    assert!(want > 2.0 * truth[first].decay_per_s, "the test must see the support: {want}");
+}

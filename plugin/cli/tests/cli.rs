@@ -831,7 +831,8 @@ fn render_plays_gestures_and_refuses_bad_ones() {
     assert!(e.contains("also an input"), "{e}");
     assert_eq!(std::fs::read(&csv).unwrap(), kept);
     // An image read along a spiral: 24 black and white sectors, so the spiral crosses 24
-    // edges per turn while its middle row crosses only 2; a scrape over each is rendered, and
+    // edges per turn while its middle row crosses none (it runs along two white sectors); a
+    // scrape over each is rendered, and
     // the spiral's clicks make it louder. `--image-path` on anything but a PNG is refused.
     let png = dir.join("sectors.png");
     image::GrayImage::from_fn(301, 301, |x, y| {
@@ -880,7 +881,7 @@ fn render_plays_gestures_and_refuses_bad_ones() {
 
 /// Issue 16: a MIDI file's gesture. The file holds a scrape note with the mod wheel at 0 (a
 /// resting contact), then full (the fastest contact) from 0.5 s, then channel pressure 0 (no
-/// force) from 1.25 s: the render is quiet, loud, then quiet again where the file says.
+/// force) from 1 s: the render is quiet, loud, then quiet again where the file says.
 #[test]
 fn a_midi_files_mod_wheel_and_pressure_play_the_gesture() {
     let dir = scratch("midi-gesture");

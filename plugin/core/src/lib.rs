@@ -31,8 +31,9 @@ pub const PITCH_CANDIDATES: usize = 6;
 /// Mono scratch length; longer host buffers are processed in pieces of this size.
 pub const MAX_BLOCK: usize = 8192;
 
-/// What a host sees of one variant of the plugin: names, identifiers and audio ports. The
-/// sound, parameters, state and editor are the same in both.
+/// What a host sees of one variant of the plugin: names, identifiers and audio ports, and
+/// what an effect does that an instrument does not (its dry path, its tail). The synthesis,
+/// parameters, state and editor are the same in both.
 pub trait Variant: 'static + Send + Sync {
     /// The plugin's name in hosts.
     const NAME: &'static str;
@@ -48,7 +49,8 @@ pub trait Variant: 'static + Send + Sync {
     const VST3_SUBCATEGORIES: &'static [Vst3SubCategory];
     /// The audio ports, the first the default.
     const AUDIO_IO_LAYOUTS: &'static [AudioIOLayout];
-    /// An effect keeps its input in the output (dry/wet) even with *Audio in* off.
+    /// An effect keeps its input in the output (dry/wet; all of it with *Audio in* off) and
+    /// reports its tail to the host.
     const EFFECT: bool;
 }
 
@@ -56,8 +58,9 @@ pub trait Variant: 'static + Send + Sync {
 /// stereo input) also reaches *Audio in*.
 pub struct Instrument;
 
-/// The effect (*Struck Resonator*): the track's audio drives the object at the contact
-/// position, for every host, since every host has effect slots. Notes still strike.
+/// The effect (*Struck Resonator*): the track's audio (stereo or mono) drives the object at
+/// the contact position, for every host, since every host has effect slots. Notes still
+/// strike.
 pub struct Effect;
 
 impl Variant for Instrument {
@@ -90,7 +93,8 @@ impl Variant for Effect {
     const CLAP_ID: &'static str = "org.struck.resonator";
     const CLAP_DESCRIPTION: &'static str =
         "Any sound played through a struck object: modal resonator of any object, any material";
-    const CLAP_FEATURES: &'static [ClapFeature] = &[ClapFeature::AudioEffect, ClapFeature::Filter, ClapFeature::Stereo];
+    const CLAP_FEATURES: &'static [ClapFeature] =
+        &[ClapFeature::AudioEffect, ClapFeature::Filter, ClapFeature::Stereo, ClapFeature::Mono];
     const VST3_CLASS_ID: [u8; 16] = *b"StruckResonatorF";
     const VST3_SUBCATEGORIES: &'static [Vst3SubCategory] = &[Vst3SubCategory::Fx, Vst3SubCategory::Filter];
     const EFFECT: bool = true;
@@ -138,6 +142,9 @@ pub struct StruckPlugin<V: Variant> {
     /// [`AUDITION_CONTACT_S`]; the note and the samples left.
     audition_contact: Option<(NoteId, u64)>,
 }
+
+/// The longest tail the effect reports to its host, s.
+pub const MAX_TAIL_S: f32 = 60.0;
 
 /// How long a click on the object view keeps a lasting contact, s.
 pub const AUDITION_CONTACT_S: f64 = 1.0;
@@ -249,6 +256,7 @@ impl<V: Variant> StruckPlugin<V> {
             pressure_damping: f64::from(p.pressure_damping_per_s.value()),
             quality_db: p.quality_db.value(),
             support_c,
+            support_point: p.support_at_point.value().then(|| p.support_point.value()),
             contact: ContactParams {
                 excitation: p.excitation.value().excitation(),
                 speed_mps: f64::from(p.contact_speed.value()),
@@ -611,7 +619,10 @@ impl<V: Variant> Plugin for StruckPlugin<V> {
             };
             if mix_input {
                 // Dry/wet per channel, in place over the input: out = w·modes + (1 − w)·in.
-                let w = self.params.dry_wet.value();
+                // The effect with *Audio in* off passes its input whole, as a bypassed
+                // resonator would (notes still play on top).
+                let w = if take_input { self.params.dry_wet.value() } else { 1.0 };
+                let dry_share = if take_input { 1.0 - w } else { 1.0 };
                 for g in &mut self.gains[..len] {
                     *g = util::db_to_gain_fast(gain.next());
                 }
@@ -620,7 +631,7 @@ impl<V: Variant> Plugin for StruckPlugin<V> {
                         ch[start..start + len].iter_mut().zip(&self.mono[..len]).zip(&self.gains[..len])
                     {
                         let dry = if o.is_finite() { *o } else { 0.0 };
-                        *o = finish(w * x + (1.0 - w) * dry, g);
+                        *o = finish(w * x + dry_share * dry, g);
                     }
                 }
                 start += len;
@@ -654,8 +665,14 @@ impl<V: Variant> Plugin for StruckPlugin<V> {
             next = context.next_event();
         }
         if let Some(e) = self.engine.as_ref() {
-            self.editor_shared.store_meters(e.active_voices(), e.active_modes());
+            // Voices played by notes; the modes include the audio input's.
+            self.editor_shared.store_meters(e.note_voices(), e.active_modes());
             self.editor_shared.store_contact(e.contact_position());
+            if V::EFFECT {
+                // An effect's host may stop calling it once its input is silent: the object
+                // rings on for its slowest sounding mode's T60 (at most a minute).
+                return ProcessStatus::Tail(e.tail_samples((MAX_TAIL_S * self.sample_rate) as u32));
+            }
         }
         ProcessStatus::Normal
     }

@@ -103,6 +103,10 @@ pub struct OfflineHost<V: Variant = Instrument> {
     input: Option<(Vec<f32>, Vec<f32>)>,
     /// The active layout has an input (the effect's always has).
     input_layout: bool,
+    /// Channels of the input layout asked for: 2, or 1 for mono in and out.
+    input_channels: u32,
+    /// The tail the last `process()` call reported (`ProcessStatus::Tail`), samples.
+    last_tail: Option<u32>,
 }
 
 /// Load figures of the `process()` calls an [`OfflineHost`] has made (`struck render
@@ -210,6 +214,8 @@ impl<V: Variant> OfflineHost<V> {
             buffer: Buffer::default(),
             input: None,
             input_layout: false,
+            input_channels: 2,
+            last_tail: None,
         };
         host.activate();
         Ok(host)
@@ -220,14 +226,33 @@ impl<V: Variant> OfflineHost<V> {
     /// Allocates (not in `process()`).
     pub fn set_input(&mut self, left: Vec<f32>, right: Vec<f32>) {
         self.input = Some((left, right));
+        self.input_channels = 2;
         self.activate();
     }
 
+    /// As [`set_input`](Self::set_input) with a mono layout (1 in, 1 out, the effect's
+    /// second): the plugin sees one channel; renders give its output as both channels.
+    ///
+    /// # Errors
+    /// [`HostError::Config`] if the plugin has no mono layout.
+    pub fn set_input_mono(&mut self, x: Vec<f32>) -> Result<(), HostError> {
+        let mono =
+            StruckPlugin::<V>::AUDIO_IO_LAYOUTS.iter().any(|l| l.main_input_channels.is_some_and(|c| c.get() == 1));
+        if !mono {
+            return Err(HostError::Config("the plugin has no mono layout".into()));
+        }
+        self.input = Some((x, Vec::new()));
+        self.input_channels = 1;
+        self.activate();
+        Ok(())
+    }
+
     fn activate(&mut self) {
-        // The default layout, or with an input the first stereo one that has it.
+        // The default layout, or with an input the first one with that many channels.
         let layouts = StruckPlugin::<V>::AUDIO_IO_LAYOUTS;
+        let channels = self.input_channels;
         let layout = if self.input.is_some() {
-            layouts.iter().find(|l| l.main_input_channels.is_some_and(|c| c.get() == 2)).unwrap_or(&layouts[0])
+            layouts.iter().find(|l| l.main_input_channels.is_some_and(|c| c.get() == channels)).unwrap_or(&layouts[0])
         } else {
             &layouts[0]
         };
@@ -261,6 +286,12 @@ impl<V: Variant> OfflineHost<V> {
     /// Sample rate in Hz.
     pub fn sample_rate(&self) -> f32 {
         self.sample_rate
+    }
+
+    /// The tail the last `process()` call reported, samples (`None`: it reported none, as an
+    /// instrument does).
+    pub fn last_tail(&self) -> Option<u32> {
+        self.last_tail
     }
 
     /// Load figures of every `process()` call so far.
@@ -407,10 +438,13 @@ impl<V: Variant> OfflineHost<V> {
         unsafe {
             let l: &'static mut [f32] = std::mem::transmute::<&mut [f32], &'static mut [f32]>(left);
             let r: &'static mut [f32] = std::mem::transmute::<&mut [f32], &'static mut [f32]>(right);
+            let mono = self.input.is_some() && self.input_channels == 1;
             self.buffer.set_slices(n, |slices| {
                 slices.clear();
                 slices.push(l);
-                slices.push(r);
+                if !mono {
+                    slices.push(r);
+                }
             });
         }
         let mut aux = AuxiliaryBuffers { inputs: &mut [], outputs: &mut [] };
@@ -423,12 +457,20 @@ impl<V: Variant> OfflineHost<V> {
         let plugin = &mut self.plugin;
         let buffer = &mut self.buffer;
         let t0 = std::time::Instant::now();
+        let mut tail = None;
         run_guarded(|| {
-            plugin.process(buffer, &mut aux, &mut ctx);
+            if let ProcessStatus::Tail(n) = plugin.process(buffer, &mut aux, &mut ctx) {
+                tail = Some(n);
+            }
         });
+        self.last_tail = tail;
         self.stats.process_s += t0.elapsed().as_secs_f64();
         // SAFETY: drop the borrowed slices (no allocation: capacity is kept).
         unsafe { self.buffer.set_slices(0, |slices| slices.clear()) };
+        if self.input.is_some() && self.input_channels == 1 {
+            // Mono: the one channel is both of the render's.
+            self.right[..n].copy_from_slice(&self.left[..n]);
+        }
         self.clock += n as u64;
         if let Some(engine) = self.plugin.engine() {
             let (voices, modes) = (engine.active_voices(), engine.active_modes());

@@ -256,6 +256,13 @@ pub struct StruckParams {
     /// Support damping when *Support* is *Amount*: mean extra c (s⁻¹) over modes.
     #[id = "supportamt"]
     pub support_amount_per_s: FloatParam,
+    /// The support damping goes to the modes that move where the object is held (*Support
+    /// point*), not to each mode by its random draw.
+    #[id = "supportat"]
+    pub support_at_point: BoolParam,
+    /// Where the object is held, 0..1 along the strike path (with *Held at a point*).
+    #[id = "supportpt"]
+    pub support_point: FloatParam,
     /// Multiplies every damping coefficient (all materials): below 1 rings longer.
     #[id = "dscale"]
     pub decay_scale: FloatParam,
@@ -557,6 +564,12 @@ impl StruckParams {
             .with_unit(" 1/s")
             .with_value_to_string(v2s_significant(4))
             .with_string_to_value(s2v_number()),
+            support_at_point: BoolParam::new("Held at a point", false),
+            // 0.22: near the fundamental's node of a free–free bar, where bars are held.
+            support_point: FloatParam::new("Support point", 0.22, FloatRange::Linear { min: 0.0, max: 1.0 })
+                .with_value_to_string(formatters::v2s_f32_percentage(0))
+                .with_string_to_value(formatters::s2v_f32_percentage())
+                .with_unit("%"),
             decay_scale: FloatParam::new(
                 "Decay scale",
                 1.0,

@@ -1,4 +1,4 @@
-//! Struck Resonator, the effect (CLAP and VST3): the track's stereo input drives the object's
+//! Struck Resonator, the effect (CLAP and VST3): the track's input (stereo or mono) drives the object's
 //! modes at the contact position (issue 16). Exports [`StruckResonator`] of `struck-core`; the
 //! instrument is the `struck` package.
 

@@ -268,6 +268,8 @@ fn knob_groups(ui: &mut egui::Ui, cx: &PanelCtx, panel: &mut MaterialPanel) {
             param_row(ui, setter, &p.decay_scale);
             param_row(ui, setter, &p.support_mode);
             param_row(ui, setter, &p.support_amount_per_s);
+            param_row(ui, setter, &p.support_at_point);
+            param_row(ui, setter, &p.support_point);
             param_row(ui, setter, &p.modulus_ratio);
             param_row(ui, setter, &p.material_pitch);
             param_row(ui, setter, &p.size);

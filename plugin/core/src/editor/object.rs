@@ -1,10 +1,12 @@
 //! Object view: the object drawn with its strike path (see `drawing`); click or drag to
-//! strike there. Below, the mode gains at the current strike position.
+//! strike there, right-click to hold the object there (its support). Below, the mode gains at
+//! the current strike position.
 
 use super::drawing;
 use super::logic::{self, F_MAX_HZ, F_MIN_HZ};
 use super::panel::{set_param, PanelCtx};
 use super::plot::{Axis, Plot};
+use crate::params::SupportMode;
 use crate::shared::{Audition, EditorShared};
 use egui::{self, Color32, Pos2, Rect, Sense, Stroke, Vec2};
 use std::sync::Arc;
@@ -77,13 +79,39 @@ impl ObjectPanel {
     }
 
     /// Press (or drag onto) a point → one gesture on the strike position, released when the
-    /// button is; each new point also strikes. Only points the camera sees are picked.
+    /// button is; each new point also strikes. A right click holds the object there instead
+    /// (*Support point*, *Held at a point* on). Only points the camera sees are picked.
     fn interact(&mut self, response: &egui::Response, view: &View, cx: &PanelCtx) {
         let setter = cx.setter;
         let n = view.pic.points.len();
         let pointer = response.interact_pointer_pos().or_else(|| response.hover_pos());
         let picked = |p: Pos2| drawing::nearest_seen(view.pic, view.to_drawing(p));
-        if response.is_pointer_button_down_on() {
+        if response.secondary_clicked() {
+            if let Some(i) = pointer.and_then(picked) {
+                let p = cx.params;
+                set_param(setter, &p.support_point, logic::position_of_point(i, n));
+                set_param(setter, &p.support_at_point, true);
+                // Holding needs some support damping: with none in use (Off, or a material
+                // that records none), *Support amount* applies.
+                let material = p.material.value().max(0) as usize;
+                let recorded = cx
+                    .library
+                    .materials
+                    .get(material)
+                    .map_or_else(|| f64::from(p.custom_support_per_s.value()), presets::Material::support_c);
+                let none = match p.support_mode.value() {
+                    SupportMode::Off => true,
+                    SupportMode::AsRecorded => recorded <= 0.0,
+                    SupportMode::Amount => false,
+                };
+                if none {
+                    set_param(setter, &p.support_mode, SupportMode::Amount);
+                }
+            }
+            return;
+        }
+        let primary = response.ctx.input(|i| i.pointer.primary_down());
+        if response.is_pointer_button_down_on() && primary {
             if let Some(i) = pointer.and_then(picked) {
                 let pos = logic::position_of_point(i, n);
                 match self.gesture {
@@ -240,6 +268,19 @@ fn paint_view(ui: &egui::Ui, response: &egui::Response, view: &View, bank: &pres
             9.0,
             Stroke::new(2.0, Color32::from_rgb(255, 150, 40).gamma_multiply(alpha)),
         );
+    }
+    // Where the object is held (*Held at a point*): a support under it.
+    let p = cx.params;
+    if p.support_at_point.value() && p.support_mode.value() != SupportMode::Off {
+        if let Some(xy) = logic::point_at_position(points, p.support_point.value()) {
+            let at = view.to_screen(xy);
+            let color = Color32::from_rgb(150, 220, 120);
+            painter.add(egui::Shape::convex_polygon(
+                vec![at, at + Vec2::new(-7.0, 12.0), at + Vec2::new(7.0, 12.0)],
+                color,
+                Stroke::NONE,
+            ));
+        }
     }
     // A sounding lasting contact, where it is now.
     if let Some(xy) = cx.shared.contact().and_then(|c| logic::point_at_position(points, c)) {

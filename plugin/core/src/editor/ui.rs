@@ -35,6 +35,10 @@ pub struct EditorUi {
     capture: CapturePanel,
     /// Where user materials are read and saved; `None`: [`super::logic::user_material_dir`].
     pub user_material_dir: Option<PathBuf>,
+    /// The lasting contact's position at the last frame, and when it last moved (egui time,
+    /// s): a moving contact is redrawn every frame.
+    last_contact: Option<f32>,
+    contact_moved_at: f64,
 }
 
 impl EditorUi {
@@ -49,6 +53,8 @@ impl EditorUi {
             material: MaterialPanel::default(),
             capture: CapturePanel::default(),
             user_material_dir: None,
+            last_contact: None,
+            contact_moved_at: f64::NEG_INFINITY,
         }
     }
 
@@ -108,8 +114,17 @@ impl EditorUi {
                 }
             });
         });
-        let contact = self.shared.contact().is_some();
-        if self.capture.is_running() || self.object.is_active() || self.capture.ab_busy() || contact {
+        // A contact that moves is drawn every frame; a still one (the effect's input at speed 0)
+        // needs no more than the meters.
+        let contact = self.shared.contact();
+        let now = ui.input(|i| i.time);
+        if contact.is_some() && contact != self.last_contact {
+            self.contact_moved_at = now;
+        }
+        self.last_contact = contact;
+        // Blocks may be longer than a frame: a contact is moving if it moved lately.
+        let moving = contact.is_some() && now - self.contact_moved_at < 0.25;
+        if self.capture.is_running() || self.object.is_active() || self.capture.ab_busy() || moving {
             ui.ctx().request_repaint();
         } else {
             // Meters move while notes ring: poll them a few times a second.
