@@ -504,6 +504,9 @@ struct Voice {
     contact_norm: f32,
     /// The audio-in voice: its lasting contact is driven by the input signal.
     input: bool,
+    /// The audio-in voice's input sounded (a non-zero sample) since the last control tick:
+    /// its contact then travels over the next tick too, else it stays put.
+    input_heard: bool,
 }
 
 impl Voice {
@@ -542,6 +545,7 @@ impl Voice {
             gain_to: vec![0.0; max_modes],
             contact_norm: 0.0,
             input: false,
+            input_heard: false,
         }
     }
 
@@ -870,10 +874,15 @@ fn render_voice(voice: &mut Voice, buf: &mut [Vec<f32>; 3], lanes: &mut [f32], e
                     (0.0, 0.0)
                 }
             } else if voice.input {
-                // Audio in: the input signal is the contact's force (see `AUDIO_IN_RATE`).
-                voice.contact.travel(&surface, speed);
+                // Audio in: the input signal is the contact's force (see `AUDIO_IN_RATE`). The
+                // contact travels only while the input sounds, so where a sound meets the
+                // object does not depend on how long the host ran the plugin in silence first.
                 let x = env.input.map_or(0.0, |x| x[i + j]);
                 let x = if x.is_finite() { x * env.input_scale() } else { 0.0 };
+                if x != 0.0 {
+                    voice.contact.travel(&surface, speed);
+                    voice.input_heard = true;
+                }
                 let t = (env.phase + i + j) as f32 * (1.0 / CONTROL_INTERVAL as f32);
                 (x * (1.0 - t), x * t)
             } else if voice.lasting {
@@ -1588,7 +1597,15 @@ impl Engine {
         let speed = self.voices[v].speed.or(self.wheel_speed).unwrap_or(self.params.contact.speed_mps);
         let voice = &mut self.voices[v];
         let surface = env.surface(voice.excitation);
-        let ahead = voice.contact.position_after(speed * CONTROL_INTERVAL as f64 / self.sample_rate, &surface);
+        // The audio input's contact travels only while the input sounds: after a silent tick
+        // it is expected to stay put, so a sound after silence meets the gains of where the
+        // contact is, whatever the tick's phase.
+        let travels = !voice.input || std::mem::take(&mut voice.input_heard);
+        let ahead = if travels {
+            voice.contact.position_after(speed * CONTROL_INTERVAL as f64 / self.sample_rate, &surface)
+        } else {
+            voice.contact.position()
+        };
         let obj = &self.objects[voice.object];
         obj.gains_at(ahead, &mut self.gains);
         let norm = voice.contact_norm;
