@@ -28,6 +28,7 @@ pub mod fit;
 pub mod linalg;
 pub mod object;
 pub mod optim;
+pub mod ren;
 pub mod segment;
 #[doc(hidden)]
 pub mod synth;
@@ -187,6 +188,10 @@ pub struct EstimateReport {
     pub n_points: usize,
     /// Problems that did not stop the analysis.
     pub warnings: Vec<String>,
+    /// Ren §5.2.2's match ratios of the recording by the fitted material (issue 15 part 1):
+    /// how much of each impact the material represents. Absent in reports written before.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ren_match: Option<ren::RenMatch>,
 }
 
 /// Largest support damping a capture stores (mean extra c, s⁻¹; the plugin's range).
@@ -444,7 +449,7 @@ pub fn estimate(
         }
     }
     progress(1.0);
-    Ok(EstimateReport {
+    let mut report = EstimateReport {
         impacts: feats.impacts,
         skipped: feats.skipped,
         files: feats.files,
@@ -457,5 +462,8 @@ pub fn estimate(
         comparison,
         object,
         warnings,
-    })
+        ren_match: None,
+    };
+    report.ren_match = ren::ren_match(&report, opts);
+    Ok(report)
 }

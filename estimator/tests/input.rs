@@ -173,6 +173,14 @@ fn end_to_end_session() {
     assert_eq!(rep.fits.len(), 3);
     let obj = rep.object.as_ref().unwrap();
     assert!((obj.gamma_ratio / 1.21 - 1.0).abs() < 0.01, "{obj:?}");
+    // Ren's match (issue 15 part 1) against the object's modes at the fitted γ.
+    let m = rep.ren_match.as_ref().expect("Ren's match");
+    eprintln!(
+        "Ren match against the object: R {:.3}, R~ {:.3}, product {:.3}",
+        m.reference_ratio, m.estimated_ratio, m.product
+    );
+    assert_eq!(m.against, "object");
+    assert!((0.0..=1.0).contains(&m.product) && m.reference_ratio > 0.5, "{m:?}");
     assert!((*last.lock().unwrap() - 1.0).abs() < 1e-6);
     // The features JSON has the agreed shape.
     let feats = extract_features(std::slice::from_ref(&p), &opts, &|_| {}, &cancel).unwrap();

@@ -177,8 +177,15 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
     if let Some(f) = report_file {
         f.commit().map_err(|e| e.to_string())?;
     }
+    // Ren §5.2.2: how much of the recording the material represents (issue 15 part 1).
+    let ren = report.ren_match.as_ref().map_or_else(String::new, |m| {
+        format!(
+            "; Ren match against its {}: R {:.2}, R~ {:.2}, product {:.2}",
+            m.against, m.reference_ratio, m.estimated_ratio, m.product
+        )
+    });
     Ok(format!(
-        "wrote {}: {} {:?} params {:?} from {} features in {} impacts",
+        "wrote {}: {} {:?} params {:?} from {} features in {} impacts{ren}",
         args.out.display(),
         report.model,
         report.method,
