@@ -6,7 +6,8 @@
 #   (the CLAP host test opens the editor in a real X11 window);
 # - a Python virtual environment, target/test-venv, with pedalboard (JUCE's VST3 host) and
 #   numpy, for tests/hosts/pedalboard_host.py, and scipy for the FEM references
-#   (presets/fem/tests/reference/axisymmetric.py).
+#   (presets/fem/tests/reference/axisymmetric.py);
+# - Ardour 7 for the second VST3 host test (tests/hosts/ardour_host.sh).
 # Without root, missing system packages are named in one line and the script fails.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -23,6 +24,19 @@ if [ -n "$missing" ]; then
     apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $missing >/dev/null
   else
     echo "setup: the tests need these Debian packages:$missing (install them: sudo apt-get install$missing)" >&2
+    exit 1
+  fi
+fi
+
+# Ardour 7 (Debian's `ardour`: its headless Lua session host ardour7-lua and VST3 scanner) for
+# tests/hosts/ardour_host.sh; without its recommended packages (about 50 MB).
+if ! dpkg -s ardour >/dev/null 2>&1; then
+  if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
+    echo "setup: installing ardour"
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends ardour >/dev/null \
+      || { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends ardour >/dev/null; }
+  else
+    echo "setup: the tests need the Debian package ardour (sudo apt-get install --no-install-recommends ardour)" >&2
     exit 1
   fi
 fi

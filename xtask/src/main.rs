@@ -361,6 +361,14 @@ fn test(extra: &[String]) -> Result<(), String> {
         failed.push("pedalboard");
     }
 
+    // A second VST3 host, not JUCE: Ardour 7 headless (its Lua session host), both plugins:
+    // a note, a click through the effect, silence, a state save and reload.
+    let mut ardour = Command::new("bash");
+    ardour.arg("tests/hosts/ardour_host.sh").arg(&vst3).arg(&fx_vst3);
+    if !step("Ardour 7 VST3 host test", &mut ardour) {
+        failed.push("Ardour");
+    }
+
     // The FEM tests' independent references: the script checks itself against closed forms
     // and recomputes tests/data/axisymmetric.json (scipy, about 30 s).
     let mut refs = Command::new(root.join("target/test-venv/bin/python"));
@@ -372,7 +380,7 @@ fn test(extra: &[String]) -> Result<(), String> {
     }
 
     if failed.is_empty() {
-        eprintln!("xtask test: all passed (cargo test, validators, pedalboard, FEM references)");
+        eprintln!("xtask test: all passed (cargo test, validators, pedalboard, Ardour, FEM references)");
         Ok(())
     } else {
         Err(format!("failed: {}", failed.join(", ")))
