@@ -34,10 +34,11 @@ if ! dpkg -s ardour >/dev/null 2>&1; then
   if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
     echo "setup: installing ardour"
     DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends ardour >/dev/null \
-      || { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends ardour >/dev/null; }
+      || { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends ardour >/dev/null; } \
+      || echo "setup: warning: ardour could not be installed; the Ardour host test will fail, the others run" >&2
   else
-    echo "setup: the tests need the Debian package ardour (sudo apt-get install --no-install-recommends ardour)" >&2
-    exit 1
+    # Only the Ardour host test needs it: it fails alone, the others run.
+    echo "setup: warning: the Ardour host test needs the Debian package ardour (sudo apt-get install --no-install-recommends ardour)" >&2
   fi
 fi
 

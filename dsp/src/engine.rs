@@ -504,9 +504,13 @@ struct Voice {
     contact_norm: f32,
     /// The audio-in voice: its lasting contact is driven by the input signal.
     input: bool,
-    /// The audio-in voice's input sounded (a non-zero sample) since the last control tick:
-    /// its contact then travels over the next tick too, else it stays put.
+    /// The audio-in voice's contact travelled since the last control tick: it is then
+    /// expected to travel over the next tick too, else to stay put.
     input_heard: bool,
+    /// Consecutive exactly-zero input samples up to now (the contact travels while this is
+    /// under [`CONTROL_INTERVAL`]: through a sound's own zero crossings and exact zeros, not
+    /// through silence).
+    input_silent_run: u32,
 }
 
 impl Voice {
@@ -546,6 +550,7 @@ impl Voice {
             contact_norm: 0.0,
             input: false,
             input_heard: false,
+            input_silent_run: u32::MAX,
         }
     }
 
@@ -575,6 +580,8 @@ impl Voice {
         self.energy = 0.0;
         self.lasting = false;
         self.speed = None;
+        self.input_heard = false;
+        self.input_silent_run = u32::MAX;
     }
 
     /// Extra decay rate from release and pressure, s⁻¹.
@@ -879,7 +886,8 @@ fn render_voice(voice: &mut Voice, buf: &mut [Vec<f32>; 3], lanes: &mut [f32], e
                 // object does not depend on how long the host ran the plugin in silence first.
                 let x = env.input.map_or(0.0, |x| x[i + j]);
                 let x = if x.is_finite() { x * env.input_scale() } else { 0.0 };
-                if x != 0.0 {
+                voice.input_silent_run = if x != 0.0 { 0 } else { voice.input_silent_run.saturating_add(1) };
+                if voice.input_silent_run < CONTROL_INTERVAL as u32 {
                     voice.contact.travel(&surface, speed);
                     voice.input_heard = true;
                 }
@@ -1264,21 +1272,23 @@ impl Engine {
     /// drives it any more: the slowest sounding mode's T60, at most `cap` (0 when silent). An
     /// effect's tail for the host. Realtime-safe; one pass over the sounding modes.
     pub fn tail_samples(&self, cap: u32) -> u32 {
-        let mut slowest = 0.0f64;
+        // The largest |pole|² (f32: two products and a max per mode).
+        let mut slowest = 0.0f32;
         for v in self.voices.iter().filter(|v| v.active) {
             for k in 0..v.bank.len() {
                 let (re, im) = v.bank.pole(k);
-                slowest = slowest.max(f64::from(re).hypot(f64::from(im)));
+                slowest = slowest.max(re * re + im * im);
             }
         }
+        let slowest = f64::from(slowest);
         if slowest <= 0.0 {
             return 0;
         }
         if slowest >= 1.0 {
             return cap;
         }
-        // |pole|ⁿ = 10^(−3).
-        let n = (1e-3f64).ln() / slowest.ln();
+        // |pole|ⁿ = 10^(−3), with |pole| = √slowest.
+        let n = (1e-3f64).ln() / (0.5 * slowest.ln());
         if n.is_finite() {
             n.min(f64::from(cap)).ceil() as u32
         } else {
@@ -1701,7 +1711,8 @@ impl Engine {
 
     /// Audio in (issue 16): while `on`, the object is a resonator for the input of
     /// [`render_input`](Self::render_input), driven at a contact that starts at `position`
-    /// (0..=1 along the strike path) and moves like a lasting contact (speed, direction, path
+    /// (0..=1 along the strike path) and moves like a lasting contact while the input sounds
+    /// (it stops after [`CONTROL_INTERVAL`] samples of exact zeros) (speed, direction, path
     /// ends of the [`ContactParams`]; speed 0: it stays there). A new position restarts the
     /// contact there; the modes are those a lasting contact would ring on the current object.
     /// Off: the object rings out. Realtime-safe.

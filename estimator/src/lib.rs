@@ -29,6 +29,7 @@ pub mod linalg;
 pub mod object;
 pub mod optim;
 pub mod ren;
+pub mod residual;
 pub mod segment;
 #[doc(hidden)]
 pub mod synth;

@@ -125,6 +125,20 @@ fn open_wav(path: &Path) -> Result<hound::WavReader<WavStream>, String> {
 /// [`EstimateError::NoSuchChannel`], [`EstimateError::Silent`] if it has no samples or only
 /// zeros. Clipping, DC offset, very low level and truncation only add warnings.
 pub fn load_wav(path: &Path, channel: Option<usize>) -> Result<Recording, EstimateError> {
+    read_wav(path, channel, true)
+}
+
+/// As [`load_wav`], for playing rather than analysing: the samples exactly as in the file (no
+/// DC offset removed, no level warnings), and a silent file is not an error (`struck render
+/// --input`).
+///
+/// # Errors
+/// As [`load_wav`], except [`EstimateError::Silent`].
+pub fn load_wav_exact(path: &Path, channel: Option<usize>) -> Result<Recording, EstimateError> {
+    read_wav(path, channel, false)
+}
+
+fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recording, EstimateError> {
     let wav_err = |reason: String| EstimateError::Wav { path: path.to_path_buf(), reason };
     let reader = open_wav(path).map_err(wav_err)?;
     let spec = reader.spec();
@@ -230,7 +244,7 @@ pub fn load_wav(path: &Path, channel: Option<usize>) -> Result<Recording, Estima
             mono.len()
         ));
     }
-    if mono.is_empty() || mono.iter().all(|&v| v == 0.0) {
+    if mono.is_empty() || (analysis && mono.iter().all(|&v| v == 0.0)) {
         return Err(EstimateError::Silent { path: path.to_path_buf() });
     }
     let n = mono.len() as f64;
@@ -245,14 +259,14 @@ pub fn load_wav(path: &Path, channel: Option<usize>) -> Result<Recording, Estima
             100.0 * clip_fraction
         ));
     }
-    if mean.abs() > 0.01 {
+    if analysis && mean.abs() > 0.01 {
         warnings.push(format!(
             "{}: DC offset {:.3} of full scale was removed; check the microphone/interface",
             path.display(),
             mean
         ));
     }
-    if peak < 0.01 {
+    if analysis && peak < 0.01 {
         warnings.push(format!(
             "{}: very low level (peak {:.1} dBFS); raise the gain or move the microphone closer",
             path.display(),
@@ -260,7 +274,7 @@ pub fn load_wav(path: &Path, channel: Option<usize>) -> Result<Recording, Estima
         ));
     }
     // Remove the DC offset: a constant would otherwise show up as a zero-frequency "mode".
-    if mean != 0.0 {
+    if analysis && mean != 0.0 {
         for v in &mut mono {
             *v = (f64::from(*v) - mean) as f32;
         }

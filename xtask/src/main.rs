@@ -310,7 +310,7 @@ fn step(name: &str, cmd: &mut Command) -> bool {
 /// `cargo xtask test [cargo test args]`: installs what the tests need (tests/setup.sh), bundles
 /// the debug plugin into [`TEST_BUNDLES`], runs every test binary of the workspace (all of
 /// them, even when one fails), then the third-party validators (clap-validator and Steinberg's
-/// VST3 validator, `--extensive`) and the pedalboard VST3 host test on those bundles, and the
+/// VST3 validator, `--extensive`), the pedalboard and Ardour VST3 host tests on those bundles, and the
 /// check of the FEM tests' axisymmetric references. Fails if any of these failed, after
 /// running them all.
 fn test(extra: &[String]) -> Result<(), String> {
@@ -363,8 +363,13 @@ fn test(extra: &[String]) -> Result<(), String> {
 
     // A second VST3 host, not JUCE: Ardour 7 headless (its Lua session host), both plugins:
     // a note, a click through the effect, silence, a state save and reload.
-    let mut ardour = Command::new("bash");
-    ardour.arg("tests/hosts/ardour_host.sh").arg(&vst3).arg(&fx_vst3);
+    // At most 10 minutes, whatever Ardour does (its steps have their own time limits).
+    let mut ardour = Command::new("timeout");
+    ardour
+        .args(["-k", "10", "600", "bash", "tests/hosts/ardour_host.sh"])
+        .arg(&vst3)
+        .arg(&fx_vst3)
+        .env("STRUCK_BIN", root.join("target/debug/struck"));
     if !step("Ardour 7 VST3 host test", &mut ardour) {
         failed.push("Ardour");
     }

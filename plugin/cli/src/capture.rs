@@ -195,6 +195,98 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
     ))
 }
 
+/// What `struck residual` was asked.
+pub struct ResidualArgs {
+    /// The recording.
+    pub file: PathBuf,
+    /// The material whose modes represent it.
+    pub material: PathBuf,
+    /// The WAV to write.
+    pub out: PathBuf,
+    /// Which impact, from 1.
+    pub impact: usize,
+    /// At most this much of the impact, s.
+    pub seconds: f64,
+}
+
+/// `struck residual FILE --material M --out R.wav` (Ren 2013 §6.1; issue 15): the impact's
+/// features, each weighted by how well the material's modes match it (Ren's R(φᵢ, Φ̃),
+/// against the recording's own partials with the material's decays, its law plus its mean
+/// support damping), with their phases fitted to the recording, make the represented sound;
+/// the residual is the recording minus it ([`estimator::residual`]), written as a WAV (the
+/// output is checked first and written through a temporary file).
+///
+/// # Errors
+/// Bad arguments, an unreadable recording or material, no such impact, unwritable output.
+pub fn residual(args: &ResidualArgs) -> Result<String, String> {
+    if !(args.seconds.is_finite() && args.seconds > 0.0) {
+        return Err(format!("--seconds {}: must be a positive number of seconds", args.seconds));
+    }
+    if args.impact == 0 {
+        return Err("--impact counts from 1".into());
+    }
+    let inputs = [args.file.as_path(), args.material.as_path()];
+    output::check_output(&args.out, &inputs).map_err(|e| e.to_string())?;
+    let material = Material::load(&args.material).map_err(|e| e.to_string())?;
+    let law = material.damping.to_damping().map_err(|e| format!("{}: {e}", args.material.display()))?;
+    let support = material.support_c();
+    let cancel = AtomicBool::new(false);
+    let feats = estimator::extract_features(
+        std::slice::from_ref(&args.file),
+        &estimator::Options::default(),
+        &progress_printer("features"),
+        &cancel,
+    )
+    .map_err(|e| e.to_string())?;
+    end_progress_line();
+    let n = feats.impacts.len();
+    let imp = feats
+        .impacts
+        .get(args.impact - 1)
+        .ok_or_else(|| format!("--impact {}: the recording has {n} analysed impact(s)", args.impact))?;
+    let rec = estimator::load_wav(&args.file, None).map_err(|e| e.to_string())?;
+    let fs = f64::from(rec.sample_rate);
+    let start = ((imp.onset_s * fs).round() as usize).min(rec.samples.len());
+    let len = ((imp.duration_s.min(args.seconds) * fs) as usize).min(rec.samples.len() - start);
+    let segment: Vec<f64> = rec.samples[start..start + len].iter().map(|&v| f64::from(v)).collect();
+    use estimator::ren::{match_ratios, Point};
+    let reference: Vec<Point> =
+        imp.features.iter().map(|f| Point::new(f.freq_hz, f.decay_per_s, f.amplitude)).collect();
+    let estimated: Vec<Point> =
+        imp.features.iter().map(|f| Point::new(f.freq_hz, 0.5 * (law.c(f.lambda()) + support), f.amplitude)).collect();
+    let m = match_ratios(&reference, &estimated);
+    // The features' phases fitted over the first half second (they decay; the fit's cost
+    // grows with its length).
+    let fit_len = len.min((0.5 * fs) as usize);
+    let x = estimator::residual::residual_sound(&segment, &imp.features, &m.per_reference, fs, fit_len);
+    let energy = |v: &[f64]| v.iter().map(|s| s * s).sum::<f64>();
+    let share = energy(&x) / energy(&segment).max(f64::MIN_POSITIVE);
+    let spec = hound::WavSpec {
+        channels: 1,
+        sample_rate: rec.sample_rate,
+        bits_per_sample: 32,
+        sample_format: hound::SampleFormat::Float,
+    };
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    {
+        let mut w = hound::WavWriter::new(&mut bytes, spec).map_err(|e| e.to_string())?;
+        for v in &x {
+            w.write_sample(*v as f32).map_err(|e| e.to_string())?;
+        }
+        w.finalize().map_err(|e| e.to_string())?;
+    }
+    output::write_atomically(&args.out, bytes.get_ref()).map_err(|e| e.to_string())?;
+    Ok(format!(
+        "wrote {}: impact {} of {n} at {:.3} s, {:.3} s; Ren match R {:.2}; the residual holds {:.1} % of the recording's energy",
+        args.out.display(),
+        args.impact,
+        imp.onset_s,
+        len as f64 / fs,
+        m.reference,
+        100.0 * share
+    ))
+}
+
 /// `bytes` written to a temporary file for `path`, not yet committed.
 fn staged(path: &Path, bytes: &[u8]) -> Result<output::AtomicFile, String> {
     let mut f = output::AtomicFile::create(path).map_err(|e| e.to_string())?;

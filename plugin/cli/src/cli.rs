@@ -120,11 +120,13 @@ pub struct Gesture {
 /// of more channels its first two. Allocates.
 ///
 /// # Errors
-/// As [`estimator::load_wav`]: unreadable, corrupt, not 8–192 kHz, silent (one line).
+/// As [`estimator::wav::load_wav_exact`]: unreadable, corrupt, not 8–192 kHz (one line).
 pub fn read_input(path: &Path) -> Result<(Vec<f32>, Vec<f32>, u32), String> {
-    let left = estimator::load_wav(path, Some(0)).map_err(|e| format!("--input: {e}"))?;
+    // The samples as they are: an analysis removes a DC offset, a render must not (it would
+    // drive the object from the first sample).
+    let left = estimator::wav::load_wav_exact(path, Some(0)).map_err(|e| format!("--input: {e}"))?;
     let right = if left.channels >= 2 {
-        estimator::load_wav(path, Some(1)).map_err(|e| format!("--input: {e}"))?.samples
+        estimator::wav::load_wav_exact(path, Some(1)).map_err(|e| format!("--input: {e}"))?.samples
     } else {
         left.samples.clone()
     };

@@ -88,6 +88,24 @@ enum Command {
         #[arg(long)]
         report: Option<PathBuf>,
     },
+    /// Write a recording's residual for listening (Ren 2013 §6.1): what remains of one impact
+    /// once the modes the material represents are taken out (the click of contact, noise).
+    Residual {
+        /// The recording (WAV).
+        file: PathBuf,
+        /// The material (JSON, e.g. from `struck estimate`) whose modes represent the recording.
+        #[arg(long)]
+        material: PathBuf,
+        /// The residual WAV to write (32-bit float, the recording's rate).
+        #[arg(long)]
+        out: PathBuf,
+        /// Which impact of the recording, from 1.
+        #[arg(long, default_value_t = 1)]
+        impact: usize,
+        /// At most this much of the impact, s.
+        #[arg(long, default_value_t = 2.0)]
+        seconds: f64,
+    },
     /// Build mode banks by FEM, or show a bank.
     Bank {
         #[command(subcommand)]
@@ -208,6 +226,17 @@ fn run(cli: Cli) -> Result<(), String> {
                 channel,
                 out,
                 report,
+            })?;
+            eprintln!("{summary}");
+            Ok(())
+        }
+        Command::Residual { file, material, out, impact, seconds } => {
+            let summary = struck_cli::capture::residual(&struck_cli::capture::ResidualArgs {
+                file,
+                material,
+                out,
+                impact,
+                seconds,
             })?;
             eprintln!("{summary}");
             Ok(())

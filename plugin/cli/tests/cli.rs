@@ -465,6 +465,52 @@ fn strikes(dir: &Path) -> PathBuf {
     rec
 }
 
+/// `struck residual` (issue 15): the strikes the binary rendered, with the material estimated
+/// from them, leave a residual — the mallet's contact and what the fitted law does not
+/// match — that is a small part of the recording and sits at the attack; it is written at the
+/// recording's rate and length; bad arguments are one-line errors and neither input is ever
+/// overwritten.
+#[test]
+fn residual_writes_what_the_material_does_not_represent() {
+    let dir = scratch("residual");
+    let rec = strikes(&dir);
+    let (rec_s, m) = (rec.to_str().unwrap(), dir.join("m.json"));
+    let o = struck(&dir, &["estimate", rec_s, "--out", m.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = dir.join("res.wav");
+    let args =
+        ["residual", rec_s, "--material", m.to_str().unwrap(), "--out", out.to_str().unwrap(), "--seconds", "0.8"];
+    let o = struck(&dir, &args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    println!("{}", stderr(&o).trim());
+    let r = hound::WavReader::open(&out).unwrap();
+    assert_eq!((r.spec().sample_rate, r.spec().channels), (48_000, 1));
+    let x: Vec<f32> = r.into_samples::<f32>().map(Result::unwrap).collect();
+    assert_eq!(x.len(), 38_400, "0.8 s of the first impact");
+    let e = |v: &[f32]| v.iter().map(|s| f64::from(*s).powi(2)).sum::<f64>();
+    let rec_x: Vec<f32> =
+        hound::WavReader::open(&rec).unwrap().into_samples::<f32>().step_by(2).map(Result::unwrap).collect();
+    assert!(
+        e(&x) > 0.0 && e(&x) < 0.2 * e(&rec_x[..48_000]),
+        "residual energy {} of a strike's {}",
+        e(&x),
+        e(&rec_x[..48_000])
+    );
+    assert!(e(&x[..4_800]) > 0.5 * e(&x), "the residual's first 0.1 s: {} of {}", e(&x[..4_800]), e(&x));
+    let before = (std::fs::read(&rec).unwrap(), std::fs::read(&m).unwrap());
+    for (extra, says) in [
+        (&["--out", rec_s][..], "also an input"),
+        (&["--out", m.to_str().unwrap()][..], "also an input"),
+        (&["--out", out.to_str().unwrap(), "--impact", "9"][..], "3 analysed impact(s)"),
+        (&["--out", out.to_str().unwrap(), "--impact", "0"][..], "counts from 1"),
+    ] {
+        let e =
+            error_line(&struck(&dir, &[&["residual", rec_s, "--material", m.to_str().unwrap()][..], extra].concat()));
+        assert!(e.contains(says), "{extra:?}: {e}");
+    }
+    assert_eq!((std::fs::read(&rec).unwrap(), std::fs::read(&m).unwrap()), before);
+}
+
 #[test]
 fn estimate_never_replaces_an_input_or_a_file_on_failure() {
     let dir = scratch("estimate-out");
@@ -922,6 +968,38 @@ fn a_midi_files_mod_wheel_and_pressure_play_the_gesture() {
     println!("MIDI gesture RMS: resting {resting:.3e}, moving {moving:.3e}, no force {released:.3e}");
     assert!(moving > 3.0 * resting, "resting {resting}, moving {moving}");
     assert!(released < moving / 3.0, "moving {moving}, without force {released}");
+}
+
+/// `render --input` plays the file's samples as they are: a lone click (whose mean, a DC
+/// offset an analysis would remove, is not 0) leaves the output exactly 0 until the click,
+/// and an all-silent input renders exact silence instead of being refused.
+#[test]
+fn render_input_plays_the_samples_as_they_are() {
+    let dir = scratch("input-exact");
+    let (click, out) = (dir.join("click.wav"), dir.join("out.wav"));
+    let write = |path: &Path, at: Option<usize>| {
+        let spec = hound::WavSpec {
+            channels: 1,
+            sample_rate: 48_000,
+            bits_per_sample: 32,
+            sample_format: hound::SampleFormat::Float,
+        };
+        let mut w = hound::WavWriter::create(path, spec).unwrap();
+        for i in 0..24_000 {
+            w.write_sample(if Some(i) == at { 0.5f32 } else { 0.0 }).unwrap();
+        }
+        w.finalize().unwrap();
+    };
+    write(&click, Some(4_800));
+    let o = struck(&dir, &["render", "--input", click.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let (x, _) = read_render(&out);
+    assert!(x[..4_800].iter().all(|&v| v == 0.0), "output before the click");
+    assert!(x[4_800..].iter().any(|&v| v != 0.0));
+    write(&click, None);
+    let o = struck(&dir, &["render", "--input", click.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(read_render(&out).0.iter().all(|&v| v == 0.0));
 }
 
 /// `render --input`: the WAV drives the object at its own sample rate, the render lasts at

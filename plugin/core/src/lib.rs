@@ -671,7 +671,9 @@ impl<V: Variant> Plugin for StruckPlugin<V> {
             if V::EFFECT {
                 // An effect's host may stop calling it once its input is silent: the object
                 // rings on for its slowest sounding mode's T60 (at most a minute).
-                return ProcessStatus::Tail(e.tail_samples((MAX_TAIL_S * self.sample_rate) as u32));
+                // Silent: the host may put it to sleep (CLAP continues on any tail).
+                let tail = e.tail_samples((MAX_TAIL_S * self.sample_rate) as u32);
+                return if tail > 0 { ProcessStatus::Tail(tail) } else { ProcessStatus::Normal };
             }
         }
         ProcessStatus::Normal

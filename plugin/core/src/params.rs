@@ -565,8 +565,9 @@ impl StruckParams {
             .with_value_to_string(v2s_significant(4))
             .with_string_to_value(s2v_number()),
             support_at_point: BoolParam::new("Held at a point", false),
-            // 0.22: near the fundamental's node of a free–free bar, where bars are held.
-            support_point: FloatParam::new("Support point", 0.22, FloatRange::Linear { min: 0.0, max: 1.0 })
+            // 0.45: on the factory bar's path (an end at 0, the centre at 1) the fundamental's
+            // node at 0.224 of the length, where bars are held.
+            support_point: FloatParam::new("Support point", 0.45, FloatRange::Linear { min: 0.0, max: 1.0 })
                 .with_value_to_string(formatters::v2s_f32_percentage(0))
                 .with_string_to_value(formatters::s2v_f32_percentage())
                 .with_unit("%"),
