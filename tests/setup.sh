@@ -30,7 +30,7 @@ fi
 
 # Ardour 7 (Debian's `ardour`: its headless Lua session host ardour7-lua and VST3 scanner) for
 # tests/hosts/ardour_host.sh; without its recommended packages (about 50 MB).
-if ! dpkg -s ardour >/dev/null 2>&1; then
+if ! dpkg -s ardour 2>/dev/null | grep -q '^Status: install ok installed'; then
   if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
     echo "setup: installing ardour"
     DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends ardour >/dev/null \
