@@ -201,6 +201,35 @@ pub fn residual_sound(x: &[f64], features: &[Feature], ratios: &[f64], fs: f64, 
     x.iter().zip(&rep).map(|(a, b)| a - b).collect()
 }
 
+/// The residual of one impact of a recording by a material (law `law`, mean support damping
+/// `support_c`): the impact's first `seconds` from `samples` (mono, at `fs`), its features
+/// matched against themselves with the material's decays (Ren's R(φᵢ, Φ̃), [`crate::ren`]),
+/// their amplitudes and phases fitted over the first half second, and the represented sound
+/// taken out ([`residual_sound`]). Returns the residual and the impact's R(Φ, Φ̃).
+pub fn impact_residual(
+    samples: &[f32],
+    fs: f64,
+    imp: &crate::ImpactFeatures,
+    law: &dsp::Damping,
+    support_c: f64,
+    seconds: f64,
+) -> (Vec<f64>, f64) {
+    use crate::ren::{match_ratios, Point};
+    let start = ((imp.onset_s * fs).round() as usize).min(samples.len());
+    let len = ((imp.duration_s.min(seconds).max(0.0) * fs) as usize).min(samples.len() - start);
+    let segment: Vec<f64> = samples[start..start + len].iter().map(|&v| f64::from(v)).collect();
+    let reference: Vec<Point> =
+        imp.features.iter().map(|f| Point::new(f.freq_hz, f.decay_per_s, f.amplitude)).collect();
+    let estimated: Vec<Point> = imp
+        .features
+        .iter()
+        .map(|f| Point::new(f.freq_hz, 0.5 * (law.c(f.lambda()) + support_c), f.amplitude))
+        .collect();
+    let m = match_ratios(&reference, &estimated);
+    let fit_len = len.min((0.5 * fs) as usize);
+    (residual_sound(&segment, &imp.features, &m.per_reference, fs, fit_len), m.reference)
+}
+
 /// A signal of `len` samples whose power spectrogram approximates `target`: Griffin–Lim
 /// (1984) with Perraudin, Balazs & Søndergaard's momentum (the fast Griffin–Lim, 2013,
 /// α = 0.99): from phases drawn with `seed`, impose the target magnitudes, take the

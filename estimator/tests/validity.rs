@@ -43,6 +43,7 @@ fn validate(model: ModelKind, params: &[f64]) -> Result<(), presets::PresetError
         damping: presets::DampingSpec::from_damping(&d),
         notes: String::new(),
         support: None,
+        residual: None,
     };
     m.validate()
 }

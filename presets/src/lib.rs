@@ -25,6 +25,7 @@ pub mod factory;
 mod json;
 mod material;
 pub mod output;
+pub mod residual;
 pub mod texture;
 
 pub use bank::{Bank, BankReference, DrawSurface, StrikePoint, MAX_BANK_MODES, MAX_BANK_POINTS, MAX_DRAW_TRIANGLES};

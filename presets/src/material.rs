@@ -38,6 +38,11 @@ pub struct Material {
     /// material (factory materials, unless their source states a mounting).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub support: Option<SupportDamping>,
+    /// The residual of a captured material (issue 15; Ren 2013 §6.1): what one impact of the
+    /// recording held beyond the modes the material represents. Absent for factory
+    /// materials and captures made without it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub residual: Option<crate::residual::ResidualSpectrogram>,
 }
 
 /// Support damping as recorded: per-mode extra c drawn from an exponential distribution
@@ -105,6 +110,9 @@ impl Material {
             }
         }
         self.damping.to_damping()?;
+        if let Some(r) = &self.residual {
+            r.validate()?;
+        }
         if let Some(sd) = self.support {
             if !(sd.mean_c_per_s.is_finite() && (0.0..=1e5).contains(&sd.mean_c_per_s)) {
                 return Err(PresetError::invalid(

@@ -41,6 +41,7 @@ fn estimator_recovers_the_material_the_plugin_played() {
         channel: None,
         out: out.clone(),
         report: Some(report.clone()),
+        no_residual: false,
     };
     estimate(&args).unwrap();
     let m = presets::Material::load(&out).unwrap();

@@ -76,6 +76,8 @@ pub struct EstimateArgs {
     pub out: PathBuf,
     /// Report file to write.
     pub report: Option<PathBuf>,
+    /// Keep no residual with the material.
+    pub no_residual: bool,
 }
 
 /// `struck estimate …`: fits the material and writes it (and the report).
@@ -140,6 +142,8 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
         }
         _ => None,
     };
+    // The residual of the first impact (issue 15; Ren §6.1), unless asked not to.
+    let residual = if args.no_residual { None } else { capture_residual(&report, args.channel)? };
     let material = Material {
         schema_version: SCHEMA_VERSION,
         id,
@@ -157,6 +161,7 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
         notes: report.warnings.join("; "),
         // The plugin plays it held as recorded by default (Support: As recorded).
         support: report.support_c().map(|mean_c_per_s| presets::SupportDamping { mean_c_per_s }),
+        residual,
     };
     material.validate().map_err(|e| format!("the fitted material is not valid ({e}); nothing was written"))?;
     // Both files are complete on disk before either replaces anything.
@@ -184,8 +189,11 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
             m.against, m.reference_ratio, m.estimated_ratio, m.product
         )
     });
+    let kept = material.residual.as_ref().map_or_else(String::new, |r| {
+        format!("; kept the first impact's residual ({} frames, {:.1} KB)", r.frames, r.levels.len() as f64 / 1000.0)
+    });
     Ok(format!(
-        "wrote {}: {} {:?} params {:?} from {} features in {} impacts{ren}",
+        "wrote {}: {} {:?} params {:?} from {} features in {} impacts{ren}{kept}",
         args.out.display(),
         report.model,
         report.method,
@@ -193,6 +201,47 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
         report.n_points,
         report.impacts.len()
     ))
+}
+
+/// The residual of `report`'s first impact as kept with its material: the first
+/// [`presets::residual::SECONDS`] of it, as a quantised log-power spectrogram with the
+/// impact's features (`None` without impacts).
+///
+/// # Errors
+/// The recording cannot be read again.
+fn capture_residual(
+    report: &estimator::EstimateReport,
+    channel: Option<usize>,
+) -> Result<Option<presets::residual::ResidualSpectrogram>, String> {
+    let Some(imp) = report.impacts.first() else { return Ok(None) };
+    let rec = estimator::load_wav(Path::new(&imp.file), channel).map_err(|e| e.to_string())?;
+    let fs = f64::from(rec.sample_rate);
+    let (x, _) = estimator::residual::impact_residual(
+        &rec.samples,
+        fs,
+        imp,
+        &report.damping(),
+        report.support_c().unwrap_or(0.0),
+        presets::residual::SECONDS,
+    );
+    let spec = estimator::residual::power_spectrogram(&x);
+    let modes = imp
+        .features
+        .iter()
+        .map(|f| presets::residual::ResidualMode {
+            freq_hz: f.freq_hz,
+            decay_per_s: f.decay_per_s,
+            amplitude: f.amplitude,
+        })
+        .collect();
+    Ok(Some(presets::residual::ResidualSpectrogram::from_power(
+        &spec.power,
+        spec.frames,
+        rec.sample_rate,
+        estimator::residual::FRAME as u32,
+        estimator::residual::HOP as u32,
+        modes,
+    )))
 }
 
 /// What `struck residual` was asked.
@@ -246,21 +295,12 @@ pub fn residual(args: &ResidualArgs) -> Result<String, String> {
         .ok_or_else(|| format!("--impact {}: the recording has {n} analysed impact(s)", args.impact))?;
     let rec = estimator::load_wav(&args.file, None).map_err(|e| e.to_string())?;
     let fs = f64::from(rec.sample_rate);
-    let start = ((imp.onset_s * fs).round() as usize).min(rec.samples.len());
-    let len = ((imp.duration_s.min(args.seconds) * fs) as usize).min(rec.samples.len() - start);
-    let segment: Vec<f64> = rec.samples[start..start + len].iter().map(|&v| f64::from(v)).collect();
-    use estimator::ren::{match_ratios, Point};
-    let reference: Vec<Point> =
-        imp.features.iter().map(|f| Point::new(f.freq_hz, f.decay_per_s, f.amplitude)).collect();
-    let estimated: Vec<Point> =
-        imp.features.iter().map(|f| Point::new(f.freq_hz, 0.5 * (law.c(f.lambda()) + support), f.amplitude)).collect();
-    let m = match_ratios(&reference, &estimated);
-    // The features' phases fitted over the first half second (they decay; the fit's cost
-    // grows with its length).
-    let fit_len = len.min((0.5 * fs) as usize);
-    let x = estimator::residual::residual_sound(&segment, &imp.features, &m.per_reference, fs, fit_len);
+    let (x, r) = estimator::residual::impact_residual(&rec.samples, fs, imp, &law, support, args.seconds);
+    let len = x.len();
     let energy = |v: &[f64]| v.iter().map(|s| s * s).sum::<f64>();
-    let share = energy(&x) / energy(&segment).max(f64::MIN_POSITIVE);
+    let start = ((imp.onset_s * fs).round() as usize).min(rec.samples.len());
+    let recorded = energy(&rec.samples[start..start + len].iter().map(|&v| f64::from(v)).collect::<Vec<_>>());
+    let share = energy(&x) / recorded.max(f64::MIN_POSITIVE);
     let spec = hound::WavSpec {
         channels: 1,
         sample_rate: rec.sample_rate,
@@ -282,7 +322,7 @@ pub fn residual(args: &ResidualArgs) -> Result<String, String> {
         args.impact,
         imp.onset_s,
         len as f64 / fs,
-        m.reference,
+        r,
         100.0 * share
     ))
 }

@@ -87,6 +87,10 @@ enum Command {
         /// Report JSON to write (features, every fit, warnings).
         #[arg(long)]
         report: Option<PathBuf>,
+        /// Keep no residual with the material (by default the first impact's residual, Ren
+        /// §6.1, is kept: about 45 KB at 48 kHz).
+        #[arg(long)]
+        no_residual: bool,
     },
     /// Write a recording's residual for listening (Ren 2013 §6.1): what remains of one impact
     /// once the modes the material represents are taken out (the click of contact, noise).
@@ -217,7 +221,7 @@ fn run(cli: Cli) -> Result<(), String> {
         Command::Modes { sound, note, velocity, json } => cli::print_modes(&sound.options(), note, velocity, json),
         Command::Bank { command } => struck_cli::banks::run(command),
         Command::Features { files, channel, json } => struck_cli::capture::features(&files, channel, json),
-        Command::Estimate { files, model, method, object, channel, out, report } => {
+        Command::Estimate { files, model, method, object, channel, out, report, no_residual } => {
             let summary = struck_cli::capture::estimate(&struck_cli::capture::EstimateArgs {
                 files,
                 model,
@@ -226,6 +230,7 @@ fn run(cli: Cli) -> Result<(), String> {
                 channel,
                 out,
                 report,
+                no_residual,
             })?;
             eprintln!("{summary}");
             Ok(())

@@ -509,6 +509,26 @@ fn residual_writes_what_the_material_does_not_represent() {
         assert!(e.contains(says), "{extra:?}: {e}");
     }
     assert_eq!((std::fs::read(&rec).unwrap(), std::fs::read(&m).unwrap()), before);
+    // The estimate kept the first impact's residual with the material: valid, the impact's
+    // modes listed, its first 0.35 s (frames every 256 samples from the start: 67), the file
+    // under 64 KB; and it is the residual `struck residual` wrote, to the stored resolution
+    // (total power within 0.5 dB over its first 0.35 s).
+    let mat = presets::Material::load(&m).unwrap();
+    let r = mat.residual.as_ref().expect("a residual kept with the material");
+    assert_eq!((r.sample_rate, r.frame, r.hop, r.frames), (48_000, 1024, 256, 67));
+    assert!(!r.modes.is_empty());
+    let size = std::fs::metadata(&m).unwrap().len();
+    println!("material with its residual: {size} bytes");
+    assert!(size < 64_000, "{size} bytes");
+    let stored: f64 = r.to_power().unwrap().iter().sum();
+    let x64: Vec<f64> = x[..16_800].iter().map(|&v| f64::from(v)).collect();
+    let written: f64 = estimator::residual::power_spectrogram(&x64).power.iter().sum();
+    assert!((10.0 * (stored / written).log10()).abs() < 0.5, "stored {stored} vs written {written}");
+    // Without it on request.
+    let bare = dir.join("bare.json");
+    let o = struck(&dir, &["estimate", rec_s, "--out", bare.to_str().unwrap(), "--no-residual"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(presets::Material::load(&bare).unwrap().residual.is_none());
 }
 
 #[test]

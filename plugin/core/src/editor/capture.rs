@@ -232,6 +232,8 @@ pub(super) fn captured_material(name: &str, rec: &CaptureRecord, fit: &estimator
         damping: DampingSpec::from_damping(&fit.damping()),
         notes: rec.report.warnings.join("; "),
         support: rec.report.support_for(fit).map(|mean_c_per_s| presets::SupportDamping { mean_c_per_s }),
+        // The editor's captures keep no residual yet (`struck estimate` does).
+        residual: None,
     }
 }
 
