@@ -207,14 +207,21 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
 /// [`presets::residual::SECONDS`] of it, as a quantised log-power spectrogram with the
 /// impact's features (`None` without impacts).
 ///
-/// # Errors
-/// The recording cannot be read again.
+/// A recording that cannot be read again keeps no residual (with a warning).
 fn capture_residual(
     report: &estimator::EstimateReport,
     channel: Option<usize>,
 ) -> Result<Option<presets::residual::ResidualSpectrogram>, String> {
     let Some(imp) = report.impacts.first() else { return Ok(None) };
-    let rec = estimator::load_wav(Path::new(&imp.file), channel).map_err(|e| e.to_string())?;
+    // The report names the file as displayed; a name that does not read back (a path that is
+    // not UTF-8) costs the residual, not the capture.
+    let rec = match estimator::load_wav(Path::new(&imp.file), channel) {
+        Ok(r) => r,
+        Err(e) => {
+            warn(&format!("no residual kept: {e}"));
+            return Ok(None);
+        }
+    };
     let fs = f64::from(rec.sample_rate);
     let (x, _) = estimator::residual::impact_residual(
         &rec.samples,
