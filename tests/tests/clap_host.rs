@@ -190,6 +190,23 @@ fn render_events(
     num_samples: usize,
     notes: &[(usize, Note)],
 ) -> [Vec<f32>; 2] {
+    render_blocks(instance, num_samples, notes, None)
+}
+
+/// Activates `instance` (48 kHz, blocks of at most 512), plays `input` (stereo) through its
+/// stereo input port with no events, and deactivates it again; the output.
+fn render_through(instance: &mut PluginInstance<TestHost>, input: &[Vec<f32>; 2]) -> [Vec<f32>; 2] {
+    render_blocks(instance, input[0].len(), &[], Some(input))
+}
+
+/// [`render_events`] with `input` (stereo) on the input port, if given, else none. Output
+/// buffers are filled with NaN before each call: the plugin must write every sample.
+fn render_blocks(
+    instance: &mut PluginInstance<TestHost>,
+    num_samples: usize,
+    notes: &[(usize, Note)],
+    input: Option<&[Vec<f32>; 2]>,
+) -> [Vec<f32>; 2] {
     let config = PluginAudioConfiguration {
         sample_rate: f64::from(SAMPLE_RATE),
         min_frames_count: 1,
@@ -202,6 +219,8 @@ fn render_events(
     // The plugin reports NOTE_END (and possibly other events) back: collect and drop them.
     let mut out_events = EventBuffer::with_capacity(256);
     let mut block = [vec![0.0f32; BLOCK], vec![0.0f32; BLOCK]];
+    let mut block_in = [vec![0.0f32; BLOCK], vec![0.0f32; BLOCK]];
+    let mut input_ports = AudioPorts::with_capacity(2, 1);
     let mut output_ports = AudioPorts::with_capacity(2, 1);
     let mut out = [Vec::with_capacity(num_samples), Vec::with_capacity(num_samples)];
 
@@ -227,15 +246,29 @@ fn render_events(
         }
         out_events.clear();
         for ch in &mut block {
-            ch.fill(0.0);
+            ch.fill(f32::NAN);
         }
+        let audio_in = match input {
+            Some(x) => {
+                for (b, x) in block_in.iter_mut().zip(x) {
+                    b[..n].copy_from_slice(&x[pos..pos + n]);
+                }
+                input_ports.with_input_buffers([AudioPortBuffer {
+                    latency: 0,
+                    channels: AudioPortBufferType::f32_input_only(
+                        block_in.iter_mut().map(|ch| InputChannel::variable(&mut ch[..n])),
+                    ),
+                }])
+            }
+            None => InputAudioBuffers::empty(),
+        };
         let mut audio_out = output_ports.with_output_buffers([AudioPortBuffer {
             latency: 0,
             channels: AudioPortBufferType::f32_output_only(block.iter_mut().map(|ch| &mut ch[..n])),
         }]);
         processor
             .process(
-                &InputAudioBuffers::empty(),
+                &audio_in,
                 &mut audio_out,
                 &in_events.as_input(),
                 &mut out_events.as_output(),
@@ -430,63 +463,6 @@ fn write_host_render(name: &str, audio: &[Vec<f32>; 2]) {
     }
     w.finalize().expect("finish the WAV");
     std::fs::rename(&tmp, dir.join(name)).expect("rename the WAV");
-}
-
-/// Activates `instance` (48 kHz, blocks of at most 512), plays `input` (stereo) through its
-/// stereo input port with no events, and deactivates it again; the output.
-fn render_through(instance: &mut PluginInstance<TestHost>, input: &[Vec<f32>; 2]) -> [Vec<f32>; 2] {
-    let num_samples = input[0].len();
-    let config = PluginAudioConfiguration {
-        sample_rate: f64::from(SAMPLE_RATE),
-        min_frames_count: 1,
-        max_frames_count: BLOCK as u32,
-    };
-    let stopped = instance.activate(|_, _| (), config).expect("activate");
-    let mut processor = stopped.start_processing().expect("start processing");
-    let in_events = EventBuffer::with_capacity(0);
-    let mut out_events = EventBuffer::with_capacity(256);
-    let mut block_in = [vec![0.0f32; BLOCK], vec![0.0f32; BLOCK]];
-    let mut block = [vec![0.0f32; BLOCK], vec![0.0f32; BLOCK]];
-    let mut input_ports = AudioPorts::with_capacity(2, 1);
-    let mut output_ports = AudioPorts::with_capacity(2, 1);
-    let mut out = [Vec::with_capacity(num_samples), Vec::with_capacity(num_samples)];
-    let mut pos = 0;
-    while pos < num_samples {
-        let n = BLOCK.min(num_samples - pos);
-        for (b, x) in block_in.iter_mut().zip(input) {
-            b[..n].copy_from_slice(&x[pos..pos + n]);
-        }
-        for ch in &mut block {
-            ch.fill(f32::NAN); // the plugin must write every output sample
-        }
-        let audio_in = input_ports.with_input_buffers([AudioPortBuffer {
-            latency: 0,
-            channels: AudioPortBufferType::f32_input_only(
-                block_in.iter_mut().map(|ch| InputChannel::variable(&mut ch[..n])),
-            ),
-        }]);
-        let mut audio_out = output_ports.with_output_buffers([AudioPortBuffer {
-            latency: 0,
-            channels: AudioPortBufferType::f32_output_only(block.iter_mut().map(|ch| &mut ch[..n])),
-        }]);
-        out_events.clear();
-        processor
-            .process(
-                &audio_in,
-                &mut audio_out,
-                &in_events.as_input(),
-                &mut out_events.as_output(),
-                Some(pos as u64),
-                None,
-            )
-            .expect("process");
-        for (o, b) in out.iter_mut().zip(&block) {
-            o.extend_from_slice(&b[..n]);
-        }
-        pos += n;
-    }
-    instance.deactivate(processor.stop_processing());
-    out
 }
 
 /// The effect's binary, *Struck Resonator*, in a real CLAP host: one stereo input and one
