@@ -143,7 +143,7 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
         _ => None,
     };
     // The residual of the first impact (issue 15; Ren §6.1), unless asked not to.
-    let residual = if args.no_residual { None } else { capture_residual(&report, args.channel)? };
+    let residual = if args.no_residual { None } else { capture_residual(&report, args.channel) };
     let material = Material {
         schema_version: SCHEMA_VERSION,
         id,
@@ -211,15 +211,15 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
 fn capture_residual(
     report: &estimator::EstimateReport,
     channel: Option<usize>,
-) -> Result<Option<presets::residual::ResidualSpectrogram>, String> {
-    let Some(imp) = report.impacts.first() else { return Ok(None) };
+) -> Option<presets::residual::ResidualSpectrogram> {
+    let imp = report.impacts.first()?;
     // The report names the file as displayed; a name that does not read back (a path that is
     // not UTF-8) costs the residual, not the capture.
     let rec = match estimator::load_wav(Path::new(&imp.file), channel) {
         Ok(r) => r,
         Err(e) => {
             warn(&format!("no residual kept: {e}"));
-            return Ok(None);
+            return None;
         }
     };
     let fs = f64::from(rec.sample_rate);
@@ -241,14 +241,14 @@ fn capture_residual(
             amplitude: f.amplitude,
         })
         .collect();
-    Ok(Some(presets::residual::ResidualSpectrogram::from_power(
+    Some(presets::residual::ResidualSpectrogram::from_power(
         &spec.power,
         spec.frames,
         rec.sample_rate,
         estimator::residual::FRAME as u32,
         estimator::residual::HOP as u32,
         modes,
-    )))
+    ))
 }
 
 /// What `struck residual` was asked.
