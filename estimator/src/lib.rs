@@ -33,6 +33,7 @@ pub mod residual;
 pub mod segment;
 #[doc(hidden)]
 pub mod synth;
+pub mod transfer;
 pub mod wav;
 
 use std::path::{Path, PathBuf};

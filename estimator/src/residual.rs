@@ -21,8 +21,9 @@
 //! first frame centred on sample 0 (the signal is zero before it), one-sided power |X|².
 
 use crate::features::Feature;
-use realfft::num_complex::Complex64 as C64;
-use realfft::RealFftPlanner;
+use realfft::num_complex::{Complex, Complex32 as C32, Complex64 as C64};
+use realfft::num_traits::Float;
+use realfft::{FftNum, RealFftPlanner};
 
 /// Frame length, samples.
 pub const FRAME: usize = 1024;
@@ -50,54 +51,129 @@ pub fn frames_for(len: usize) -> usize {
     len.div_ceil(HOP) + 1
 }
 
+/// FFT plans, window and work buffers for [`FRAME`]-sample STFTs, made once and reused (an
+/// iterative phase reconstruction runs hundreds of transforms).
+/// In `f64` for analysis, in `f32` for Griffin–Lim (twice the speed; its error is far
+/// below a reconstruction's).
+pub struct Stft<T: FftNum + Float = f64> {
+    window: Vec<T>,
+    forward: std::sync::Arc<dyn realfft::RealToComplex<T>>,
+    inverse: std::sync::Arc<dyn realfft::ComplexToReal<T>>,
+    time: Vec<T>,
+    freq: Vec<Complex<T>>,
+    scratch_fwd: Vec<Complex<T>>,
+    scratch_inv: Vec<Complex<T>>,
+    /// 1 / (FRAME·Σ w²) per sample of the last inverse's length, and its frame count.
+    norm: Vec<T>,
+    norm_frames: usize,
+}
+
+impl<T: FftNum + Float> Default for Stft<T> {
+    fn default() -> Self {
+        Stft::new()
+    }
+}
+
+impl<T: FftNum + Float> Stft<T> {
+    /// Plans for [`FRAME`] samples.
+    pub fn new() -> Stft<T> {
+        let mut planner = RealFftPlanner::<T>::new();
+        let forward = planner.plan_fft_forward(FRAME);
+        let inverse = planner.plan_fft_inverse(FRAME);
+        Stft {
+            window: hann().into_iter().map(|w| T::from_f64(w).unwrap_or_else(T::zero)).collect(),
+            time: forward.make_input_vec(),
+            freq: forward.make_output_vec(),
+            scratch_fwd: forward.make_scratch_vec(),
+            scratch_inv: inverse.make_scratch_vec(),
+            forward,
+            inverse,
+            norm: Vec::new(),
+            norm_frames: 0,
+        }
+    }
+
+    /// The complex STFT of `x` (Hann, centred frames) into `spec` (frame-major, `frames` ×
+    /// [`BINS`]).
+    pub fn forward(&mut self, x: &[T], frames: usize, spec: &mut Vec<Complex<T>>) {
+        spec.clear();
+        for m in 0..frames {
+            let start = (m * HOP) as isize - (FRAME / 2) as isize;
+            let first = (-start).max(0) as usize;
+            let last = (x.len() as isize - start).clamp(0, FRAME as isize) as usize;
+            self.time.fill(T::zero());
+            for i in first..last.max(first) {
+                self.time[i] = x[(start + i as isize) as usize] * self.window[i];
+            }
+            // The buffers have the plan's lengths.
+            let _ = self.forward.process_with_scratch(&mut self.time, &mut self.freq, &mut self.scratch_fwd);
+            spec.extend_from_slice(&self.freq);
+        }
+    }
+
+    /// The inverse of [`Stft::forward`] by weighted overlap-add (Hann synthesis window,
+    /// normalised by Σ w², so that an unmodified STFT returns its signal) into `out` (its
+    /// length is the signal's).
+    pub fn inverse(&mut self, spec: &[Complex<T>], frames: usize, out: &mut [T]) {
+        let len = out.len();
+        out.fill(T::zero());
+        if self.norm.len() != len || self.norm_frames != frames {
+            // 1 / Σ w² per sample, for this length (the same for every inverse of it).
+            let mut norm = vec![0.0f64; len];
+            let window = hann();
+            for m in 0..frames {
+                let start = (m * HOP) as isize - (FRAME / 2) as isize;
+                for (i, w) in window.iter().enumerate() {
+                    let n = start + i as isize;
+                    if n >= 0 && (n as usize) < len {
+                        norm[n as usize] += w * w;
+                    }
+                }
+            }
+            self.norm =
+                norm.into_iter()
+                    .map(|n| {
+                        if n > 1e-12 {
+                            T::from_f64(1.0 / (n * FRAME as f64)).unwrap_or_else(T::zero)
+                        } else {
+                            T::zero()
+                        }
+                    })
+                    .collect();
+            self.norm_frames = frames;
+        }
+        for m in 0..frames {
+            self.freq.copy_from_slice(&spec[m * BINS..(m + 1) * BINS]);
+            // A real signal's spectrum has real DC and Nyquist bins.
+            self.freq[0].im = T::zero();
+            self.freq[BINS - 1].im = T::zero();
+            let _ = self.inverse.process_with_scratch(&mut self.freq, &mut self.time, &mut self.scratch_inv);
+            let start = (m * HOP) as isize - (FRAME / 2) as isize;
+            let first = (-start).max(0) as usize;
+            let last = (len as isize - start).clamp(0, FRAME as isize) as usize;
+            for i in first..last {
+                let o = &mut out[(start + i as isize) as usize];
+                *o = *o + self.time[i] * self.window[i];
+            }
+        }
+        for (o, &n) in out.iter_mut().zip(&self.norm) {
+            *o = *o * n;
+        }
+    }
+}
+
 /// The complex STFT of `x` (Hann, centred frames), frame-major.
 fn stft(x: &[f64], frames: usize) -> Vec<C64> {
-    let w = hann();
-    let mut planner = RealFftPlanner::<f64>::new();
-    let fft = planner.plan_fft_forward(FRAME);
-    let (mut buf, mut out) = (fft.make_input_vec(), fft.make_output_vec());
     let mut spec = Vec::with_capacity(frames * BINS);
-    for m in 0..frames {
-        let start = (m * HOP) as isize - (FRAME / 2) as isize;
-        for (i, b) in buf.iter_mut().enumerate() {
-            let n = start + i as isize;
-            *b = if n >= 0 && (n as usize) < x.len() { x[n as usize] * w[i] } else { 0.0 };
-        }
-        // The buffers have the plan's lengths.
-        let _ = fft.process(&mut buf, &mut out);
-        spec.extend_from_slice(&out);
-    }
+    Stft::<f64>::new().forward(x, frames, &mut spec);
     spec
 }
 
-/// The inverse of [`stft`] by weighted overlap-add (Hann synthesis window, normalised by
-/// Σ w², so that an unmodified STFT returns its signal), `len` samples.
+/// The inverse of [`stft`], `len` samples.
+#[cfg(test)]
 fn istft(spec: &[C64], frames: usize, len: usize) -> Vec<f64> {
-    let w = hann();
-    let mut planner = RealFftPlanner::<f64>::new();
-    let ifft = planner.plan_fft_inverse(FRAME);
-    let (mut buf, mut frame) = (ifft.make_input_vec(), ifft.make_output_vec());
-    let (mut out, mut norm) = (vec![0.0; len], vec![0.0; len]);
-    for m in 0..frames {
-        buf.copy_from_slice(&spec[m * BINS..(m + 1) * BINS]);
-        // A real signal's spectrum has real DC and Nyquist bins.
-        buf[0].im = 0.0;
-        buf[BINS - 1].im = 0.0;
-        let _ = ifft.process(&mut buf, &mut frame);
-        let start = (m * HOP) as isize - (FRAME / 2) as isize;
-        for (i, &v) in frame.iter().enumerate() {
-            let n = start + i as isize;
-            if n >= 0 && (n as usize) < len {
-                out[n as usize] += v / FRAME as f64 * w[i];
-                norm[n as usize] += w[i] * w[i];
-            }
-        }
-    }
-    for (o, n) in out.iter_mut().zip(&norm) {
-        if *n > 1e-12 {
-            *o /= n;
-        }
-    }
+    let mut out = vec![0.0; len];
+    Stft::<f64>::new().inverse(spec, frames, &mut out);
     out
 }
 
@@ -238,30 +314,63 @@ pub fn impact_residual(
 /// itself over 10 iterations, or after `max_iterations`. Returns the signal and the final
 /// spectral convergence.
 pub fn griffin_lim(target: &Spectrogram, len: usize, max_iterations: usize, seed: u64) -> (Vec<f64>, f64) {
-    const ALPHA: f64 = 0.99;
-    let mag: Vec<f64> = target.power.iter().map(|p| p.max(0.0).sqrt()).collect();
-    let total = mag.iter().map(|m| m * m).sum::<f64>().sqrt();
-    if total <= 0.0 {
-        return (vec![0.0; len], 0.0);
+    let r = griffin_lim_with(&mut Stft::<f32>::new(), target, len, max_iterations, seed);
+    (r.signal, r.convergence)
+}
+
+/// What [`griffin_lim_with`] returns.
+#[derive(Clone, Debug)]
+pub struct PhaseReconstruction {
+    /// The signal.
+    pub signal: Vec<f64>,
+    /// Its spectral convergence ‖|STFT(x)| − |X|‖ / ‖X‖ against the target.
+    pub convergence: f64,
+    /// Iterations run.
+    pub iterations: usize,
+}
+
+/// [`griffin_lim`] with the caller's plans (reused across calls), in `f32`.
+pub fn griffin_lim_with(
+    plan: &mut Stft<f32>,
+    target: &Spectrogram,
+    len: usize,
+    max_iterations: usize,
+    seed: u64,
+) -> PhaseReconstruction {
+    const ALPHA: f32 = 0.99;
+    let mag: Vec<f32> = target.power.iter().map(|p| p.max(0.0).sqrt() as f32).collect();
+    let total = target.power.iter().map(|p| p.max(0.0)).sum::<f64>().sqrt();
+    if total <= 0.0 || len == 0 {
+        return PhaseReconstruction { signal: vec![0.0; len], convergence: 0.0, iterations: 0 };
     }
     let frames = target.frames;
     let mut rng = crate::synth::Rng::new(seed);
-    let project = |s: &mut [C64]| {
-        for (c, &m) in s.iter_mut().zip(&mag) {
-            let n = c.norm();
-            *c = if n > 0.0 { *c * (m / n) } else { C64::new(m, 0.0) };
-        }
-    };
-    let mut t: Vec<C64> = mag.iter().map(|&m| C64::from_polar(m, std::f64::consts::TAU * rng.uniform())).collect();
+    let mut t: Vec<C32> =
+        mag.iter().map(|&m| C32::from_polar(m, (std::f64::consts::TAU * rng.uniform()) as f32)).collect();
     let mut prev = t.clone();
-    let mut x = istft(&t, frames, len);
-    let (mut err, mut best) = (f64::INFINITY, (x.clone(), f64::INFINITY));
+    let mut x = vec![0.0f32; len];
+    plan.inverse(&t, frames, &mut x);
+    let mut c = Vec::with_capacity(t.len());
+    let (mut best, mut best_err) = (x.clone(), f64::INFINITY);
     let mut checkpoint = f64::INFINITY;
+    let mut iterations = 0;
     for i in 0..max_iterations.max(1) {
-        let mut c = stft(&x, frames);
-        err = c.iter().zip(&mag).map(|(c, m)| (c.norm() - m).powi(2)).sum::<f64>().sqrt() / total;
-        if err < best.1 {
-            best = (x.clone(), err);
+        plan.forward(&x, frames, &mut c);
+        // One pass: the error of this estimate, the projection on the target magnitudes and
+        // the momentum step.
+        let mut sq = 0.0f64;
+        for (((tn, cn), pn), &m) in t.iter_mut().zip(c.iter_mut()).zip(prev.iter_mut()).zip(&mag) {
+            // |c| without hypot's care for overflow (|c|² is far inside f32's range here).
+            let n = (cn.re * cn.re + cn.im * cn.im).sqrt();
+            sq += f64::from((n - m) * (n - m));
+            *cn = if n > 0.0 { *cn * (m / n) } else { C32::new(m, 0.0) };
+            *tn = *cn + (*cn - *pn) * ALPHA;
+            *pn = *cn;
+        }
+        let err = sq.sqrt() / total;
+        if err < best_err {
+            best.copy_from_slice(&x);
+            best_err = err;
         }
         if i % 10 == 9 {
             if checkpoint - err < 1e-3 * err {
@@ -269,15 +378,10 @@ pub fn griffin_lim(target: &Spectrogram, len: usize, max_iterations: usize, seed
             }
             checkpoint = err;
         }
-        project(&mut c);
-        for ((tn, cn), pn) in t.iter_mut().zip(&c).zip(prev.iter_mut()) {
-            *tn = cn + (cn - *pn) * ALPHA;
-            *pn = *cn;
-        }
-        x = istft(&t, frames, len);
+        plan.inverse(&t, frames, &mut x);
+        iterations = i + 1;
     }
-    let _ = err;
-    best
+    PhaseReconstruction { signal: best.into_iter().map(f64::from).collect(), convergence: best_err, iterations }
 }
 
 #[cfg(test)]
