@@ -9,6 +9,7 @@
 use crate::contact::{self, ContactState, Excitation, FractalNoise, Surface, Texture, TextureKind, Tool};
 use crate::damping::Damping;
 use crate::exciter::{self, Mallet, MalletKind, Noise};
+use crate::residual::{ResidualClip, Residuals};
 use crate::resonator::{reduce_lanes, ModeCoeffs, ResonatorBank, VectorBatch, BATCH_VECTORS, LANES, MAX_KERNEL_BLOCK};
 use std::f64::consts::PI;
 
@@ -252,6 +253,9 @@ pub struct SoundParams {
     pub variation: f32,
     /// How notes excite the object: a strike, or a lasting contact while held (issue 16).
     pub contact: ContactParams,
+    /// Level of the residual layer (issue 15; [`crate::residual`]), linear: each strike
+    /// plays the residual clip set with [`Engine::set_residual`] × this (0: off).
+    pub residual_gain: f32,
 }
 
 /// The controls of a lasting contact (scrape, slide, roll; see [`crate::contact`]).
@@ -402,6 +406,7 @@ impl Default for SoundParams {
             normalize: true,
             variation: 0.0,
             contact: ContactParams::default(),
+            residual_gain: 0.0,
         }
     }
 }
@@ -1136,6 +1141,9 @@ pub struct Engine {
     /// Audio in is wanted, and where its contact starts on the strike path.
     input_on: bool,
     input_position: f32,
+    /// The residual layer's clip, and the strikes playing it.
+    residual_clip: Option<Box<ResidualClip>>,
+    residuals: Residuals,
 }
 
 impl Engine {
@@ -1180,6 +1188,8 @@ impl Engine {
             wheel_speed: None,
             input_on: false,
             input_position: 0.5,
+            residual_clip: None,
+            residuals: Residuals::default(),
         }
     }
 
@@ -1214,6 +1224,7 @@ impl Engine {
         self.variation_rng = Noise::new(VARIATION_SEED);
         self.num_terminated = 0;
         self.wheel_speed = None;
+        self.residuals.clear();
         self.params = self.target;
         self.glide = Glide {
             modulus_ratio: self.target.modulus_ratio,
@@ -1281,8 +1292,9 @@ impl Engine {
             }
         }
         let slowest = f64::from(slowest);
+        let residual = self.residuals.samples_left(self.residual_clip.as_deref()).min(cap);
         if slowest <= 0.0 {
-            return 0;
+            return residual;
         }
         if slowest >= 1.0 {
             return cap;
@@ -1290,7 +1302,7 @@ impl Engine {
         // |pole|ⁿ = 10^(−3), with |pole| = √slowest.
         let n = (1e-3f64).ln() / (0.5 * slowest.ln());
         if n.is_finite() {
-            n.min(f64::from(cap)).ceil() as u32
+            (n.min(f64::from(cap)).ceil() as u32).max(residual)
         } else {
             cap
         }
@@ -1373,6 +1385,35 @@ impl Engine {
         voice.excitation = self.target.contact.excitation;
         voice.lasting = false;
         voice.force = if strike.velocity.is_finite() { strike.velocity.clamp(0.0, 1.0) } else { 0.0 };
+        self.start_residual(strike);
+    }
+
+    /// The residual layer's part of a strike (issue 15): the clip, at this strike's level,
+    /// brightness and key, from the strike's sample on. Lasting contacts play none (the
+    /// residual is an impact's). Realtime-safe.
+    fn start_residual(&mut self, strike: Strike) {
+        let p = self.target;
+        let Some(clip) = self.residual_clip.as_deref() else { return };
+        if p.residual_gain <= 0.0 || p.contact.excitation.is_lasting() || !strike.velocity.is_finite() {
+            return;
+        }
+        let gain = p.residual_gain * exciter::velocity_gain(strike.velocity, p.velocity_sensitivity);
+        let rate = (strike.lambda_factor / clip.lambda_factor).sqrt().clamp(0.125, 8.0);
+        let contact = |v: f32| self.contact_time_s(v).clamp(exciter::CONTACT_RANGE_S.0, exciter::CONTACT_RANGE_S.1);
+        let (this, reference) = (contact(strike.velocity), contact(1.0));
+        self.residuals.start(gain, rate, this, reference, self.sample_rate);
+    }
+
+    /// Sets the residual layer's clip (issue 15) and returns the one it replaces, for the
+    /// caller to free off the audio thread. Strikes sounding go on reading the new clip.
+    /// Realtime-safe (no allocation, nothing freed).
+    pub fn set_residual(&mut self, clip: Option<Box<ResidualClip>>) -> Option<Box<ResidualClip>> {
+        std::mem::replace(&mut self.residual_clip, clip)
+    }
+
+    /// The residual layer's clip.
+    pub fn residual(&self) -> Option<&ResidualClip> {
+        self.residual_clip.as_deref()
     }
 
     /// Releases a note: it rings on, damped by the release damping; a lasting contact ends
@@ -1866,6 +1907,9 @@ impl Engine {
                 );
                 reduce_lanes(lanes, chunk);
             }
+            if self.residuals.any() {
+                self.residuals.render(self.residual_clip.as_deref(), chunk);
+            }
             pos += n;
             self.clock += n as u64;
             self.rendered_in_call = pos as u32;
@@ -1899,7 +1943,12 @@ impl Engine {
     /// each mode that passes the quality threshold, in the bank's order. Allocates (for
     /// display and the command line, not the audio thread).
     pub fn predict_modes(&self, object: usize, strike: Strike) -> Vec<(f64, f64, f32)> {
-        let p = self.target;
+        self.predict_modes_with(self.target, object, strike)
+    }
+
+    /// [`Engine::predict_modes`] under the controls `p` instead of the engine's (the residual
+    /// layer's transfer, off the audio thread). Allocates.
+    pub fn predict_modes_with(&self, p: SoundParams, object: usize, strike: Strike) -> Vec<(f64, f64, f32)> {
         let damping = p.damping.scaled(p.decay_scale);
         let modes = Self::target_modes(&self.objects, &p, self.sample_rate, object, strike, &damping);
         let obj = modes.obj;

@@ -13,6 +13,7 @@ pub mod damping;
 pub mod engine;
 pub mod exciter;
 pub mod ftz;
+pub mod residual;
 pub mod resonator;
 pub mod safety;
 

@@ -10,7 +10,7 @@
 //! 2. *stretch* time by the ratio of the decays (the source's frame at τ = t·dⱼᵗ/dᵢˢ lands
 //!    at t, so a mode decaying twice as fast in the target makes its residual twice as
 //!    short);
-//! 3. *scale* pixel by pixel by A = P_modalᵗ / P_modalˢ'', the target mode's power
+//! 3. *scale* the intensity by A = P_modalᵗ / P_modalˢ'', the target mode's power
 //!    spectrogram over the shifted and stretched source mode's;
 //!
 //! then stitches the bands and reconstructs a signal from the power spectrogram with
@@ -24,17 +24,23 @@
 //!   centre; below the first mode it is f·f₀ᵗ/f₀ˢ, above the last f·f_Nᵗ/f_Nˢ, so a uniformly
 //!   scaled object scales the whole residual by the same factor (Ren's natural
 //!   correspondence, tested to 1 %).
-//! - **Pixel scale in closed form.** A mode's power in a frame is a²·e^(−2dt)·K(Δ), with K
-//!   the Hann window's power response Δ bins off the mode. After the stretch both decays
-//!   agree, so A = (aⱼᵗ/aᵢˢ)²·K(Δᵗ)/K(Δˢ), the same in every frame; K is taken with its
-//!   side-lobe envelope (no nulls to divide by) and the ratio of the K's kept within
-//!   ±20 dB.
+//! - **Pixel scale.** A mode's power in a frame is a²·e^(−2dt) times the window's response
+//!   around its centre. Once stretched, both decays agree, and the band map puts centre on
+//!   centre, so the ratio of the two modal spectrograms on the mode's ridge is (aⱼᵗ/aᵢˢ)²
+//!   in every frame: Fig. 8's height scaling. Struck scales by that ratio; it does not
+//!   divide the two window responses off the ridge, which would only notch the residual
+//!   around each mode (the band map widens the source's peak, not the residual's physics).
+//! - **Stitching.** Between two mode centres the power and time ratios blend in logs from
+//!   one pair's to the next instead of switching at the midpoint, so the stitched
+//!   spectrogram has no steps at the band edges.
 //! - **Pairing.** Ren pairs modes by their natural correspondence when the target is the
 //!   source object scaled, and otherwise pairs the N_dominant modes of largest energy
-//!   (a²/4d, a damped sinusoid's) on each side from low to high frequency. Struck's source
-//!   modes are the recording's features, never an object's modes, so it always pairs the
-//!   dominant modes ([`DOMINANT`]); for a scaled object the two rankings agree and the pairs
-//!   are the correspondence.
+//!   (a²/4d, a damped sinusoid's) on each side from low to high frequency ([`pairs`]).
+//!   Struck takes a target as the source scaled when each dominant source mode has a
+//!   target mode at one common frequency ratio (within 1 %); a recording's features against
+//!   an object's modes pair by dominance. A pair's power ratio is kept within ±20 dB of all pairs' together: when
+//!   the two dominant sets differ, a mode paired with a far weaker one must not blow its
+//!   band up.
 //! - **Stretch limits.** The decay ratio is kept within [1/[`MAX_STRETCH`], [`MAX_STRETCH`]]:
 //!   a click stretched further is no longer a click.
 
@@ -46,8 +52,8 @@ pub const DOMINANT: usize = 12;
 pub const MAX_STRETCH: f64 = 4.0;
 /// Longest transferred residual, s.
 pub const MAX_SECONDS: f64 = 2.0;
-/// Largest ratio of the window responses in the pixel scale (±20 dB).
-const MAX_KERNEL_RATIO: f64 = 100.0;
+/// Largest departure of one pair's power ratio from all pairs' (±20 dB).
+const MAX_PAIR_RATIO: f64 = 100.0;
 
 /// A mode as the transfer sees it: frequency (Hz), decay rate d (s⁻¹, the envelope
 /// e^(−dt)), amplitude (any consistent unit on each side).
@@ -102,39 +108,52 @@ pub struct Pair {
     pub target: Mode,
 }
 
-/// Ren's DetermineModePairs: the [`DOMINANT`] modes of largest energy on each side (those
-/// below each side's Nyquist frequency), each side sorted by frequency, paired in order.
+/// Ren's DetermineModePairs. When the target is the source scaled — each of the
+/// [`DOMINANT`] source modes of largest energy has a target mode at one common frequency
+/// ratio, within 1 % — the natural correspondence: each of those with its counterpart.
+/// Otherwise the [`DOMINANT`] modes of largest energy on each side (those below each side's
+/// Nyquist frequency), each side sorted by frequency, paired in order.
 pub fn pairs(source: &[Mode], source_nyquist: f64, target: &[Mode], target_nyquist: f64) -> Vec<Pair> {
-    let top = |modes: &[Mode], nyquist: f64| {
+    let by_energy = |modes: &[Mode], nyquist: f64| {
         let mut m: Vec<Mode> = modes.iter().copied().filter(|m| m.usable(nyquist)).collect();
         m.sort_by(|a, b| b.energy().total_cmp(&a.energy()));
         m
     };
-    let (mut s, mut t) = (top(source, source_nyquist), top(target, target_nyquist));
+    let (mut s, mut t) = (by_energy(source, source_nyquist), by_energy(target, target_nyquist));
+    if s.is_empty() || t.is_empty() {
+        return Vec::new();
+    }
     let n = DOMINANT.min(s.len()).min(t.len());
+    // The natural correspondence: a scale k (tried from the strongest source mode to each
+    // target mode) under which every dominant source mode has its counterpart.
+    let mut t_freq: Vec<Mode> = t.clone();
+    t_freq.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
+    let counterpart = |f: f64| -> Option<Mode> {
+        let i = t_freq.partition_point(|m| m.freq_hz < f);
+        [i.wrapping_sub(1), i]
+            .into_iter()
+            .filter_map(|j| t_freq.get(j))
+            .filter(|m| (m.freq_hz / f - 1.0).abs() < 0.01)
+            .min_by(|a, b| (a.freq_hz - f).abs().total_cmp(&(b.freq_hz - f).abs()))
+            .copied()
+    };
+    for cand in &t_freq {
+        let k = cand.freq_hz / s[0].freq_hz;
+        let matched: Option<Vec<Pair>> =
+            s[..n].iter().map(|m| counterpart(m.freq_hz * k).map(|c| Pair { source: *m, target: c })).collect();
+        if let Some(mut p) = matched {
+            p.sort_by(|a, b| a.source.freq_hz.total_cmp(&b.source.freq_hz));
+            // One target mode per source mode.
+            if p.windows(2).all(|w| w[0].target.freq_hz < w[1].target.freq_hz) {
+                return p;
+            }
+        }
+    }
     s.truncate(n);
     t.truncate(n);
     s.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
     t.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
     s.into_iter().zip(t).map(|(source, target)| Pair { source, target }).collect()
-}
-
-/// The Hann window's power response Δ bins off a sinusoid, relative to its peak, with the
-/// side lobes' envelope in place of their nulls: |W(Δ)|² with W(Δ) = sinc(Δ)/(1 − Δ²) in the
-/// main lobe (|Δ| < 1.5) and 1/(π|Δ|·|Δ² − 1|) beyond.
-fn kernel(delta: f64) -> f64 {
-    let d = delta.abs();
-    let w = if d < 1e-9 {
-        1.0
-    } else if (d - 1.0).abs() < 1e-9 {
-        0.5
-    } else if d < 1.5 {
-        let x = std::f64::consts::PI * d;
-        (x.sin() / x / (1.0 - d * d)).abs()
-    } else {
-        1.0 / (std::f64::consts::PI * d * (d * d - 1.0))
-    };
-    w * w
 }
 
 /// The target's residual power spectrogram (the [`crate::residual`] grid at `sample_rate`):
@@ -176,37 +195,40 @@ pub fn transfer_spectrogram(src: &Source<'_>, pairs: &[Pair], sample_rate: f64) 
         }
         return Spectrogram { frames, power };
     }
-    // Target band edges: midpoints between consecutive target modes.
     let n = pairs.len();
-    let mid = |i: usize| 0.5 * (pairs[i].target.freq_hz + pairs[i + 1].target.freq_hz);
-    // Frequency map g: target Hz → source Hz, piecewise linear through the mode centres.
-    let g = |f: f64| -> f64 {
-        let first = &pairs[0];
+    // A pair's power ratio within ±20 dB of all pairs' together: a mode paired with one far
+    // weaker or stronger (the dominant sets differ) must not blow its band up or empty it.
+    let overall = pairs.iter().map(|p| p.target.amplitude.powi(2)).sum::<f64>()
+        / pairs.iter().map(|p| p.source.amplitude.powi(2)).sum::<f64>();
+    // Per pair, in logs: the source frequency, the power ratio and the time ratio.
+    let log_amp: Vec<f64> = pairs
+        .iter()
+        .map(|p| {
+            (p.target.amplitude / p.source.amplitude)
+                .powi(2)
+                .clamp(overall / MAX_PAIR_RATIO, overall * MAX_PAIR_RATIO)
+                .ln()
+        })
+        .collect();
+    let log_ratio: Vec<f64> = pairs.iter().map(|p| ratio(p).ln()).collect();
+    // For a target frequency: the source frequency (the map through the mode centres), and
+    // the power and time ratios, blended between the two pairs around it.
+    let transform = |f: f64| -> (f64, f64, f64) {
+        let (first, last) = (&pairs[0], &pairs[n - 1]);
         if f <= first.target.freq_hz {
-            return f * first.source.freq_hz / first.target.freq_hz;
+            return (f * first.source.freq_hz / first.target.freq_hz, log_amp[0].exp(), log_ratio[0].exp());
         }
-        let last = &pairs[n - 1];
         if f >= last.target.freq_hz {
-            return f * last.source.freq_hz / last.target.freq_hz;
+            return (f * last.source.freq_hz / last.target.freq_hz, log_amp[n - 1].exp(), log_ratio[n - 1].exp());
         }
         let j = pairs.partition_point(|p| p.target.freq_hz <= f).clamp(1, n - 1);
         let (a, b) = (&pairs[j - 1], &pairs[j]);
         let u = (f - a.target.freq_hz) / (b.target.freq_hz - a.target.freq_hz);
-        a.source.freq_hz + u * (b.source.freq_hz - a.source.freq_hz)
+        let blend = |x: &[f64]| ((1.0 - u) * x[j - 1] + u * x[j]).exp();
+        (a.source.freq_hz + u * (b.source.freq_hz - a.source.freq_hz), blend(&log_amp), blend(&log_ratio))
     };
-    let mut band = 0usize;
     for k in 0..BINS {
-        let f = k as f64 * bin_t;
-        while band + 1 < n && f >= mid(band) {
-            band += 1;
-        }
-        let p = &pairs[band];
-        let fs = g(f);
-        let amp = (p.target.amplitude / p.source.amplitude).powi(2);
-        let shape = (kernel((f - p.target.freq_hz) / bin_t) / kernel((fs - p.source.freq_hz) / bin_s))
-            .clamp(1.0 / MAX_KERNEL_RATIO, MAX_KERNEL_RATIO);
-        let scale = amp * shape;
-        let r = ratio(p);
+        let (fs, scale, r) = transform(k as f64 * bin_t);
         let bin = fs / bin_s;
         for m in 0..frames {
             let frame = m as f64 * hop_t * r / hop_s;
@@ -249,21 +271,6 @@ pub fn transfer(plan: &mut Stft<f32>, src: &Source<'_>, target: &[Mode], sample_
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// The window response: 1 at the peak, ¼ (−6 dB) one bin off (the Hann window's
-    /// W(1) = ½), falling monotonically past the main lobe.
-    #[test]
-    fn the_kernel_has_the_hann_values() {
-        assert!((kernel(0.0) - 1.0).abs() < 1e-12);
-        assert!((kernel(1.0) - 0.25).abs() < 1e-9);
-        assert!((kernel(0.999_999) - 0.25).abs() < 1e-4);
-        let mut last = kernel(1.5);
-        for i in 1..100 {
-            let k = kernel(1.5 + 0.1 * f64::from(i));
-            assert!(k < last && k > 0.0);
-            last = k;
-        }
-    }
 
     /// Pairing: the dominant modes on each side, in frequency order.
     #[test]

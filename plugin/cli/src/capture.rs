@@ -203,9 +203,8 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
     ))
 }
 
-/// The residual of `report`'s first impact as kept with its material: the first
-/// [`presets::residual::SECONDS`] of it, as a quantised log-power spectrogram with the
-/// impact's features (`None` without impacts).
+/// The residual of `report`'s first impact as kept with its material
+/// ([`struck::residual_layer::capture_residual`]; `None` without impacts).
 ///
 /// A recording that cannot be read again keeps no residual (with a warning).
 fn capture_residual(
@@ -222,33 +221,7 @@ fn capture_residual(
             return None;
         }
     };
-    let fs = f64::from(rec.sample_rate);
-    let (x, _) = estimator::residual::impact_residual(
-        &rec.samples,
-        fs,
-        imp,
-        &report.damping(),
-        report.support_c().unwrap_or(0.0),
-        presets::residual::SECONDS,
-    );
-    let spec = estimator::residual::power_spectrogram(&x);
-    let modes = imp
-        .features
-        .iter()
-        .map(|f| presets::residual::ResidualMode {
-            freq_hz: f.freq_hz,
-            decay_per_s: f.decay_per_s,
-            amplitude: f.amplitude,
-        })
-        .collect();
-    Some(presets::residual::ResidualSpectrogram::from_power(
-        &spec.power,
-        spec.frames,
-        rec.sample_rate,
-        estimator::residual::FRAME as u32,
-        estimator::residual::HOP as u32,
-        modes,
-    ))
+    struck::residual_layer::capture_residual(report, &rec.samples, rec.sample_rate)
 }
 
 /// What `struck residual` was asked.

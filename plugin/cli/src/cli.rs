@@ -301,6 +301,8 @@ pub fn configured_host(opts: &SoundOptions, max_block: usize) -> Result<OfflineH
             host.set_param("csupport", m.support_c().min(2000.0) as f32).map_err(|e| e.to_string())?;
             let reference = lib.banks.get(object).map_or(0.0, |b| b.reference.specific_modulus);
             file_modulus = m.specific_modulus.filter(|&g| g > 0.0 && reference > 0.0).map(|g| g / reference);
+            // Its residual, if it keeps one (issue 15): the residual layer plays it.
+            host.plugin_mut().set_user_residual(m.residual.clone()).map_err(|e| format!("{}: {e}", opts.material))?;
         }
     }
     if let Some(s) = opts.size {
@@ -336,6 +338,9 @@ pub fn configured_host(opts: &SoundOptions, max_block: usize) -> Result<OfflineH
         host.set_param("gamma", gamma).map_err(|e| e.to_string())?;
     }
     host.reset();
+    // The residual transferred for these settings before the first note (the same on every
+    // run).
+    host.plugin_mut().refresh_residual();
     Ok(host)
 }
 

@@ -13,6 +13,7 @@ pub mod editor;
 pub mod library;
 pub mod offline;
 pub mod params;
+pub mod residual_layer;
 pub mod shared;
 pub mod user_texture;
 
@@ -141,6 +142,8 @@ pub struct StruckPlugin<V: Variant> {
     /// The editor's audition of a lasting contact (a click holds no key): released after
     /// [`AUDITION_CONTACT_S`]; the note and the samples left.
     audition_contact: Option<(NoteId, u64)>,
+    /// What the engine's residual clip was transferred for (issue 15; [`residual_layer`]).
+    residual_key: Option<residual_layer::Key>,
 }
 
 /// The longest tail the effect reports to its host, s.
@@ -172,7 +175,14 @@ impl<V: Variant> StruckPlugin<V> {
             input_mono: Vec::new(),
             gains: Vec::new(),
             audition_contact: None,
+            residual_key: None,
         }
+    }
+}
+
+impl<V: Variant> Drop for StruckPlugin<V> {
+    fn drop(&mut self) {
+        self.params.user_residual.stop_worker();
     }
 }
 
@@ -205,6 +215,39 @@ impl<V: Variant> StruckPlugin<V> {
         Ok(())
     }
 
+    /// Keeps `residual` as the *Custom* material's residual (with the project); it plays
+    /// once transferred (at once with [`refresh_residual`](Self::refresh_residual), else by
+    /// the worker within milliseconds). Not for the audio thread.
+    ///
+    /// # Errors
+    /// A residual that does not validate (one line).
+    pub fn set_user_residual(
+        &mut self,
+        residual: Option<presets::residual::ResidualSpectrogram>,
+    ) -> Result<(), String> {
+        self.params.user_residual.set_source(residual)
+    }
+
+    /// Transfers the residual for the current settings now, on this thread, and plays it
+    /// from the next strike (the command line, after setting parameters). Not for the audio
+    /// thread (allocates; about 10 ms).
+    pub fn refresh_residual(&mut self) {
+        let wanted = self.wanted_residual();
+        if let Some(e) = self.engine.as_mut() {
+            self.params.user_residual.refresh(e, wanted, &mut self.residual_key);
+        }
+    }
+
+    /// The residual transfer the current settings want. Realtime-safe.
+    fn wanted_residual(&self) -> Option<residual_layer::Key> {
+        residual_layer::wanted_key(
+            &self.params,
+            &self.library,
+            self.sample_rate,
+            self.params.user_residual.generation(),
+        )
+    }
+
     /// The engine, once activated.
     pub fn engine(&self) -> Option<&Engine> {
         self.engine.as_ref()
@@ -212,86 +255,17 @@ impl<V: Variant> StruckPlugin<V> {
 
     /// Index of the selected object, clamped to the library.
     fn object_index(&self) -> usize {
-        (self.params.object.value().max(0) as usize).min(self.library.banks.len().saturating_sub(1))
+        object_index_of(&self.params, &self.library)
     }
 
     /// The engine controls from the current parameter values. Realtime-safe.
     pub fn sound_params(&self) -> SoundParams {
-        let p = &self.params;
-        let material = p.material.value().max(0) as usize;
-        let damping = self.library.dampings.get(material).copied().unwrap_or_else(|| p.custom_damping());
-        let mut modulus = f64::from(p.modulus_ratio.value());
-        if p.material_pitch.value() {
-            modulus *= self.library.material_modulus_ratio(material, self.object_index());
-        }
-        let support_c = match p.support_mode.value() {
-            SupportMode::Off => 0.0,
-            SupportMode::AsRecorded => self
-                .library
-                .materials
-                .get(material)
-                .map_or_else(|| f64::from(p.custom_support_per_s.value()), presets::Material::support_c),
-            SupportMode::Amount => f64::from(p.support_amount_per_s.value()),
-        }
-        .clamp(0.0, MAX_SUPPORT_PER_S);
-        // The object's Young's modulus as played, E = γ·ρ (the bank's reference density),
-        // for the Hertz contact of a hard mallet on it.
-        let object_modulus = self
-            .library
-            .banks
-            .get(self.object_index())
-            .map_or(0.0, |b| b.reference.specific_modulus * modulus * b.reference.density);
-        SoundParams {
-            mallet: p.mallet.value().kind().mallet().on_object(object_modulus),
-            normalize: p.normalize_level.value(),
-            variation: p.variation.value(),
-            damping,
-            decay_scale: f64::from(p.decay_scale.value()),
-            modulus_ratio: modulus,
-            size: f64::from(p.size.value()),
-            hardness: p.hardness.value(),
-            noise: p.noise.value(),
-            velocity_sensitivity: p.velocity_sensitivity.value(),
-            release_damping: f64::from(p.release_damping_per_s.value()),
-            pressure_damping: f64::from(p.pressure_damping_per_s.value()),
-            quality_db: p.quality_db.value(),
-            support_c,
-            support_point: p.support_at_point.value().then(|| p.support_point.value()),
-            contact: ContactParams {
-                excitation: p.excitation.value().excitation(),
-                speed_mps: f64::from(p.contact_speed.value()),
-                texture: p.texture.value().kind(),
-                texture_scale: f64::from(p.texture_scale.value()),
-                ball_radius_m: 1e-3 * f64::from(p.ball_radius_mm.value()),
-                direction: match p.contact_direction.value() {
-                    params::ContactDirection::Forward => 1.0,
-                    params::ContactDirection::Backward => -1.0,
-                    params::ContactDirection::Across => 0.0,
-                },
-                wrap: p.path_ends.value() == params::PathEnds::Wrap,
-            },
-        }
+        sound_params_of(&self.params, &self.library)
     }
 
     /// How a note-on of `key` strikes: per-key λ factor and position by key mode.
     pub fn strike_for(&self, key: u8, velocity: f32) -> Strike {
-        let p = &self.params;
-        let root = p.root_note.value();
-        let base = p.strike_position.value();
-        match p.key_mode.value() {
-            // One semitone per key: pitch ∝ sqrt(λ), so λ scales by 2^(1/6) per key.
-            KeyMode::Pitched => Strike {
-                velocity,
-                position: base,
-                lambda_factor: params::key_lambda_factor(p, self.library.banks.get(self.object_index()), key),
-            },
-            KeyMode::Positions => {
-                let points = self.library.banks.get(self.object_index()).map_or(1, |b| b.points.len()).max(1) as i32;
-                let idx = (i32::from(key) - root).rem_euclid(points);
-                let position = if points > 1 { idx as f32 / (points - 1) as f32 } else { 0.0 };
-                Strike { velocity, position, lambda_factor: 1.0 }
-            }
-        }
+        strike_for_of(&self.params, &self.library, key, velocity)
     }
 
     /// With *Pitch reference* = *Strongest mode* (Pitched keys, *Keys tune the object*):
@@ -425,6 +399,87 @@ impl<V: Variant> StruckPlugin<V> {
     }
 }
 
+/// Index of the selected object, clamped to `library`.
+pub fn object_index_of(p: &StruckParams, library: &Library) -> usize {
+    (p.object.value().max(0) as usize).min(library.banks.len().saturating_sub(1))
+}
+
+/// The engine controls from the current parameter values. Realtime-safe.
+pub fn sound_params_of(p: &StruckParams, library: &Library) -> SoundParams {
+    let material = p.material.value().max(0) as usize;
+    let damping = library.dampings.get(material).copied().unwrap_or_else(|| p.custom_damping());
+    let mut modulus = f64::from(p.modulus_ratio.value());
+    if p.material_pitch.value() {
+        modulus *= library.material_modulus_ratio(material, object_index_of(p, library));
+    }
+    let support_c = match p.support_mode.value() {
+        SupportMode::Off => 0.0,
+        SupportMode::AsRecorded => library
+            .materials
+            .get(material)
+            .map_or_else(|| f64::from(p.custom_support_per_s.value()), presets::Material::support_c),
+        SupportMode::Amount => f64::from(p.support_amount_per_s.value()),
+    }
+    .clamp(0.0, MAX_SUPPORT_PER_S);
+    // The object's Young's modulus as played, E = γ·ρ (the bank's reference density),
+    // for the Hertz contact of a hard mallet on it.
+    let object_modulus = library
+        .banks
+        .get(object_index_of(p, library))
+        .map_or(0.0, |b| b.reference.specific_modulus * modulus * b.reference.density);
+    SoundParams {
+        mallet: p.mallet.value().kind().mallet().on_object(object_modulus),
+        normalize: p.normalize_level.value(),
+        variation: p.variation.value(),
+        damping,
+        decay_scale: f64::from(p.decay_scale.value()),
+        modulus_ratio: modulus,
+        size: f64::from(p.size.value()),
+        hardness: p.hardness.value(),
+        noise: p.noise.value(),
+        velocity_sensitivity: p.velocity_sensitivity.value(),
+        release_damping: f64::from(p.release_damping_per_s.value()),
+        pressure_damping: f64::from(p.pressure_damping_per_s.value()),
+        quality_db: p.quality_db.value(),
+        support_c,
+        support_point: p.support_at_point.value().then(|| p.support_point.value()),
+        contact: ContactParams {
+            excitation: p.excitation.value().excitation(),
+            speed_mps: f64::from(p.contact_speed.value()),
+            texture: p.texture.value().kind(),
+            texture_scale: f64::from(p.texture_scale.value()),
+            ball_radius_m: 1e-3 * f64::from(p.ball_radius_mm.value()),
+            direction: match p.contact_direction.value() {
+                params::ContactDirection::Forward => 1.0,
+                params::ContactDirection::Backward => -1.0,
+                params::ContactDirection::Across => 0.0,
+            },
+            wrap: p.path_ends.value() == params::PathEnds::Wrap,
+        },
+        residual_gain: if p.residual.value() { util::db_to_gain(p.residual_level_db.value()) } else { 0.0 },
+    }
+}
+
+/// How a note-on of `key` strikes: per-key λ factor and position by key mode.
+pub fn strike_for_of(p: &StruckParams, library: &Library, key: u8, velocity: f32) -> Strike {
+    let root = p.root_note.value();
+    let base = p.strike_position.value();
+    match p.key_mode.value() {
+        // One semitone per key: pitch ∝ sqrt(λ), so λ scales by 2^(1/6) per key.
+        KeyMode::Pitched => Strike {
+            velocity,
+            position: base,
+            lambda_factor: params::key_lambda_factor(p, library.banks.get(object_index_of(p, library)), key),
+        },
+        KeyMode::Positions => {
+            let points = library.banks.get(object_index_of(p, library)).map_or(1, |b| b.points.len()).max(1) as i32;
+            let idx = (i32::from(key) - root).rem_euclid(points);
+            let position = if points > 1 { idx as f32 / (points - 1) as f32 } else { 0.0 };
+            Strike { velocity, position, lambda_factor: 1.0 }
+        }
+    }
+}
+
 impl<V: Variant> Plugin for StruckPlugin<V> {
     const NAME: &'static str = V::NAME;
     const VENDOR: &'static str = "Struck developers";
@@ -465,6 +520,14 @@ impl<V: Variant> Plugin for StruckPlugin<V> {
         if let Some(e) = self.engine.as_mut() {
             self.params.user_texture.restore(e);
         }
+        // The residual for the settings as they are, then a worker for their changes.
+        self.refresh_residual();
+        let shared = self.editor_shared.clone();
+        self.params.user_residual.start_worker(
+            self.params.clone(),
+            self.library.clone(),
+            Arc::new(move || shared.sample_rate()),
+        );
         let max = (config.max_buffer_size as usize).clamp(1, MAX_BLOCK);
         if self.mono.len() < max {
             self.mono = vec![0.0; max];
@@ -523,6 +586,11 @@ impl<V: Variant> Plugin for StruckPlugin<V> {
         // A user texture set since the last block (editor, command line, a loaded state).
         if let Some(e) = self.engine.as_mut() {
             self.params.user_texture.apply(e);
+        }
+        // The residual transferred for the settings as they are, once the worker has it.
+        let wanted = self.wanted_residual();
+        if let Some(e) = self.engine.as_mut() {
+            self.params.user_residual.apply(e, wanted, &mut self.residual_key);
         }
         // Editor auditions (clicks on the object view): lock-free pops, no allocation.
         while let Some(a) = self.editor_shared.audition.pop() {

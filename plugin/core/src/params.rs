@@ -359,6 +359,14 @@ pub struct StruckParams {
     /// Audio in: share of the object's sound in the output (the rest is the input, dry).
     #[id = "drywet"]
     pub dry_wet: FloatParam,
+    /// The residual layer (issue 15; Ren 2013 §6): strikes also play the captured
+    /// recording's residual transferred to the object as played, when the material has one
+    /// (the *Custom* material loaded from a captured material file).
+    #[id = "residual"]
+    pub residual: BoolParam,
+    /// Level of the residual layer, dB (0: as the recording held it beside its modes).
+    #[id = "residuallevel"]
+    pub residual_level_db: FloatParam,
     /// Editor window size in logical points `[width, height]`, so it reopens at that size.
     #[persist = "editor-size"]
     pub editor_size: Mutex<[u32; 2]>,
@@ -368,6 +376,10 @@ pub struct StruckParams {
     /// The user's texture (*Texture* = User file), kept with the project.
     #[persist = "user-texture"]
     pub user_texture: crate::user_texture::UserTextureField,
+    /// The *Custom* material's residual (from the captured material file it was loaded
+    /// from), kept with the project.
+    #[persist = "user-residual"]
+    pub user_residual: crate::residual_layer::ResidualField,
 }
 
 /// Values of the *Custom* material knobs (plain units) that reproduce a damping law.
@@ -687,9 +699,15 @@ impl StruckParams {
                 .with_value_to_string(formatters::v2s_f32_percentage(0))
                 .with_unit("%")
                 .with_string_to_value(formatters::s2v_f32_percentage()),
+            residual: BoolParam::new("Residual", true),
+            residual_level_db: FloatParam::new("Residual level", 0.0, FloatRange::Linear { min: -40.0, max: 12.0 })
+                .with_unit(" dB")
+                .with_value_to_string(formatters::v2s_f32_rounded(1))
+                .with_string_to_value(s2v_number()),
             editor_size: Mutex::new(DEFAULT_EDITOR_SIZE),
             capture: Mutex::new(None),
             user_texture: Default::default(),
+            user_residual: Default::default(),
         }
     }
 
