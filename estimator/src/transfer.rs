@@ -272,15 +272,30 @@ pub fn transfer(plan: &mut Stft<f32>, src: &Source<'_>, target: &[Mode], sample_
 mod tests {
     use super::*;
 
-    /// Pairing: the dominant modes on each side, in frequency order.
+    /// Pairing by dominance: no common frequency ratio, so the [`DOMINANT`]-limited strongest
+    /// modes on each side (here three: the target has three), in frequency order.
     #[test]
     fn pairs_take_the_dominant_modes_in_frequency_order() {
         let m = |f: f64, a: f64| Mode { freq_hz: f, decay_per_s: 10.0, amplitude: a };
-        let source = [m(300.0, 1.0), m(100.0, 2.0), m(200.0, 0.001)];
-        let target = [m(150.0, 1.0), m(450.0, 1.0), m(50.0, 1e-4)];
+        let source = [m(100.0, 2.0), m(300.0, 1.0), m(200.0, 0.001), m(250.0, 1.0)];
+        let target = [m(150.0, 1.0), m(450.0, 1.0), m(700.0, 1.0)];
         let p = pairs(&source, 24_000.0, &target, 24_000.0);
-        assert_eq!(p.len(), 2);
-        assert_eq!((p[0].source.freq_hz, p[0].target.freq_hz), (100.0, 150.0));
-        assert_eq!((p[1].source.freq_hz, p[1].target.freq_hz), (300.0, 450.0));
+        let got: Vec<(f64, f64)> = p.iter().map(|p| (p.source.freq_hz, p.target.freq_hz)).collect();
+        assert_eq!(got, [(100.0, 150.0), (250.0, 450.0), (300.0, 700.0)]);
+    }
+
+    /// Pairing by correspondence: a target that is the source × 1.3 (plus weak modes of its
+    /// own in between) pairs each source mode with its counterpart.
+    #[test]
+    fn a_scaled_target_pairs_by_correspondence() {
+        let m = |f: f64, a: f64| Mode { freq_hz: f, decay_per_s: 10.0, amplitude: a };
+        let source: Vec<Mode> = (1..=5).map(|i| m(100.0 * f64::from(i).powf(1.7), 1.0 / f64::from(i))).collect();
+        let mut target: Vec<Mode> = source.iter().map(|s| m(1.3 * s.freq_hz, 0.5 * s.amplitude)).collect();
+        target.extend([m(200.0, 0.9), m(700.0, 0.8)]);
+        let p = pairs(&source, 24_000.0, &target, 24_000.0);
+        assert_eq!(p.len(), 5);
+        for q in &p {
+            assert!((q.target.freq_hz / q.source.freq_hz - 1.3).abs() < 1e-12, "{q:?}");
+        }
     }
 }

@@ -221,7 +221,13 @@ fn capture_residual(
             return None;
         }
     };
-    struck::residual_layer::capture_residual(report, &rec.samples, rec.sample_rate)
+    struck::residual_layer::capture_residual(
+        report,
+        &rec.samples,
+        rec.sample_rate,
+        &report.damping(),
+        report.support_c().unwrap_or(0.0),
+    )
 }
 
 /// What `struck residual` was asked.

@@ -144,6 +144,10 @@ pub struct StruckPlugin<V: Variant> {
     audition_contact: Option<(NoteId, u64)>,
     /// What the engine's residual clip was transferred for (issue 15; [`residual_layer`]).
     residual_key: Option<residual_layer::Key>,
+    /// The host renders offline: a block waits for the residual its settings want.
+    offline: bool,
+    /// The last key an offline block waited for (it waits once per key).
+    residual_waited: Option<residual_layer::Key>,
 }
 
 /// The longest tail the effect reports to its host, s.
@@ -176,6 +180,8 @@ impl<V: Variant> StruckPlugin<V> {
             gains: Vec::new(),
             audition_contact: None,
             residual_key: None,
+            offline: false,
+            residual_waited: None,
         }
     }
 }
@@ -511,6 +517,8 @@ impl<V: Variant> Plugin for StruckPlugin<V> {
     ) -> bool {
         self.has_input = layout.main_input_channels.is_some();
         self.sample_rate = config.sample_rate;
+        self.offline = config.process_mode == ProcessMode::Offline;
+        self.residual_waited = None;
         self.editor_shared.sample_rate.store(config.sample_rate.to_bits(), std::sync::atomic::Ordering::Relaxed);
         let rebuild = self.engine.as_ref().is_none_or(|e| e.sample_rate() != f64::from(config.sample_rate));
         if rebuild {
@@ -587,10 +595,28 @@ impl<V: Variant> Plugin for StruckPlugin<V> {
         if let Some(e) = self.engine.as_mut() {
             self.params.user_texture.apply(e);
         }
-        // The residual transferred for the settings as they are, once the worker has it.
+        // The residual transferred for the settings as they are, once the worker has it (an
+        // offline render waits for it, once per key: sleeping allocates nothing).
         let wanted = self.wanted_residual();
         if let Some(e) = self.engine.as_mut() {
-            self.params.user_residual.apply(e, wanted, &mut self.residual_key);
+            let field = &self.params.user_residual;
+            field.apply(e, wanted, &mut self.residual_key);
+            if self.offline && wanted.is_some() && self.residual_key != wanted && self.residual_waited != wanted {
+                self.residual_waited = wanted;
+                for _ in 0..residual_layer::OFFLINE_WAIT_MS {
+                    std::thread::sleep(std::time::Duration::from_millis(1));
+                    field.apply(e, wanted, &mut self.residual_key);
+                    if self.residual_key == wanted {
+                        break;
+                    }
+                }
+            }
+            if wanted.is_none() {
+                // Layer off, not the Custom material or no residual: strikes play none.
+                let mut quiet = sp;
+                quiet.residual_gain = 0.0;
+                e.set_params(quiet);
+            }
         }
         // Editor auditions (clicks on the object view): lock-free pops, no allocation.
         while let Some(a) = self.editor_shared.audition.pop() {

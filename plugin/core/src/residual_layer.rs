@@ -15,11 +15,18 @@
 //! - **How it reaches the audio thread.** Each clip goes through a lock-free queue with the
 //!   key it was made for; the audio thread takes it only if that is still the wanted key
 //!   (a clip made for settings already left is freed, never played), and hands the clip it
-//!   replaces back for the worker to free. With the layer off, a factory material or no
-//!   residual, the audio thread drops its clip at once.
-//! - **Offline.** Activation and [`crate::StruckPlugin::refresh_residual`] transfer at once on the
-//!   calling thread, so a render plays the residual from its first note, the same on every
-//!   run (the transfer's phases are seeded).
+//!   replaces back for the worker to free. Until a new clip arrives (one transfer, about
+//!   10 ms), strikes play the last one. With the layer off, a factory material or no
+//!   residual, strikes play none (the clip is kept for when the settings come back).
+//! - **Rates.** The transfer runs at the recording's sample rate; its result is resampled
+//!   to the engine's (rubato), so the residual's level and band are the same at any host
+//!   rate.
+//! - **Offline.** Activation and [`crate::StruckPlugin::refresh_residual`] transfer at once on
+//!   the calling thread, so a render plays the residual from its first note, the same on
+//!   every run (the transfer's phases are seeded). A host rendering offline
+//!   (`ProcessMode::Offline`) that changes a setting between blocks gets the block held
+//!   until the worker delivers (at most [`OFFLINE_WAIT_MS`] ms once per key), so offline
+//!   renders never depend on the worker's timing.
 
 use crate::library::Library;
 use crate::params::StruckParams;
@@ -32,6 +39,8 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 
+/// Longest an offline render waits for a transfer, ms.
+pub const OFFLINE_WAIT_MS: u64 = 2_000;
 /// How often the worker looks for changed settings, ms.
 pub const POLL_MS: u64 = 15;
 /// The transfer's phase seed (a transfer is repeatable).
@@ -109,28 +118,33 @@ pub fn make_clip(engine: &Engine, source: &ResidualSpectrogram, key: &Key) -> Op
         sample_rate: f64::from(source.sample_rate),
         modes: &src_modes,
     };
-    let t = transfer(&mut estimator::residual::Stft::<f32>::new(), &src, &target, f64::from(key.sample_rate), SEED);
-    let samples: Vec<f32> = t.signal.iter().map(|&v| if v.is_finite() { v as f32 } else { 0.0 }).collect();
+    // At the recording's rate (its spectrogram's frames and bins keep their meaning), then
+    // resampled to the engine's.
+    let t = transfer(&mut estimator::residual::Stft::<f32>::new(), &src, &target, src.sample_rate, SEED);
+    let at_source: Vec<f32> = t.signal.iter().map(|&v| if v.is_finite() { v as f32 } else { 0.0 }).collect();
+    let samples = crate::editor::ab::resample(&at_source, source.sample_rate, key.sample_rate.round() as u32).ok()?;
     Some(Box::new(ResidualClip { samples, lambda_factor: key.strike.lambda_factor }))
 }
 
 /// The residual of `report`'s first impact as a captured material keeps it: the first
-/// [`presets::residual::SECONDS`] of the impact minus the modes its material represents
-/// ([`estimator::residual::impact_residual`], Ren §6.1), as a quantised log-power
-/// spectrogram with the impact's features. `samples` is the recording the report was
-/// made from (mono, at `sample_rate`). `None` without impacts.
+/// [`presets::residual::SECONDS`] of the impact minus the modes the material (`law`, mean
+/// support damping `support_c`) represents ([`estimator::residual::impact_residual`], Ren
+/// §6.1), as a quantised log-power spectrogram with the impact's features. `samples` is the
+/// recording the report was made from (mono, at `sample_rate`). `None` without impacts.
 pub fn capture_residual(
     report: &estimator::EstimateReport,
     samples: &[f32],
     sample_rate: u32,
+    law: &dsp::Damping,
+    support_c: f64,
 ) -> Option<ResidualSpectrogram> {
     let imp = report.impacts.first()?;
     let (x, _) = estimator::residual::impact_residual(
         samples,
         f64::from(sample_rate),
         imp,
-        &report.damping(),
-        report.support_c().unwrap_or(0.0),
+        law,
+        support_c,
         presets::residual::SECONDS,
     );
     let spec = estimator::residual::power_spectrogram(&x);
@@ -167,8 +181,10 @@ struct Worker {
 pub struct ResidualField {
     /// The residual as saved with the project.
     source: Mutex<Option<ResidualSpectrogram>>,
-    /// Bumped by every set (0: never set).
+    /// The residual's generation, 0 with none (read by the audio thread, never locked).
     generation: AtomicU64,
+    /// Generations handed out so far.
+    counter: AtomicU64,
     /// Worker → audio thread: transferred clips with their keys.
     pending: ArrayQueue<Handoff>,
     /// Audio thread → worker: clips no longer played, freed by the worker.
@@ -181,6 +197,7 @@ impl Default for ResidualField {
         ResidualField {
             source: Mutex::new(None),
             generation: AtomicU64::new(0),
+            counter: AtomicU64::new(0),
             pending: ArrayQueue::new(4),
             done: ArrayQueue::new(8),
             worker: Mutex::new(None),
@@ -199,13 +216,10 @@ impl ResidualField {
         self.source.lock().is_ok_and(|s| s.is_some())
     }
 
-    /// The current generation (0: nothing was ever set; each set adds one).
+    /// The current residual's generation (0: none; each set residual has its own).
+    /// Realtime-safe (an atomic load).
     pub fn generation(&self) -> u64 {
-        if self.is_set() {
-            self.generation.load(Ordering::Acquire)
-        } else {
-            0
-        }
+        self.generation.load(Ordering::Acquire)
     }
 
     /// Keeps `source` with the project (`None`: no residual); the next transfer uses it.
@@ -217,10 +231,11 @@ impl ResidualField {
         if let Some(s) = &source {
             s.validate().map_err(|e| e.to_string())?;
         }
+        let generation = if source.is_some() { self.counter.fetch_add(1, Ordering::AcqRel) + 1 } else { 0 };
         if let Ok(mut slot) = self.source.lock() {
             *slot = source;
         }
-        self.generation.fetch_add(1, Ordering::AcqRel);
+        self.generation.store(generation, Ordering::Release);
         Ok(())
     }
 
@@ -244,8 +259,10 @@ impl ResidualField {
         }
     }
 
-    /// Gives `engine` the clip `wanted` needs if it has arrived; with `wanted` `None`, takes
-    /// its clip away. `current` is the key of the engine's clip, kept by the caller.
+    /// Gives `engine` the clip `wanted` needs if it has arrived (clips made for another key
+    /// are handed back unplayed). With `wanted` `None` nothing changes: the caller silences
+    /// the layer, and the clip is there again if the same settings come back. `current` is
+    /// the key of the engine's clip, kept by the caller.
     ///
     /// # Realtime safety
     /// Lock-free queue operations only; nothing is allocated or freed (a clip is taken only
@@ -258,13 +275,7 @@ impl ResidualField {
                 }
             }
         };
-        let Some(want) = wanted else {
-            if engine.residual().is_some() && !self.done.is_full() {
-                hand_back(engine.set_residual(None));
-            }
-            *current = None;
-            return;
-        };
+        let Some(want) = wanted else { return };
         while self.done.len() + 2 <= self.done.capacity() {
             let Some((key, clip)) = self.pending.pop() else { break };
             if key == want {

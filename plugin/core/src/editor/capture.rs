@@ -232,9 +232,28 @@ pub(super) fn captured_material(name: &str, rec: &CaptureRecord, fit: &estimator
         damping: DampingSpec::from_damping(&fit.damping()),
         notes: rec.report.warnings.join("; "),
         support: rec.report.support_for(fit).map(|mean_c_per_s| presets::SupportDamping { mean_c_per_s }),
-        // The editor's captures keep no residual yet (`struck estimate` does).
-        residual: None,
+        residual: capture_residual(rec, fit).unwrap_or(None),
     }
+}
+
+/// The residual of the capture's first impact for `fit` (Ren §6.1), its recording read
+/// again from its file (the capture keeps no audio); `Ok(None)` without impacts.
+///
+/// # Errors
+/// The recording cannot be read any more (one line).
+pub(super) fn capture_residual(
+    rec: &CaptureRecord,
+    fit: &estimator::FitResult,
+) -> Result<Option<presets::residual::ResidualSpectrogram>, String> {
+    let Some(imp) = rec.report.impacts.first() else { return Ok(None) };
+    let wav = estimator::load_wav(Path::new(&imp.file), None).map_err(|e| format!("no residual kept: {e}"))?;
+    Ok(crate::residual_layer::capture_residual(
+        &rec.report,
+        &wav.samples,
+        wav.sample_rate,
+        &fit.damping(),
+        rec.report.support_for(fit).unwrap_or(0.0),
+    ))
 }
 
 impl CapturePanel {
@@ -519,7 +538,16 @@ impl CapturePanel {
                 let support = rec.report.support_for(&fit).unwrap_or(0.0);
                 match apply_damping(&params, custom, cx.setter, &fit.damping(), support) {
                     Ok(()) => {
-                        self.message = Some(format!("applied the {} fit to the Custom material", fit.method.name()))
+                        // The capture's residual goes with its law (issue 15).
+                        let kept = capture_residual(&rec, &fit)
+                            .and_then(|r| params.user_residual.set_source(r).map(|()| params.user_residual.is_set()));
+                        self.message = Some(match kept {
+                            Ok(true) => {
+                                format!("applied the {} fit and its residual to the Custom material", fit.method.name())
+                            }
+                            Ok(false) => format!("applied the {} fit to the Custom material", fit.method.name()),
+                            Err(e) => format!("applied the {} fit to the Custom material; {e}", fit.method.name()),
+                        });
                     }
                     Err(e) => self.message = Some(e),
                 }
@@ -569,10 +597,19 @@ impl CapturePanel {
                 }
             });
             let busy = c.ab_job.is_some();
-            for side in [super::ab::Side::Recording, super::ab::Side::Modes, super::ab::Side::Object] {
+            for side in [
+                super::ab::Side::Recording,
+                super::ab::Side::Modes,
+                super::ab::Side::ModesResidual,
+                super::ab::Side::Object,
+            ] {
                 let hint = match side {
                     super::ab::Side::Recording => "Play this impact of the recording",
                     super::ab::Side::Modes => "Play the impact's own modes with the fitted decay law",
+                    super::ab::Side::ModesResidual => {
+                        "Play the impact's own modes with the fitted decay law and its residual (contact, noise), \
+                         transferred as the instrument plays it"
+                    }
                     super::ab::Side::Object => "Strike the current object with the fitted material",
                 };
                 if ui.add_enabled(!busy, egui::Button::new(side.label())).on_hover_text(hint).clicked() {

@@ -111,7 +111,7 @@ impl MaterialPanel {
             (None, Some(u)) => format!("Custom: {u}"),
             (None, None) => "Custom (knobs)".into(),
         };
-        let mut chosen_user: Option<(String, dsp::Damping, f64)> = None;
+        let mut chosen_user: Option<(String, dsp::Damping, f64, Option<presets::residual::ResidualSpectrogram>)> = None;
         ui.horizontal(|ui| {
             egui::ComboBox::from_label("Material").selected_text(shown).width(220.0).show_ui(ui, |ui| {
                 ui.label(egui::RichText::new("Factory").weak());
@@ -139,7 +139,7 @@ impl MaterialPanel {
                                 .clicked()
                             {
                                 match m.to_damping() {
-                                    Ok(d) => chosen_user = Some((m.name.clone(), d, m.support_c())),
+                                    Ok(d) => chosen_user = Some((m.name.clone(), d, m.support_c(), m.residual.clone())),
                                     Err(e) => self.message = Some(e.to_string()),
                                 }
                             }
@@ -155,8 +155,9 @@ impl MaterialPanel {
                 self.user = None;
             }
         });
-        if let Some((name, d, support)) = chosen_user {
-            match apply_damping(p, custom, setter, &d, support) {
+        if let Some((name, d, support, residual)) = chosen_user {
+            // The material's residual goes with its law into Custom (none: none plays).
+            match apply_damping(p, custom, setter, &d, support).and_then(|()| p.user_residual.set_source(residual)) {
                 Ok(()) => self.loaded_user = Some(name),
                 Err(e) => self.message = Some(e),
             }
@@ -216,6 +217,24 @@ fn knob_groups(ui: &mut egui::Ui, cx: &PanelCtx, panel: &mut MaterialPanel) {
             param_row(ui, setter, &p.caughey_10k_per_s);
             param_row(ui, setter, &p.custom_support_per_s);
         });
+    });
+    egui::CollapsingHeader::new("Residual").default_open(p.user_residual.is_set()).show(ui, |ui| {
+        egui::Grid::new("residual-knobs").num_columns(2).show(ui, |ui| {
+            param_row(ui, setter, &p.residual);
+            param_row(ui, setter, &p.residual_level_db);
+        });
+        let status = match p.user_residual.source() {
+            Some(r) => format!(
+                "The Custom material keeps a recorded residual ({} modes, {:.2} s): strikes play it, transferred to the object",
+                r.modes.len(),
+                f64::from(r.frames.saturating_sub(1) * r.hop) / f64::from(r.sample_rate.max(1))
+            ),
+            None => "No residual: load a captured material (or apply a capture) into Custom".into(),
+        };
+        ui.label(egui::RichText::new(status).weak());
+        if selected < custom && p.user_residual.is_set() {
+            ui.label(egui::RichText::new("It plays when Material is Custom.").weak());
+        }
     });
     egui::CollapsingHeader::new("Mallet").default_open(true).show(ui, |ui| {
         egui::Grid::new("mallet-knobs").num_columns(2).show(ui, |ui| {
