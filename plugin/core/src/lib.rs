@@ -13,6 +13,8 @@ pub mod editor;
 pub mod library;
 pub mod offline;
 pub mod params;
+pub mod resample;
+pub mod residual_field;
 pub mod residual_layer;
 pub mod shared;
 pub mod user_texture;
@@ -531,11 +533,7 @@ impl<V: Variant> Plugin for StruckPlugin<V> {
         // The residual for the settings as they are, then a worker for their changes.
         self.refresh_residual();
         let shared = self.editor_shared.clone();
-        self.params.user_residual.start_worker(
-            self.params.clone(),
-            self.library.clone(),
-            Arc::new(move || shared.sample_rate()),
-        );
+        residual_layer::start_worker(self.params.clone(), self.library.clone(), Arc::new(move || shared.sample_rate()));
         let max = (config.max_buffer_size as usize).clamp(1, MAX_BLOCK);
         if self.mono.len() < max {
             self.mono = vec![0.0; max];

@@ -379,7 +379,7 @@ pub struct StruckParams {
     /// The *Custom* material's residual (from the captured material file it was loaded
     /// from), kept with the project.
     #[persist = "user-residual"]
-    pub user_residual: crate::residual_layer::ResidualField,
+    pub user_residual: crate::residual_field::ResidualField,
 }
 
 /// Values of the *Custom* material knobs (plain units) that reproduce a damping law.

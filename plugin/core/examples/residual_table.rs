@@ -1,0 +1,119 @@
+//! Issue 15's real-recording table: on each clip, the editor's A/B clips of its first
+//! impact — the recording (A), its modes with the fitted law (*B: modes*) and those modes
+//! plus the transferred residual (*B: modes + residual*) — and the log-spectral distance
+//! of each B to A over the attack (the first 50 ms) and over the first 350 ms.
+//!
+//! `cargo run --release -p struck-core --example residual_table -- CLIPS_DIR [--json OUT]`
+//! (clips: `tests/recordings/fetch.py`'s `CACHE/clips`; the category is the file name's
+//! first word).
+
+use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
+use struck_core::editor::ab::{build, AbRequest, Side};
+
+/// Log-spectral distance, dB, over the first `frames` frames (each side floored 100 dB under
+/// the reference's strongest cell).
+fn lsd(a: &[f32], reference: &[f32], frames: usize) -> f64 {
+    use estimator::residual::{power_spectrogram, BINS};
+    let f = |x: &[f32]| power_spectrogram(&x.iter().map(|&v| f64::from(v)).collect::<Vec<f64>>());
+    let (pa, pr) = (f(a), f(reference));
+    let frames = frames.min(pa.frames).min(pr.frames);
+    let floor = pr.power.iter().copied().fold(0.0, f64::max) * 1e-10;
+    let db = |p: f64| 10.0 * (p + floor).log10();
+    let cells = frames * BINS;
+    ((0..cells).map(|i| (db(pa.power[i]) - db(pr.power[i])).powi(2)).sum::<f64>() / cells as f64).sqrt()
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    if v.is_empty() {
+        f64::NAN
+    } else {
+        v[v.len() / 2]
+    }
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let Some(dir) = args.first() else {
+        eprintln!("usage: residual_table CLIPS_DIR [--json OUT]");
+        std::process::exit(2);
+    };
+    let json = args.iter().position(|a| a == "--json").and_then(|i| args.get(i + 1));
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .expect("clips folder")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "wav"))
+        .collect();
+    files.sort();
+    let rate = 48_000.0f32;
+    let mut rows: Vec<(String, String, f64, f64, f64, f64)> = Vec::new();
+    for f in &files {
+        let name = f.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let category = name.split(['-', '_', '.']).next().unwrap_or("").to_string();
+        let report = match estimator::estimate(
+            std::slice::from_ref(f),
+            &estimator::Options::default(),
+            &|_| {},
+            &AtomicBool::new(false),
+        ) {
+            Ok(r) => r,
+            Err(e) => {
+                eprintln!("{name}: {e}");
+                continue;
+            }
+        };
+        let Some(imp) = report.impacts.first() else { continue };
+        let req = |side| AbRequest {
+            side,
+            file: f.clone(),
+            onset_s: imp.onset_s,
+            duration_s: imp.duration_s.min(1.0),
+            features: imp.features.clone(),
+            damping: report.damping(),
+            object: dsp::ObjectModes::new(vec![1e6], &[vec![1.0]]),
+            params: dsp::engine::SoundParams::default(),
+            position: 0.5,
+            gamma_ratio: None,
+            rate,
+        };
+        let (Ok(a), Ok(m), Ok(mr)) =
+            (build(&req(Side::Recording)), build(&req(Side::Modes)), build(&req(Side::ModesResidual)))
+        else {
+            eprintln!("{name}: a clip failed");
+            continue;
+        };
+        let hop = estimator::residual::HOP as f64 / f64::from(rate);
+        let attack = (0.05 / hop).round() as usize;
+        let long = (0.35 / hop).round() as usize;
+        let row =
+            (name.clone(), category, lsd(&m, &a, attack), lsd(&mr, &a, attack), lsd(&m, &a, long), lsd(&mr, &a, long));
+        println!("{name}: attack {:.2} → {:.2} dB, 350 ms {:.2} → {:.2} dB", row.2, row.3, row.4, row.5);
+        rows.push(row);
+    }
+    let mut cats: Vec<String> = rows.iter().map(|r| r.1.clone()).collect();
+    cats.sort();
+    cats.dedup();
+    println!("\n| clips | n | attack: modes | attack: modes + residual | better | 350 ms: modes | 350 ms: modes + residual |");
+    println!("| --- | --- | --- | --- | --- | --- | --- |");
+    for c in cats.iter().map(String::as_str).chain(["all"]) {
+        let r: Vec<_> = rows.iter().filter(|r| c == "all" || r.1 == c).collect();
+        let better = r.iter().filter(|r| r.3 < r.2).count();
+        println!(
+            "| {c} | {} | {:.2} dB | {:.2} dB | {better}/{} | {:.2} dB | {:.2} dB |",
+            r.len(),
+            median(r.iter().map(|r| r.2).collect()),
+            median(r.iter().map(|r| r.3).collect()),
+            r.len(),
+            median(r.iter().map(|r| r.4).collect()),
+            median(r.iter().map(|r| r.5).collect())
+        );
+    }
+    if let Some(out) = json {
+        let v: Vec<serde_json::Value> = rows
+            .iter()
+            .map(|r| serde_json::json!({"clip": r.0, "category": r.1, "attack_modes_db": r.2, "attack_residual_db": r.3, "long_modes_db": r.4, "long_residual_db": r.5}))
+            .collect();
+        let _ = std::fs::write(out, serde_json::to_string_pretty(&v).unwrap_or_default());
+    }
+}
