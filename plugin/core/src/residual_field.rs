@@ -13,6 +13,8 @@ use std::thread::JoinHandle;
 
 /// Longest an offline render waits for a transfer, ms.
 pub const OFFLINE_WAIT_MS: u64 = 2_000;
+/// How often the worker looks for changed settings while no residual is set, ms.
+pub const IDLE_POLL_MS: u64 = 100;
 /// How often the worker looks for changed settings, ms.
 pub const POLL_MS: u64 = 15;
 /// The transfer's phase seed (a transfer is repeatable).

@@ -11,7 +11,7 @@
 //!   strike position, the sample rate or the residual itself ([`Key`]). The target modes are those a velocity-1 strike at the root
 //!   key rings (`Engine::predict_modes_with`), the transfer is the estimator's
 //!   ([`estimator::transfer`], Griffin–Lim included), run by a worker thread that looks for
-//!   changes every [`POLL_MS`] ms, never by the audio thread.
+//!   changes every [`POLL_MS`] ms ([`IDLE_POLL_MS`] while no residual is set), never by the audio thread.
 //! - **How it reaches the audio thread.** Each clip goes through a lock-free queue with the
 //!   key it was made for; the audio thread takes it only if that is still the wanted key
 //!   (a clip made for settings already left is freed, never played), and hands the clip it
@@ -30,7 +30,7 @@
 
 use crate::library::Library;
 use crate::params::StruckParams;
-pub use crate::residual_field::{make_clip, Key, ResidualField, OFFLINE_WAIT_MS, POLL_MS};
+pub use crate::residual_field::{make_clip, Key, ResidualField, IDLE_POLL_MS, OFFLINE_WAIT_MS, POLL_MS};
 use dsp::engine::{Engine, SoundParams};
 use presets::residual::ResidualSpectrogram;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -134,7 +134,10 @@ pub fn start_worker(params: Arc<StruckParams>, library: Arc<Library>, sample_rat
                 }
                 last = Some(wanted);
             }
-            std::thread::sleep(std::time::Duration::from_millis(POLL_MS));
+            // Without a residual (the common case) it looks less often: an instance that
+            // plays none costs a wake-up every 100 ms, not every 15.
+            let idle = params.user_residual.generation() == 0;
+            std::thread::sleep(std::time::Duration::from_millis(if idle { IDLE_POLL_MS } else { POLL_MS }));
         }
     });
     if let Ok(handle) = spawned {
