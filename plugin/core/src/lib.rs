@@ -601,7 +601,9 @@ impl<V: Variant> Plugin for StruckPlugin<V> {
             field.apply(e, wanted, &mut self.residual_key);
             if self.offline && wanted.is_some() && self.residual_key != wanted && self.residual_waited != wanted {
                 self.residual_waited = wanted;
-                for _ in 0..residual_layer::OFFLINE_WAIT_MS {
+                let deadline =
+                    std::time::Instant::now() + std::time::Duration::from_millis(residual_layer::OFFLINE_WAIT_MS);
+                while std::time::Instant::now() < deadline {
                     std::thread::sleep(std::time::Duration::from_millis(1));
                     field.apply(e, wanted, &mut self.residual_key);
                     if self.residual_key == wanted {

@@ -89,6 +89,8 @@ pub struct ResidualField {
     generation: AtomicU64,
     /// Generations handed out so far.
     counter: AtomicU64,
+    /// The audio thread handed back a clip made for settings already left.
+    discarded: AtomicBool,
     /// Worker → audio thread: transferred clips with their keys.
     pending: ArrayQueue<Handoff>,
     /// Audio thread → worker: clips no longer played, freed by the worker.
@@ -102,6 +104,7 @@ impl Default for ResidualField {
             source: Mutex::new(None),
             generation: AtomicU64::new(0),
             counter: AtomicU64::new(0),
+            discarded: AtomicBool::new(false),
             pending: ArrayQueue::new(4),
             done: ArrayQueue::new(8),
             worker: Mutex::new(None),
@@ -187,6 +190,8 @@ impl ResidualField {
                 *current = Some(key);
             } else {
                 hand_back(clip);
+                // The worker may take this key for delivered: it makes the wanted one again.
+                self.discarded.store(true, Ordering::Release);
             }
         }
     }
@@ -212,6 +217,12 @@ impl ResidualField {
         }
         *slot = Some(Worker { stop, handle });
         true
+    }
+
+    /// Whether the audio thread handed back an outdated clip since the last call (the
+    /// worker then transfers for the wanted settings again, even if it made them before).
+    pub fn take_discarded(&self) -> bool {
+        self.discarded.swap(false, Ordering::AcqRel)
     }
 
     /// Whether a worker runs.

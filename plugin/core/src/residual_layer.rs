@@ -123,6 +123,9 @@ pub fn start_worker(params: Arc<StruckParams>, library: Arc<Library>, sample_rat
             field.free_done();
             let fs = sample_rate();
             let wanted = wanted_key(&params, &library, fs, field.generation());
+            if field.take_discarded() {
+                last = None;
+            }
             if last != Some(wanted) {
                 if let (Some(k), Some(src)) = (wanted, field.source()) {
                     if engine.as_ref().is_none_or(|(rate, _)| *rate != fs) {

@@ -541,6 +541,10 @@ impl CapturePanel {
                         // The capture's residual goes with its law (issue 15).
                         let kept = capture_residual(&rec, &fit)
                             .and_then(|r| params.user_residual.set_source(r).map(|()| params.user_residual.is_set()));
+                        if kept.is_err() {
+                            // No residual for this law: none of an earlier one either.
+                            let _ = params.user_residual.set_source(None);
+                        }
                         self.message = Some(match kept {
                             Ok(true) => {
                                 format!("applied the {} fit and its residual to the Custom material", fit.method.name())

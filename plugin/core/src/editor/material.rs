@@ -159,7 +159,11 @@ impl MaterialPanel {
             // The material's residual goes with its law into Custom (none: none plays).
             match apply_damping(p, custom, setter, &d, support).and_then(|()| p.user_residual.set_source(residual)) {
                 Ok(()) => self.loaded_user = Some(name),
-                Err(e) => self.message = Some(e),
+                Err(e) => {
+                    // Never an earlier material's residual with this law.
+                    let _ = p.user_residual.set_source(None);
+                    self.message = Some(e);
+                }
             }
         }
         if let Some(m) = &self.message {
