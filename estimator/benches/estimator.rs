@@ -84,23 +84,10 @@ fn pipeline(c: &mut Criterion) {
 /// Griffin–Lim included, at 48 kHz, on one core.
 fn transfer(c: &mut Criterion) {
     use estimator::residual::{power_spectrogram, Stft};
-    use estimator::transfer::{transfer, Mode, Source};
+    use estimator::transfer::{transfer, Source};
     let fs = 48_000.0;
-    let mut rng = Rng::new(4);
-    let x: Vec<f64> = (0..48_000)
-        .map(|n| {
-            let t = n as f64 / fs;
-            rng.normal() * (-t / 0.15).exp()
-        })
-        .collect();
+    let (x, source, target) = estimator::synth::transfer_workload();
     let spec = power_spectrogram(&x);
-    let source: Vec<Mode> = (0..12)
-        .map(|i| Mode { freq_hz: 200.0 * 1.4f64.powi(i), decay_per_s: 5.0 + 2.0 * f64::from(i), amplitude: 0.1 })
-        .collect();
-    let target: Vec<Mode> = source
-        .iter()
-        .map(|m| Mode { freq_hz: 1.5 * m.freq_hz, decay_per_s: 1.3 * m.decay_per_s, amplitude: 0.05 })
-        .collect();
     let src = Source { power: &spec.power, frames: spec.frames, sample_rate: fs, modes: &source };
     let mut plan = Stft::<f32>::new();
     let t = transfer(&mut plan, &src, &target, fs, 1);

@@ -5,7 +5,7 @@
 //! WAV (mono) is taken as a source residual; without files, a decaying noise burst.
 
 use estimator::residual::{griffin_lim_with, power_spectrogram, Stft};
-use estimator::transfer::{pairs, transfer_spectrogram, Mode, Source};
+use estimator::transfer::{pairs, transfer_spectrogram, Source};
 
 fn main() {
     let fs = 48_000.0;
@@ -17,17 +17,9 @@ fn main() {
         }
     }
     if signals.is_empty() {
-        let mut rng = estimator::synth::Rng::new(4);
-        let x = (0..48_000).map(|n| rng.normal() * (-(n as f64) / fs / 0.15).exp()).collect();
-        signals.push(("noise burst, 1 s".into(), x, fs));
+        signals.push(("noise burst, 1 s".into(), estimator::synth::transfer_workload().0, fs));
     }
-    let source: Vec<Mode> = (0..12)
-        .map(|i| Mode { freq_hz: 200.0 * 1.4f64.powi(i), decay_per_s: 5.0 + 2.0 * f64::from(i), amplitude: 0.1 })
-        .collect();
-    let target: Vec<Mode> = source
-        .iter()
-        .map(|m| Mode { freq_hz: 1.5 * m.freq_hz, decay_per_s: 1.3 * m.decay_per_s, amplitude: 0.05 })
-        .collect();
+    let (_, source, target) = estimator::synth::transfer_workload();
     let mut plan = Stft::<f32>::new();
     for (name, x, rate) in signals {
         let spec = power_spectrogram(&x);

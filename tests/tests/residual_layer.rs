@@ -69,15 +69,30 @@ fn diff(a: &[f32], b: &[f32]) -> Vec<f32> {
     a.iter().zip(b).map(|(x, y)| x - y).collect()
 }
 
+/// The residual layer alone: `notes` on the object with `material` at `rate` with `set`,
+/// minus the same with the layer off, `seconds` long in blocks of `block`.
+fn layer_of(
+    material: &str,
+    rate: u32,
+    set: &[(&str, f32)],
+    notes: &[NoteSpec],
+    seconds: f64,
+    block: usize,
+) -> Vec<f32> {
+    let on = render(&mut host(OBJECT, material, rate, set), notes, seconds, block);
+    let mut quiet = set.to_vec();
+    quiet.push(("residual", 0.0));
+    let off = render(&mut host(OBJECT, material, rate, &quiet), notes, seconds, block);
+    diff(&on, &off)
+}
+
 #[test]
 fn each_strike_plays_the_residual_from_its_sample() {
     let dir = temp_dir("strike");
     let material = material_with_residual(&dir);
     let start_s = 0.1013;
     let notes = [NoteSpec { key: 60, velocity: 127, position: None, start_s, duration_s: None }];
-    let on = render(&mut host(OBJECT, &material, SR, &[]), &notes, 0.6, 512);
-    let off = render(&mut host(OBJECT, &material, SR, &[("residual", 0.0)]), &notes, 0.6, 512);
-    let layer = diff(&on, &off);
+    let layer = layer_of(&material, SR, &[], &notes, 0.6, 512);
     let at = (start_s * f64::from(SR)).round() as usize;
     let first = layer.iter().position(|&v| v != 0.0).unwrap();
     let c: Vec<f32> = click().iter().map(|&v| v as f32).collect();
@@ -124,9 +139,7 @@ fn softer_strikes_play_a_quieter_darker_residual() {
     let material = material_with_residual(&dir);
     let layer = |velocity: u8| {
         let n = [NoteSpec { key: 60, velocity, position: None, start_s: 0.0, duration_s: None }];
-        let on = render(&mut host(OBJECT, &material, SR, &[("hard", 0.9)]), &n, 0.3, 256);
-        let off = render(&mut host(OBJECT, &material, SR, &[("hard", 0.9), ("residual", 0.0)]), &n, 0.3, 256);
-        diff(&on, &off)
+        layer_of(&material, SR, &[("hard", 0.9)], &n, 0.3, 256)
     };
     let (loud, soft) = (layer(127), layer(50));
     let contact = |v: f32| {
@@ -198,9 +211,7 @@ fn a_key_an_octave_up_plays_the_residual_an_octave_up() {
     let material = material_with_residual(&dir);
     let layer = |key: u8| {
         let n = [NoteSpec { key, velocity: 127, position: None, start_s: 0.0, duration_s: None }];
-        let on = render(&mut host(OBJECT, &material, SR, &[]), &n, 0.3, 256);
-        let off = render(&mut host(OBJECT, &material, SR, &[("residual", 0.0)]), &n, 0.3, 256);
-        diff(&on, &off)
+        layer_of(&material, SR, &[], &n, 0.3, 256)
     };
     let (c60, c72) = (spectral_centroid(&layer(60), f64::from(SR)), spectral_centroid(&layer(72), f64::from(SR)));
     println!("residual centroid: key 60 {c60:.0} Hz, key 72 {c72:.0} Hz (× {:.4})", c72 / c60);
@@ -216,12 +227,7 @@ fn a_key_an_octave_up_plays_the_residual_an_octave_up() {
 fn the_residual_sounds_the_same_at_any_host_rate() {
     let dir = temp_dir("rates");
     let material = material_with_residual(&dir);
-    let layer = |rate: u32| {
-        let n = [note(60, 127, None)];
-        let on = render(&mut host(OBJECT, &material, rate, &[]), &n, 0.3, 256);
-        let off = render(&mut host(OBJECT, &material, rate, &[("residual", 0.0)]), &n, 0.3, 256);
-        diff(&on, &off)
-    };
+    let layer = |rate: u32| layer_of(&material, rate, &[], &[note(60, 127, None)], 0.3, 256);
     let (a, b) = (layer(48_000), layer(96_000));
     let (ea, eb) = (energy(&a) / 48_000.0, energy(&b) / 96_000.0);
     let (ca, cb) = (spectral_centroid(&a, 48_000.0), spectral_centroid(&b, 96_000.0));
