@@ -86,7 +86,7 @@ fn transfer(c: &mut Criterion) {
     use estimator::residual::{power_spectrogram, Stft};
     use estimator::transfer::{transfer, Source};
     let fs = 48_000.0;
-    let (x, source, target) = estimator::synth::transfer_workload();
+    let (x, source, target) = estimator::transfer::transfer_workload();
     let spec = power_spectrogram(&x);
     let src = Source { power: &spec.power, frames: spec.frames, sample_rate: fs, modes: &source };
     let mut plan = Stft::<f32>::new();

@@ -17,9 +17,9 @@ fn main() {
         }
     }
     if signals.is_empty() {
-        signals.push(("noise burst, 1 s".into(), estimator::synth::transfer_workload().0, fs));
+        signals.push(("noise burst, 1 s".into(), estimator::transfer::transfer_workload().0, fs));
     }
-    let (_, source, target) = estimator::synth::transfer_workload();
+    let (_, source, target) = estimator::transfer::transfer_workload();
     let mut plan = Stft::<f32>::new();
     for (name, x, rate) in signals {
         let spec = power_spectrogram(&x);

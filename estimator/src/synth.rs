@@ -300,21 +300,3 @@ pub fn render_session(rng: &mut Rng, alpha: (f64, f64), taps: usize, fs: f64, sn
     add_noise(&mut x, snr_db, len, rng);
     (x, lambdas)
 }
-
-/// The transfer workload of the bench and `examples/gl_curve.rs`: a 1 s noise burst under a
-/// 0.15 s decay at 48 kHz (seed 4), twelve source modes 200 Hz × 1.4ᵏ, and twelve target
-/// modes a fifth up, decaying 1.3 times as fast, half as loud.
-pub fn transfer_workload() -> (Vec<f64>, Vec<crate::transfer::Mode>, Vec<crate::transfer::Mode>) {
-    use crate::transfer::Mode;
-    let fs = 48_000.0;
-    let mut rng = Rng::new(4);
-    let x = (0..48_000).map(|n| rng.normal() * (-(n as f64) / fs / 0.15).exp()).collect();
-    let source: Vec<Mode> = (0..12)
-        .map(|i| Mode { freq_hz: 200.0 * 1.4f64.powi(i), decay_per_s: 5.0 + 2.0 * f64::from(i), amplitude: 0.1 })
-        .collect();
-    let target = source
-        .iter()
-        .map(|m| Mode { freq_hz: 1.5 * m.freq_hz, decay_per_s: 1.3 * m.decay_per_s, amplitude: 0.05 })
-        .collect();
-    (x, source, target)
-}
