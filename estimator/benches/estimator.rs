@@ -75,6 +75,16 @@ fn pipeline(c: &mut Criterion) {
     g.bench_function("estimate: 20 taps in one 48 kHz file (EMG Rayleigh)", |b| {
         b.iter(|| estimator::estimate(black_box(&files), &opts, &|_| {}, &cancel).unwrap())
     });
+    // Ren's method (issue 15): the same analysis, then Ren §5.3's optimiser on the first
+    // four taps' loudness images and features.
+    let ren = estimator::Options { method: estimator::Method::Ren, ..estimator::Options::default() };
+    g.bench_function("estimate: 20 taps in one 48 kHz file (Ren Rayleigh)", |b| {
+        b.iter(|| {
+            let r = estimator::estimate(black_box(&files), &ren, &|_| {}, &cancel).unwrap();
+            assert_eq!(r.method, estimator::Method::Ren);
+            r
+        })
+    });
     g.finish();
     let _ = std::fs::remove_file(path);
 }

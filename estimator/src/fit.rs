@@ -67,6 +67,10 @@ pub enum Method {
     Lsq,
     /// Lower bound: the curve along the lower convex hull (thesis §4.2.3).
     Lb,
+    /// Ren, Yeh & Lin 2013 §5: the hybrid psychoacoustic metric (loudness images over the
+    /// match-ratio product) minimised by Nelder–Mead ([`crate::ren_fit`]). It needs the
+    /// recordings, so only [`crate::estimate`] runs it; [`fit_damping`] refuses it.
+    Ren,
 }
 
 impl Method {
@@ -76,6 +80,7 @@ impl Method {
             Method::Emg => "emg",
             Method::Lsq => "lsq",
             Method::Lb => "lb",
+            Method::Ren => "ren",
         }
     }
 }
@@ -131,9 +136,10 @@ impl FitResult {
         self.damping().c(lambda)
     }
     /// Whether the curve is a lower bound of the points (EMG, LB), so that what the points
-    /// show above it is support damping; LSQ runs through them.
+    /// show above it is support damping; LSQ runs through them, and Ren's law matches the
+    /// recorded sound itself (its decays are what plays), so neither leaves support damping.
     pub fn is_lower_law(&self) -> bool {
-        self.method != Method::Lsq
+        matches!(self.method, Method::Emg | Method::Lb)
     }
 }
 
@@ -1076,6 +1082,12 @@ pub fn fit_damping_weighted(
         Method::Lb => fit_lb(model, &d)?,
         Method::Lsq => fit_lsq(model, &d)?,
         Method::Emg => fit_emg(model, &d)?,
+        Method::Ren => {
+            return Err(no_convergence(
+                method,
+                "Ren's method fits the recordings' sound, not (λ, c) points: run it through estimate",
+            ))
+        }
     };
     // The constraints make this hold; a failure here is a bug, not a property of the data.
     if let Err(e) = check_physical(model, &result.params) {

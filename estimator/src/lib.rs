@@ -28,7 +28,9 @@ pub mod fit;
 pub mod linalg;
 pub mod object;
 pub mod optim;
+pub mod psycho;
 pub mod ren;
+pub mod ren_fit;
 pub mod residual;
 pub mod segment;
 #[doc(hidden)]
@@ -194,6 +196,9 @@ pub struct EstimateReport {
     /// how much of each impact the material represents. Absent in reports written before.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ren_match: Option<ren::RenMatch>,
+    /// What Ren's optimiser found (`method` "ren" only; issue 15 part 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ren_fit: Option<ren_fit::RenFitSummary>,
 }
 
 /// Largest support damping a capture stores (mean extra c, s⁻¹; the plugin's range).
@@ -219,26 +224,31 @@ impl EstimateReport {
     /// far more damped than its recorded partials (issue 10 part 6). `None` for LSQ fits
     /// (their curve runs through the points) and without partials.
     pub fn support_for(&self, fit: &FitResult) -> Option<f64> {
-        if !fit.is_lower_law() {
-            return None;
-        }
-        let law = fit.damping();
-        let mut excess = Vec::new();
-        for imp in &self.impacts {
-            let heard = |f: &Feature| f.amplitude * (-0.01 * f.decay_per_s).exp();
-            let amax = imp.features.iter().map(heard).fold(0.0f64, f64::max);
-            for f in imp.features.iter().filter(|f| heard(f) >= 0.1 * amax) {
-                excess.push((f.c() - law.c(f.lambda())).max(0.0));
-            }
-        }
-        if excess.is_empty() {
-            return None;
-        }
-        excess.sort_by(f64::total_cmp);
-        let n = excess.len();
-        let median = if n % 2 == 1 { excess[n / 2] } else { 0.5 * (excess[n / 2 - 1] + excess[n / 2]) };
-        Some((median / std::f64::consts::LN_2).min(MAX_SUPPORT_C))
+        support_of(&self.impacts, fit)
     }
+}
+
+/// [`EstimateReport::support_for`] of `impacts`.
+fn support_of(impacts: &[ImpactFeatures], fit: &FitResult) -> Option<f64> {
+    if !fit.is_lower_law() {
+        return None;
+    }
+    let law = fit.damping();
+    let mut excess = Vec::new();
+    for imp in impacts {
+        let heard = |f: &Feature| f.amplitude * (-0.01 * f.decay_per_s).exp();
+        let amax = imp.features.iter().map(heard).fold(0.0f64, f64::max);
+        for f in imp.features.iter().filter(|f| heard(f) >= 0.1 * amax) {
+            excess.push((f.c() - law.c(f.lambda())).max(0.0));
+        }
+    }
+    if excess.is_empty() {
+        return None;
+    }
+    excess.sort_by(f64::total_cmp);
+    let n = excess.len();
+    let median = if n % 2 == 1 { excess[n / 2] } else { 0.5 * (excess[n / 2 - 1] + excess[n / 2]) };
+    Some((median / std::f64::consts::LN_2).min(MAX_SUPPORT_C))
 }
 
 /// Reads a WAV file to mono. See [`wav::load_wav`].
@@ -359,6 +369,8 @@ pub fn estimate(
     let fit_damping =
         |p: &[(f64, f64)], model: ModelKind, method: Method| fit::fit_damping_weighted(p, Some(&sigmas), model, method);
     let mut warnings = feats.warnings.clone();
+    // Ren's method starts from the EMG fit, and falls back to it.
+    let primary = if opts.method == Method::Ren { Method::Emg } else { opts.method };
     // Every method's fit of the requested model; if the chosen method cannot fit it, fall
     // back (same method with the Rayleigh law, then the Rayleigh lower bound) and say why:
     // an analysis is never thrown away for want of a fit.
@@ -372,12 +384,12 @@ pub fn estimate(
                 }
                 match fit_damping(&points, model, m) {
                     Ok(f) => {
-                        if m == opts.method {
+                        if m == primary {
                             chosen = Ok(f.clone());
                         }
                         fits.push(f);
                     }
-                    Err(e) if m == opts.method => chosen = Err(e),
+                    Err(e) if m == primary => chosen = Err(e),
                     Err(e) => warnings.push(format!("{} {} fit failed: {e}", m.name(), model.name())),
                 }
             }
@@ -386,7 +398,7 @@ pub fn estimate(
                 Err(e) => {
                     warnings.push(format!(
                         "the {} {} fit failed ({e}); the material uses a fallback fit",
-                        opts.method.name(),
+                        primary.name(),
                         model.name()
                     ));
                     Ok((fits, None))
@@ -401,7 +413,7 @@ pub fn estimate(
         fits.extend(more);
         chosen = c;
     }
-    if chosen.is_none() && opts.method != Method::Lb {
+    if chosen.is_none() && primary != Method::Lb {
         chosen = fits.iter().find(|f| f.method == Method::Lb).cloned();
     }
     progress(0.96);
@@ -410,21 +422,11 @@ pub fn estimate(
         // Nothing at all could be fitted: too few or degenerate points, or bad input; the
         // Rayleigh EMG error says which.
         None => {
-            return Err(fit_damping(&points, ModelKind::Rayleigh, opts.method)
+            return Err(fit_damping(&points, ModelKind::Rayleigh, primary)
                 .err()
                 .unwrap_or(EstimateError::TooFewFeatures { found: points.len(), needed: 4 }))
         }
     };
-    if chosen.model != opts.model || chosen.method != opts.method {
-        warnings.push(format!(
-            "using the {} {} fit instead of {} {}",
-            chosen.method.name(),
-            chosen.model.name(),
-            opts.method.name(),
-            opts.model.name()
-        ));
-    }
-    warnings.extend(chosen.warnings.iter().cloned());
     let comparison = match fit_damping(&points, ModelKind::Rayleigh, Method::Emg) {
         Ok(ray) => {
             let hyb = fit_damping(&points, ModelKind::Hybrid, Method::Emg).ok();
@@ -450,6 +452,41 @@ pub fn estimate(
             ));
         }
     }
+    // Ren's method (§5): from the EMG fit of the chosen law (and the object match), on the
+    // recordings themselves.
+    let mut chosen = chosen;
+    let mut object = object;
+    let mut ren_fit = None;
+    if opts.method == Method::Ren {
+        if cancel.load(Ordering::Relaxed) {
+            return Err(EstimateError::Cancelled);
+        }
+        match ren_fit_of(files, opts, &feats.impacts, &fits, &chosen, object.as_ref(), &points) {
+            Ok((fit, summary)) => {
+                if let (Some(l), Some(g)) = (opts.object_lambdas.as_deref(), summary.gamma_ratio) {
+                    object = object::match_object_at(&all, l, opts.object_gains.as_deref(), g).map(|mut o| {
+                        o.amplitude_scale = summary.amplitude_scale.unwrap_or(o.amplitude_scale);
+                        o
+                    });
+                }
+                fits.push(fit.clone());
+                chosen = fit;
+                ren_fit = Some(summary);
+            }
+            Err(e) => warnings
+                .push(format!("the ren {} fit failed ({e}); the material uses a fallback fit", chosen.model.name())),
+        }
+    }
+    if chosen.model != opts.model || chosen.method != opts.method {
+        warnings.push(format!(
+            "using the {} {} fit instead of {} {}",
+            chosen.method.name(),
+            chosen.model.name(),
+            opts.method.name(),
+            opts.model.name()
+        ));
+    }
+    warnings.extend(chosen.warnings.iter().cloned());
     progress(1.0);
     let mut report = EstimateReport {
         impacts: feats.impacts,
@@ -465,7 +502,62 @@ pub fn estimate(
         object,
         warnings,
         ren_match: None,
+        ren_fit,
     };
     report.ren_match = ren::ren_match(&report, opts);
     Ok(report)
+}
+
+/// Ren's fit ([`ren_fit::fit_ren`]) of `chosen`'s law: the first impacts' recordings read
+/// again from `files` (each file once), started from the fits of that law in `fits`.
+fn ren_fit_of(
+    files: &[PathBuf],
+    opts: &Options,
+    impacts: &[ImpactFeatures],
+    fits: &[FitResult],
+    chosen: &FitResult,
+    object: Option<&ObjectMatch>,
+    points: &[(f64, f64)],
+) -> Result<(FitResult, ren_fit::RenFitSummary), EstimateError> {
+    let used = &impacts[..impacts.len().min(ren_fit::MAX_IMPACTS)];
+    let mut recordings: Vec<(String, Recording)> = Vec::new();
+    for imp in used {
+        if recordings.iter().all(|r| r.0 != imp.file) {
+            let path = files
+                .iter()
+                .find(|p| p.display().to_string() == imp.file)
+                .cloned()
+                .unwrap_or_else(|| PathBuf::from(&imp.file));
+            recordings.push((imp.file.clone(), wav::load_wav(&path, opts.channel)?));
+        }
+    }
+    let segments: Vec<ren_fit::Segment> = used
+        .iter()
+        .map(|imp| {
+            let Some(r) = recordings.iter().find(|r| r.0 == imp.file).map(|r| &r.1) else {
+                return ren_fit::Segment { samples: Vec::new(), sample_rate: 48_000.0 };
+            };
+            let fs = f64::from(r.sample_rate);
+            let start = ((imp.onset_s * fs).round().max(0.0) as usize).min(r.samples.len());
+            let len = ((psycho::IMAGE_SECONDS.min(imp.duration_s) * fs) as usize).min(r.samples.len() - start);
+            ren_fit::Segment {
+                samples: r.samples[start..start + len].iter().map(|&v| f64::from(v)).collect(),
+                sample_rate: fs,
+            }
+        })
+        .collect();
+    let starts: Vec<FitResult> =
+        fits.iter().filter(|f| f.model == chosen.model && f.method != Method::Lsq).cloned().collect();
+    let known = opts.object_lambdas.as_deref().map(|lambdas| ren_fit::KnownObject {
+        lambdas,
+        gains: opts.object_gains.as_deref(),
+        matched: object.filter(|o| o.matched > 0),
+    });
+    // The EMG fit's support damping as recorded (EstimateReport::support_for).
+    let emg_support = fits
+        .iter()
+        .find(|f| f.model == chosen.model && f.method == Method::Emg)
+        .and_then(|f| support_of(impacts, f))
+        .unwrap_or(0.0);
+    ren_fit::fit_ren(used, &segments, chosen.model, &starts, known, points, emg_support)
 }

@@ -67,6 +67,29 @@ const HEARD_DB: f64 = 30.0;
 /// and to tell audible modes (gain within 40 dB of the largest) from silent ones. Returns
 /// `None` when either list is empty.
 pub fn match_object(features: &[Feature], lambdas0: &[f64], gains0: Option<&[f64]>) -> Option<ObjectMatch> {
+    match_impl(features, lambdas0, gains0, None)
+}
+
+/// The match of `features` by the bank at the given specific-modulus ratio `gamma_ratio`
+/// (no search): matched features, mismatch and unmatched modes there, and the amplitude
+/// scale of the matched pairs ([`match_object`]'s report of another fit's γ, e.g. Ren's).
+pub fn match_object_at(
+    features: &[Feature],
+    lambdas0: &[f64],
+    gains0: Option<&[f64]>,
+    gamma_ratio: f64,
+) -> Option<ObjectMatch> {
+    (gamma_ratio > 0.0 && gamma_ratio.is_finite())
+        .then(|| match_impl(features, lambdas0, gains0, Some(0.5 * gamma_ratio.ln())))
+        .flatten()
+}
+
+fn match_impl(
+    features: &[Feature],
+    lambdas0: &[f64],
+    gains0: Option<&[f64]>,
+    fixed: Option<f64>,
+) -> Option<ObjectMatch> {
     let gmax = gains0.map_or(1.0, |g| g.iter().fold(0.0f64, |m, v| m.max(v.abs())));
     let gain = |i: usize| gains0.and_then(|g| g.get(i)).map_or(1.0, |v| v.abs() / gmax.max(1e-300));
     let mut bank: Vec<(f64, usize)> = lambdas0
@@ -140,40 +163,43 @@ pub fn match_object(features: &[Feature], lambdas0: &[f64], gains0: Option<&[f64
         let under = strong_feats.iter().filter(|&&lw| lw < bank[0].0 + half_ln_r - tol).count();
         matched - PENALTY_BELOW * (below + under) as f64 - PENALTY_STRONG * strong as f64
     };
-    // Candidates: align each of the strongest features with each of the lowest bank modes,
-    // and the lowest strong partial with each of them.
-    let mut order: Vec<usize> = (0..feats.len()).collect();
-    order.sort_by(|&a, &b| feats[b].1.total_cmp(&feats[a].1));
-    let mut best = (f64::NEG_INFINITY, 0.0);
-    let lows = order.iter().take(12).map(|&fi| feats[fi].0).chain([low]);
-    for lw in lows {
-        for b in bank.iter().take(64) {
-            let h = lw - b.0;
-            let s = score(h);
-            if s > best.0 {
-                best = (s, h);
-            }
-        }
-    }
-    // Refine: weighted mean log mismatch of matched pairs, a few times.
-    let mut h = best.1;
-    for _ in 0..5 {
-        let (mut num, mut den) = (0.0, 0.0);
-        for &(lw, a) in &feats {
-            let i = bank.partition_point(|b| b.0 < lw - h);
-            for j in [i.wrapping_sub(1), i] {
-                if let Some(b) = bank.get(j) {
-                    if (lw - h - b.0).abs() < tol {
-                        num += a * (lw - b.0);
-                        den += a;
-                    }
+    let h = fixed.unwrap_or_else(|| {
+        // Candidates: align each of the strongest features with each of the lowest bank modes,
+        // and the lowest strong partial with each of them.
+        let mut order: Vec<usize> = (0..feats.len()).collect();
+        order.sort_by(|&a, &b| feats[b].1.total_cmp(&feats[a].1));
+        let mut best = (f64::NEG_INFINITY, 0.0);
+        let lows = order.iter().take(12).map(|&fi| feats[fi].0).chain([low]);
+        for lw in lows {
+            for b in bank.iter().take(64) {
+                let h = lw - b.0;
+                let s = score(h);
+                if s > best.0 {
+                    best = (s, h);
                 }
             }
         }
-        if den > 0.0 {
-            h = num / den;
+        // Refine: weighted mean log mismatch of matched pairs, a few times.
+        let mut h = best.1;
+        for _ in 0..5 {
+            let (mut num, mut den) = (0.0, 0.0);
+            for &(lw, a) in &feats {
+                let i = bank.partition_point(|b| b.0 < lw - h);
+                for j in [i.wrapping_sub(1), i] {
+                    if let Some(b) = bank.get(j) {
+                        if (lw - h - b.0).abs() < tol {
+                            num += a * (lw - b.0);
+                            den += a;
+                        }
+                    }
+                }
+            }
+            if den > 0.0 {
+                h = num / den;
+            }
         }
-    }
+        h
+    });
     let (mut matched, mut ss, mut wm, mut ag, mut gg) = (0, 0.0, 0.0, 0.0, 0.0);
     for &(lw, a) in &feats {
         let (dd, bi) = nearest(lw - h);

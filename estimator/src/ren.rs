@@ -93,9 +93,37 @@ pub struct MatchRatios {
     pub per_reference: Vec<f64>,
 }
 
-/// The match ratios of `reference` by `estimated` (Ren eqs. 23–26). Allocates.
+/// The match ratios of `reference` by `estimated` (Ren eqs. 23–26). Allocates. Each
+/// feature's coordinates are computed once (the metric's cost is then the N·M scores).
 pub fn match_ratios(reference: &[Point], estimated: &[Point]) -> MatchRatios {
-    let per_reference: Vec<f64> = reference.iter().map(|p| point_to_set(p, estimated)).collect();
+    let xy = |s: &[Point]| -> Vec<(f64, f64, f64)> {
+        s.iter()
+            .map(|p| {
+                let (x, y) = p.xy();
+                (x, y, p.weight)
+            })
+            .collect()
+    };
+    let (rc, ec) = (xy(reference), xy(estimated));
+    // R(p, set) of eq. 24 from precomputed coordinates.
+    let to_set = |p: &(f64, f64, f64), set: &[(f64, f64, f64)]| {
+        let (mut num, mut den) = (0.0, 0.0);
+        for q in set {
+            let d2 = (p.0 - q.0).powi(2) + (p.1 - q.1).powi(2);
+            // exp(−½·D²) underflows to 0 past D² ≈ 1490; skip the far ones.
+            if d2 < 1400.0 {
+                let k = (-0.5 * d2).exp();
+                num += q.2 * k * k;
+                den += q.2 * k;
+            }
+        }
+        if den > 0.0 {
+            num / den
+        } else {
+            0.0
+        }
+    };
+    let per_reference: Vec<f64> = rc.iter().map(|p| to_set(p, &ec)).collect();
     let mean = |ratios: &mut dyn Iterator<Item = (f64, f64)>| {
         let (mut num, mut den) = (0.0, 0.0);
         for (w, r) in ratios {
@@ -108,8 +136,8 @@ pub fn match_ratios(reference: &[Point], estimated: &[Point]) -> MatchRatios {
             0.0
         }
     };
-    let r = mean(&mut reference.iter().zip(&per_reference).map(|(p, &r)| (p.weight, r)));
-    let r_est = mean(&mut estimated.iter().map(|q| (q.weight, point_to_set(q, reference))));
+    let r = mean(&mut rc.iter().zip(&per_reference).map(|(p, &r)| (p.2, r)));
+    let r_est = mean(&mut ec.iter().map(|q| (q.2, to_set(q, &rc))));
     MatchRatios { reference: r, estimated: r_est, product: r * r_est, per_reference }
 }
 

@@ -8,6 +8,7 @@
 //!   recording than the modes alone (log-spectral distance), on a recording with a known
 //!   click.
 
+use estimator::psycho::{psycho_distance, PsychoSpace};
 use estimator::residual::{power_spectrogram, residual_sound, Spectrogram, Stft, BINS, HOP};
 use estimator::synth::{render, Rng};
 use estimator::transfer::{transfer, transfer_spectrogram, Mode, Source};
@@ -145,4 +146,20 @@ fn transferred_to_its_own_modes_the_residual_brings_the_recording_back() {
     let (alone, both) = (lsd(&power_spectrogram(&modal), &rec, frames), lsd(&power_spectrogram(&with), &rec, frames));
     println!("log-spectral distance over the attack: modes alone {alone:.2} dB, modes + residual {both:.2} dB");
     assert!(both < 0.5 * alone, "{both} vs {alone}");
+    // Ren's image-domain metric (§5.2.1, eq. 19: loudness in half-Bark bands) over the whole
+    // 0.35 s, both images calibrated by the recording's.
+    let space = PsychoSpace::new(FS);
+    let frames = space.frames_for(0.35);
+    let image = |x: &[f64]| space.image_of_signal(x, frames);
+    let reference = image(&recording);
+    let scale = PsychoSpace::calibration(&reference);
+    let loud = |img: &estimator::psycho::BandImage| {
+        let mut out = Vec::new();
+        space.loudness(img, scale, &mut out);
+        out
+    };
+    let r = loud(&reference);
+    let (alone, both) = (psycho_distance(&loud(&image(&modal)), &r), psycho_distance(&loud(&image(&with)), &r));
+    println!("Ren's psycho metric over 0.35 s: modes alone {alone:.4} sone², modes + residual {both:.4} sone²");
+    assert!(both < 0.25 * alone, "{both} vs {alone}");
 }

@@ -93,7 +93,7 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
         return Err("give at least one WAV file".into());
     }
     let model: estimator::ModelKind = parse_name("model", &args.model, "rayleigh, hybrid, power, caughey")?;
-    let method: estimator::Method = parse_name("method", &args.method, "emg, lsq, lb")?;
+    let method: estimator::Method = parse_name("method", &args.method, "emg, lsq, lb, ren")?;
     let lib = Library::factory();
     let bank = match &args.object {
         Some(o) => match crate::cli::bank_file(&lib, o)? {
@@ -189,11 +189,15 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
             m.against, m.reference_ratio, m.estimated_ratio, m.product
         )
     });
+    let ren_fit = report.ren_fit.as_ref().map_or_else(String::new, |r| {
+        let emg = r.emg_hybrid.map_or_else(String::new, |e| format!(" (the EMG fit's {e:.4e})"));
+        format!("; Ren's hybrid metric {:.4e}{emg} after {} evaluations", r.hybrid, r.evaluations)
+    });
     let kept = material.residual.as_ref().map_or_else(String::new, |r| {
         format!("; kept the first impact's residual ({} frames, {:.1} KB)", r.frames, r.levels.len() as f64 / 1000.0)
     });
     Ok(format!(
-        "wrote {}: {} {:?} params {:?} from {} features in {} impacts{ren}{kept}",
+        "wrote {}: {} {:?} params {:?} from {} features in {} impacts{ren}{ren_fit}{kept}",
         args.out.display(),
         report.model,
         report.method,

@@ -72,7 +72,8 @@ enum Command {
         /// Damping model: rayleigh, hybrid, power, caughey.
         #[arg(long, default_value = "rayleigh")]
         model: String,
-        /// Fit method: emg (maximum likelihood), lsq, lb.
+        /// Fit method: emg (maximum likelihood), lsq, lb, ren (Ren 2013 §5: the psychoacoustic
+        /// metric on the recordings, by Nelder–Mead).
         #[arg(long, default_value = "emg")]
         method: String,
         /// The object recorded (id, name, index or bank JSON file): also fits γ/γ₀ (pitch).

@@ -24,6 +24,25 @@ fn lsd(a: &[f32], reference: &[f32], frames: usize) -> f64 {
     ((0..cells).map(|i| (db(pa.power[i]) - db(pr.power[i])).powi(2)).sum::<f64>() / cells as f64).sqrt()
 }
 
+/// Ren's image-domain metric (§5.2.1, eq. 19) of `a` against `reference` over their first
+/// `seconds`: loudness in half-Bark bands, both calibrated by the reference's image.
+fn psycho(a: &[f32], reference: &[f32], rate: f32, seconds: f64) -> f64 {
+    use estimator::psycho::{psycho_distance, PsychoSpace};
+    let space = PsychoSpace::new(f64::from(rate));
+    let frames = space.frames_for(seconds);
+    let image = |x: &[f32]| space.image_of_signal(&x.iter().map(|&v| f64::from(v)).collect::<Vec<f64>>(), frames);
+    let r = image(reference);
+    let scale = PsychoSpace::calibration(&r);
+    let (mut la, mut lr) = (Vec::new(), Vec::new());
+    space.loudness(&image(a), scale, &mut la);
+    space.loudness(&r, scale, &mut lr);
+    psycho_distance(&la, &lr)
+}
+
+/// Clip, category, LSD over the attack (modes, modes + residual), over 350 ms (the same),
+/// Ren's Π_psycho over 350 ms (the same).
+type Row = (String, String, f64, f64, f64, f64, f64, f64);
+
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     if v.is_empty() {
@@ -47,7 +66,7 @@ fn main() {
         .collect();
     files.sort();
     let rate = 48_000.0f32;
-    let mut rows: Vec<(String, String, f64, f64, f64, f64)> = Vec::new();
+    let mut rows: Vec<Row> = Vec::new();
     for f in &files {
         let name = f.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
         let category = name.split(['-', '_', '.']).next().unwrap_or("").to_string();
@@ -86,33 +105,48 @@ fn main() {
         let hop = estimator::residual::HOP as f64 / f64::from(rate);
         let attack = (0.05 / hop).round() as usize;
         let long = (0.35 / hop).round() as usize;
-        let row =
-            (name.clone(), category, lsd(&m, &a, attack), lsd(&mr, &a, attack), lsd(&m, &a, long), lsd(&mr, &a, long));
-        println!("{name}: attack {:.2} → {:.2} dB, 350 ms {:.2} → {:.2} dB", row.2, row.3, row.4, row.5);
+        let row = (
+            name.clone(),
+            category,
+            lsd(&m, &a, attack),
+            lsd(&mr, &a, attack),
+            lsd(&m, &a, long),
+            lsd(&mr, &a, long),
+            psycho(&m, &a, rate, 0.35),
+            psycho(&mr, &a, rate, 0.35),
+        );
+        println!(
+            "{name}: attack {:.2} → {:.2} dB, 350 ms {:.2} → {:.2} dB, Ren's psycho metric {:.1} → {:.1}",
+            row.2, row.3, row.4, row.5, row.6, row.7
+        );
         rows.push(row);
     }
     let mut cats: Vec<String> = rows.iter().map(|r| r.1.clone()).collect();
     cats.sort();
     cats.dedup();
-    println!("\n| clips | n | attack: modes | attack: modes + residual | better | 350 ms: modes | 350 ms: modes + residual |");
-    println!("| --- | --- | --- | --- | --- | --- | --- |");
+    println!("\n| clips | n | attack: modes | attack: modes + residual | better | 350 ms: modes | 350 ms: modes + residual | Ren's Π_psycho, 350 ms: modes / modes + residual | better |");
+    println!("| --- | --- | --- | --- | --- | --- | --- | --- | --- |");
     for c in cats.iter().map(String::as_str).chain(["all"]) {
         let r: Vec<_> = rows.iter().filter(|r| c == "all" || r.1 == c).collect();
         let better = r.iter().filter(|r| r.3 < r.2).count();
+        let better_psycho = r.iter().filter(|r| r.7 < r.6).count();
         println!(
-            "| {c} | {} | {:.2} dB | {:.2} dB | {better}/{} | {:.2} dB | {:.2} dB |",
+            "| {c} | {} | {:.2} dB | {:.2} dB | {better}/{} | {:.2} dB | {:.2} dB | {:.1} / {:.1} | {better_psycho}/{} |",
             r.len(),
             median(r.iter().map(|r| r.2).collect()),
             median(r.iter().map(|r| r.3).collect()),
             r.len(),
             median(r.iter().map(|r| r.4).collect()),
-            median(r.iter().map(|r| r.5).collect())
+            median(r.iter().map(|r| r.5).collect()),
+            median(r.iter().map(|r| r.6).collect()),
+            median(r.iter().map(|r| r.7).collect()),
+            r.len()
         );
     }
     if let Some(out) = json {
         let v: Vec<serde_json::Value> = rows
             .iter()
-            .map(|r| serde_json::json!({"clip": r.0, "category": r.1, "attack_modes_db": r.2, "attack_residual_db": r.3, "long_modes_db": r.4, "long_residual_db": r.5}))
+            .map(|r| serde_json::json!({"clip": r.0, "category": r.1, "attack_modes_db": r.2, "attack_residual_db": r.3, "long_modes_db": r.4, "long_residual_db": r.5, "psycho_modes": r.6, "psycho_residual": r.7}))
             .collect();
         let _ = std::fs::write(out, serde_json::to_string_pretty(&v).unwrap_or_default());
     }

@@ -207,6 +207,7 @@ fn method_color(m: Method) -> Color32 {
         Method::Emg => Color32::from_rgb(255, 190, 60),
         Method::Lsq => Color32::from_rgb(80, 200, 255),
         Method::Lb => Color32::from_rgb(230, 110, 230),
+        Method::Ren => Color32::from_rgb(120, 230, 120),
     }
 }
 
@@ -366,7 +367,7 @@ impl CapturePanel {
             ui.end_row();
             ui.label("Chosen fit");
             egui::ComboBox::from_id_salt("capture-method").selected_text(c.method.name()).show_ui(ui, |ui| {
-                for m in [Method::Emg, Method::Lsq, Method::Lb] {
+                for m in [Method::Emg, Method::Lsq, Method::Lb, Method::Ren] {
                     ui.selectable_value(&mut c.method, m, m.name());
                 }
             });
