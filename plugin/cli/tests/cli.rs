@@ -1060,3 +1060,28 @@ fn render_input_drives_the_object_at_the_inputs_rate() {
     assert!(e.contains("also an input"), "{e}");
     assert_eq!(std::fs::read(&input).unwrap(), before);
 }
+
+/// `estimate --method ren` (issue 15 part 1): the material is valid and carries no support
+/// damping (Ren's law is the sound's own), the report names the method and holds Ren's
+/// metric with EMG's beside it, and an unknown method is a one-line error listing `ren`.
+#[test]
+fn estimate_with_rens_method() {
+    let dir = scratch("ren-method");
+    let rec = strikes(&dir);
+    let rec_s = rec.to_str().unwrap();
+    let (m, rep) = (dir.join("m.json"), dir.join("r.json"));
+    let o = struck(
+        &dir,
+        &["estimate", rec_s, "--method", "ren", "--out", m.to_str().unwrap(), "--report", rep.to_str().unwrap()],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(stderr(&o).contains("Ren's hybrid metric"), "{}", stderr(&o));
+    let material = presets::Material::load(&m).unwrap();
+    assert!(material.support.is_none() && material.provenance.contains("Ren"), "{material:?}");
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&rep).unwrap()).unwrap();
+    assert_eq!(v["method"], "ren");
+    let (ren, emg) = (v["ren_fit"]["hybrid"].as_f64().unwrap(), v["ren_fit"]["emg_hybrid"].as_f64().unwrap());
+    assert!(ren <= emg * 1.0001, "Ren's metric {ren} against EMG's {emg}");
+    let e = error_line(&struck(&dir, &["estimate", rec_s, "--method", "nelder", "--out", m.to_str().unwrap()]));
+    assert!(e.contains("unknown method 'nelder'") && e.contains("ren"), "{e}");
+}
