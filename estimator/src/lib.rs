@@ -427,6 +427,9 @@ pub fn estimate(
                 .unwrap_or(EstimateError::TooFewFeatures { found: points.len(), needed: 4 }))
         }
     };
+    if opts.method != Method::Ren {
+        say_chosen(&chosen, opts, &mut warnings);
+    }
     let comparison = match fit_damping(&points, ModelKind::Rayleigh, Method::Emg) {
         Ok(ray) => {
             let hyb = fit_damping(&points, ModelKind::Hybrid, Method::Emg).ok();
@@ -439,6 +442,35 @@ pub fn estimate(
     let all: Vec<Feature> = feats.impacts.iter().flat_map(|i| i.features.iter().copied()).collect();
     let object =
         opts.object_lambdas.as_deref().and_then(|l| object::match_object(&all, l, opts.object_gains.as_deref()));
+    // Ren's method (§5): from the EMG fit of the chosen law (and the object match), on the
+    // recordings themselves.
+    let mut chosen = chosen;
+    let mut object = object;
+    let mut ren_fit = None;
+    if opts.method == Method::Ren {
+        if cancel.load(Ordering::Relaxed) {
+            return Err(EstimateError::Cancelled);
+        }
+        match ren_fit_of(files, opts, &feats.impacts, &fits, &chosen, object.as_ref(), &points, cancel) {
+            Ok((fit, summary)) => {
+                if let (Some(l), Some(g)) = (opts.object_lambdas.as_deref(), summary.gamma_ratio) {
+                    object = object::match_object_at(&all, l, opts.object_gains.as_deref(), g).map(|mut o| {
+                        o.amplitude_scale = summary.amplitude_scale.unwrap_or(o.amplitude_scale);
+                        o
+                    });
+                }
+                fits.push(fit.clone());
+                chosen = fit;
+                ren_fit = Some(summary);
+            }
+            Err(EstimateError::Cancelled) => return Err(EstimateError::Cancelled),
+            Err(e) => warnings
+                .push(format!("the ren {} fit failed ({e}); the material uses a fallback fit", chosen.model.name())),
+        }
+    }
+    if opts.method == Method::Ren {
+        say_chosen(&chosen, opts, &mut warnings);
+    }
     if opts.object_lambdas.is_some() && object.as_ref().is_none_or(|o| o.matched == 0) {
         warnings.push(
             "the object's modes did not match any recorded feature; check that the right object was chosen".into(),
@@ -452,41 +484,6 @@ pub fn estimate(
             ));
         }
     }
-    // Ren's method (§5): from the EMG fit of the chosen law (and the object match), on the
-    // recordings themselves.
-    let mut chosen = chosen;
-    let mut object = object;
-    let mut ren_fit = None;
-    if opts.method == Method::Ren {
-        if cancel.load(Ordering::Relaxed) {
-            return Err(EstimateError::Cancelled);
-        }
-        match ren_fit_of(files, opts, &feats.impacts, &fits, &chosen, object.as_ref(), &points) {
-            Ok((fit, summary)) => {
-                if let (Some(l), Some(g)) = (opts.object_lambdas.as_deref(), summary.gamma_ratio) {
-                    object = object::match_object_at(&all, l, opts.object_gains.as_deref(), g).map(|mut o| {
-                        o.amplitude_scale = summary.amplitude_scale.unwrap_or(o.amplitude_scale);
-                        o
-                    });
-                }
-                fits.push(fit.clone());
-                chosen = fit;
-                ren_fit = Some(summary);
-            }
-            Err(e) => warnings
-                .push(format!("the ren {} fit failed ({e}); the material uses a fallback fit", chosen.model.name())),
-        }
-    }
-    if chosen.model != opts.model || chosen.method != opts.method {
-        warnings.push(format!(
-            "using the {} {} fit instead of {} {}",
-            chosen.method.name(),
-            chosen.model.name(),
-            opts.method.name(),
-            opts.model.name()
-        ));
-    }
-    warnings.extend(chosen.warnings.iter().cloned());
     progress(1.0);
     let mut report = EstimateReport {
         impacts: feats.impacts,
@@ -518,6 +515,7 @@ fn ren_fit_of(
     chosen: &FitResult,
     object: Option<&ObjectMatch>,
     points: &[(f64, f64)],
+    cancel: &AtomicBool,
 ) -> Result<(FitResult, ren_fit::RenFitSummary), EstimateError> {
     let used = &impacts[..impacts.len().min(ren_fit::MAX_IMPACTS)];
     let mut recordings: Vec<(String, Recording)> = Vec::new();
@@ -559,5 +557,20 @@ fn ren_fit_of(
         .find(|f| f.model == chosen.model && f.method == Method::Emg)
         .and_then(|f| support_of(impacts, f))
         .unwrap_or(0.0);
-    ren_fit::fit_ren(used, &segments, chosen.model, &starts, known, points, emg_support)
+    ren_fit::fit_ren(used, &segments, chosen.model, &starts, known, points, emg_support, cancel)
+}
+
+/// Says in `warnings` when the chosen fit is not the one asked for, then the chosen fit's own
+/// warnings.
+fn say_chosen(chosen: &FitResult, opts: &Options, warnings: &mut Vec<String>) {
+    if chosen.model != opts.model || chosen.method != opts.method {
+        warnings.push(format!(
+            "using the {} {} fit instead of {} {}",
+            chosen.method.name(),
+            chosen.model.name(),
+            opts.method.name(),
+            opts.model.name()
+        ));
+    }
+    warnings.extend(chosen.warnings.iter().cloned());
 }

@@ -6,7 +6,7 @@
 //!   Nyquist;
 //! - **intensity → loudness**: each band's power, as a sound pressure level, becomes a
 //!   loudness level in phon by the ISO 226:2003 equal-loudness relation at the band's centre
-//!   (its §4.1 formula for L_N from L_p with the standard's Table 1 parameters α_f, L_U, T_f,
+//!   (its §4.2 formula for L_N from L_p with the standard's Table 1 parameters α_f, L_U, T_f,
 //!   interpolated in log frequency and held beyond 20 Hz–12.5 kHz), then loudness in sone
 //!   (2^((L_N − 40)/10) from 40 phon up, (L_N/40)^2.642 below: Zwicker & Fastl);
 //! - Π_psycho = Σ_{m,z} (T(I)[m,z] − T(Ĩ)[m,z])².
@@ -21,7 +21,7 @@
 //!   a·e^(−dt)·sin(2πft + φ) gives bin k of frame m the power
 //!   (a/2)²·e^(−2d·t_m)·|Σₙ w[n] e^(−dn/f_s) e^(i2π(f/f_s − k/N)n)|², the sum being three
 //!   geometric series for the Hann window (exact), taken over the [`SPREAD`] bins on each
-//!   side (the Hann window's third sidelobe is 40 dB down) plus 32 half widths of the
+//!   side (the Hann window's second sidelobe is 41 dB down) plus 32 half widths of the
 //!   line for a fast decay, at most [`MAX_SPREAD`] (what lies beyond, ≈ 2 % of a fast
 //!   mode's power, more for a mode that dies within a frame, is left out);
 //!   modes add in power (random phases: no beating).

@@ -21,7 +21,7 @@
 //!
 //! Parameters are searched where every value is a valid law: each coefficient as
 //! cₛ·e^x (cₛ the median c of the points, per unit of λₛ = the largest λ), exponents as a
-//! logistic between [`crate::fit::MIN_EXPONENT`] and [`crate::fit::MAX_EXPONENT`]; Caughey's
+//! logistic strictly between [`crate::fit::MIN_EXPONENT`] and [`crate::fit::MAX_EXPONENT`]; Caughey's
 //! three coefficients are kept ≥ 0 (so c(λ) ≥ 0 everywhere), a narrower family than its EMG
 //! fit's. γ and σ are searched in logs.
 
@@ -104,6 +104,8 @@ struct Metric<'a> {
     /// Extra c (s⁻¹) on every mode: 0 in the search; the EMG fit's mean support damping
     /// when its metric is taken as the plugin plays it.
     support_c: std::cell::Cell<f64>,
+    /// Set by the caller to stop the search.
+    cancel: &'a std::sync::atomic::AtomicBool,
 }
 
 /// The parts of the metric at one point.
@@ -161,15 +163,21 @@ impl Metric<'_> {
         }
     }
 
-    /// The metric at `x`.
+    /// The metric at search coordinates `x`.
     fn value(&self, x: &[f64]) -> Value {
-        self.evaluations.set(self.evaluations.get() + 1);
-        let law = to_damping(self.model, &self.law_of(x));
         let k = self.law_len();
         let (gamma, sigma) = match self.object {
             Some(_) => (x[k].exp(), x[k + 1].exp()),
             None => (1.0, 1.0),
         };
+        self.value_at(&self.law_of(x), gamma, sigma)
+    }
+
+    /// The metric of the law with SI parameters `params` at γ/γ₀ `gamma` and amplitude
+    /// scale `sigma` (both unused without an object).
+    fn value_at(&self, params: &[f64], gamma: f64, sigma: f64) -> Value {
+        self.evaluations.set(self.evaluations.get() + 1);
+        let law = to_damping(self.model, params);
         let mut v = Value::default();
         let mut modes: Vec<(f64, f64, f64)> = Vec::new();
         let mut loud = Vec::new();
@@ -221,6 +229,9 @@ impl CostFunction for &Metric<'_> {
     type Output = f64;
 
     fn cost(&self, x: &Self::Param) -> Result<f64, argmin::core::Error> {
+        if self.cancel.load(std::sync::atomic::Ordering::Relaxed) {
+            return Err(argmin::core::Error::msg("cancelled"));
+        }
         let v = self.value(x).hybrid;
         Ok(if v.is_finite() { v } else { f64::MAX / 4.0 })
     }
@@ -249,7 +260,8 @@ pub struct KnownObject<'a> {
 /// most the first [`MAX_IMPACTS`] are used), started also from `starts` (fits of the same
 /// model, e.g. EMG and LB). `points` are all (λ, c) points, for the fit's statistics;
 /// `emg_support_c` is the EMG fit's mean support damping (s⁻¹), with which its metric is
-/// reported ([`RenFitSummary::emg_hybrid`]).
+/// reported ([`RenFitSummary::emg_hybrid`]); `cancel` stops the search
+/// ([`EstimateError::Cancelled`]).
 ///
 /// # Errors
 /// [`EstimateError::TooFewFeatures`] without features, [`EstimateError::NoConvergence`]
@@ -262,6 +274,7 @@ pub fn fit_ren(
     object: Option<KnownObject<'_>>,
     points: &[(f64, f64)],
     emg_support_c: f64,
+    cancel: &std::sync::atomic::AtomicBool,
 ) -> Result<(FitResult, RenFitSummary), EstimateError> {
     let n = impacts.len().min(segments.len()).min(MAX_IMPACTS);
     let needed = model.n_params() + 2;
@@ -319,12 +332,13 @@ pub fn fit_ren(
         object: object_data,
         evaluations: std::cell::Cell::new(0),
         support_c: std::cell::Cell::new(0.0),
+        cancel,
     };
 
     // Law starts: the given fits, then Ren's lines through pairs of dominant features.
-    let mut law_starts: Vec<Vec<f64>> =
-        starts.iter().filter(|f| f.model == model).map(|f| metric.coords_of(&f.params)).collect();
-    let emg_start = starts.iter().position(|f| f.model == model && f.method == Method::Emg);
+    let starts: Vec<&FitResult> = starts.iter().filter(|f| f.model == model).collect();
+    let mut law_starts: Vec<Vec<f64>> = starts.iter().map(|f| metric.coords_of(&f.params)).collect();
+    let emg_fit = starts.iter().find(|f| f.method == Method::Emg);
     let mut dominant: Vec<&Feature> = impacts[0].features.iter().collect();
     dominant.sort_by(|a, b| energy(b).total_cmp(&energy(a)));
     dominant.truncate(N_DOMINANT);
@@ -366,7 +380,7 @@ pub fn fit_ren(
                 if gains[i] > best_gain {
                     best_gain = gains[i];
                     object_starts.push(((top.lambda() / lambdas[i]).ln(), (top.amplitude / gains[i]).ln()));
-                    if object_starts.len() > MAX_GAMMA_STARTS {
+                    if object_starts.len() >= MAX_GAMMA_STARTS + usize::from(matcher_start.is_some()) {
                         break;
                     }
                 }
@@ -377,21 +391,14 @@ pub fn fit_ren(
         }
     }
     let mut candidates: Vec<Vec<f64>> = Vec::new();
-    let mut emg_candidate = None;
-    for (li, law) in law_starts.iter().enumerate() {
+    for law in &law_starts {
         if metric.object.is_some() {
-            for (oi, &(g, s)) in object_starts.iter().enumerate() {
-                if Some(li) == emg_start && (Some(oi) == matcher_start || matcher_start.is_none() && oi == 0) {
-                    emg_candidate = Some(candidates.len());
-                }
+            for &(g, s) in &object_starts {
                 let mut x = law.clone();
                 x.extend([g, s]);
                 candidates.push(x);
             }
         } else {
-            if Some(li) == emg_start {
-                emg_candidate = Some(candidates.len());
-            }
             candidates.push(law.clone());
         }
     }
@@ -404,6 +411,9 @@ pub fn fit_ren(
         });
     }
     scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+    if cancel.load(std::sync::atomic::Ordering::Relaxed) {
+        return Err(EstimateError::Cancelled);
+    }
     let k = metric.law_len();
     let dim = candidates[0].len();
     let mut best: Option<(f64, Vec<f64>, bool)> = None;
@@ -427,10 +437,13 @@ pub fn fit_ren(
         let solver = NelderMead::new(simplex)
             .with_sd_tolerance(RELATIVE_TOLERANCE * start_value.abs().max(1e-300))
             .map_err(|e| EstimateError::NoConvergence { method: "ren", reason: e.to_string() })?;
-        let res = Executor::new(&metric, solver)
-            .configure(|s| s.max_iters(MAX_ITERATIONS))
-            .run()
-            .map_err(|e| EstimateError::NoConvergence { method: "ren", reason: e.to_string() })?;
+        let res = Executor::new(&metric, solver).configure(|s| s.max_iters(MAX_ITERATIONS)).run().map_err(|e| {
+            if cancel.load(std::sync::atomic::Ordering::Relaxed) {
+                EstimateError::Cancelled
+            } else {
+                EstimateError::NoConvergence { method: "ren", reason: e.to_string() }
+            }
+        })?;
         refined += 1;
         let state = res.state();
         iterations += state.get_iter();
@@ -453,10 +466,12 @@ pub fn fit_ren(
         reason: format!("the fitted law is not physically valid ({e})"),
     })?;
     let v = metric.value(&x);
-    // The EMG fit's metric as it plays: its law plus its mean support damping.
-    let emg_hybrid = emg_candidate.map(|i| {
+    // The EMG fit's metric as it plays: its own law plus its mean support damping, at the
+    // object matcher's γ and σ (or the first Pareto alignment without a match).
+    let emg_hybrid = emg_fit.map(|f| {
+        let (g, s) = object_starts.first().map_or((1.0, 1.0), |&(g, s)| (g.exp(), s.exp()));
         metric.support_c.set(emg_support_c.max(0.0));
-        let h = metric.value(&candidates[i]).hybrid;
+        let h = metric.value_at(&f.params, g, s).hybrid;
         metric.support_c.set(0.0);
         h
     });

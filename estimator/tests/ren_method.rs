@@ -1,7 +1,7 @@
 //! `--method ren` (Ren, Yeh & Lin 2013 §5; issue 15 part 1): the hybrid psychoacoustic
 //! metric minimised by Nelder–Mead recovers the law a recording was made with (known
 //! truth: the synthesis parameters), and with a known object its specific-modulus ratio;
-//! it is refused where it cannot run, and falls back to EMG (saying so) where it fails.
+//! it is refused where it cannot run, and a cancelled estimate stops.
 
 use estimator::synth::{add_noise, render, write_wav_f32, Rng};
 use estimator::{estimate, fit_damping, Method, ModelKind, Options};
@@ -123,4 +123,22 @@ fn ren_is_refused_on_bare_points() {
     let e = fit_damping(&pts, ModelKind::Rayleigh, Method::Ren).unwrap_err().to_string();
     assert!(e.contains("ren") && e.contains("estimate") && !e.contains('\n'), "{e}");
     assert_eq!(serde_json::to_string(&Method::Ren).unwrap(), "\"ren\"");
+}
+
+/// Cancelling while Ren's optimiser runs (the flag set once the EMG fits are done, at 96 %)
+/// stops the estimate with `Cancelled`, not with an EMG material.
+#[test]
+fn a_cancelled_ren_estimate_stops() {
+    let modes: Vec<(f64, f64, f64)> = (0..8).map(|i| (300.0 * (1.0 + i as f64), 3.0 + i as f64, 0.3)).collect();
+    let path = session("cancel", &modes, 2, 13);
+    let opts = Options { method: Method::Ren, ..Options::default() };
+    let cancel = AtomicBool::new(false);
+    let progress = |p: f32| {
+        if p >= 0.96 {
+            cancel.store(true, std::sync::atomic::Ordering::Relaxed);
+        }
+    };
+    let r = estimate(std::slice::from_ref(&path), &opts, &progress, &cancel);
+    let _ = std::fs::remove_file(&path);
+    assert!(matches!(r, Err(estimator::EstimateError::Cancelled)), "{:?}", r.map(|r| r.method));
 }
