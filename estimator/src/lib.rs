@@ -451,7 +451,7 @@ pub fn estimate(
         if cancel.load(Ordering::Relaxed) {
             return Err(EstimateError::Cancelled);
         }
-        match ren_fit_of(files, opts, &feats.impacts, &fits, &chosen, object.as_ref(), &points, cancel) {
+        match ren_fit_of(files, opts, &feats.impacts, &fits, &chosen, object.as_ref(), cancel) {
             Ok((fit, summary)) => {
                 if let (Some(l), Some(g)) = (opts.object_lambdas.as_deref(), summary.gamma_ratio) {
                     object = object::match_object_at(&all, l, opts.object_gains.as_deref(), g).map(|mut o| {
@@ -514,9 +514,9 @@ fn ren_fit_of(
     fits: &[FitResult],
     chosen: &FitResult,
     object: Option<&ObjectMatch>,
-    points: &[(f64, f64)],
     cancel: &AtomicBool,
 ) -> Result<(FitResult, ren_fit::RenFitSummary), EstimateError> {
+    let points: Vec<(f64, f64)> = impacts.iter().flat_map(|i| i.features.iter().map(|f| (f.lambda(), f.c()))).collect();
     let used = &impacts[..impacts.len().min(ren_fit::MAX_IMPACTS)];
     let mut recordings: Vec<(String, Recording)> = Vec::new();
     for imp in used {
@@ -557,7 +557,18 @@ fn ren_fit_of(
         .find(|f| f.model == chosen.model && f.method == Method::Emg)
         .and_then(|f| support_of(impacts, f))
         .unwrap_or(0.0);
-    ren_fit::fit_ren(used, &segments, chosen.model, &starts, known, points, emg_support, cancel)
+    ren_fit::fit_ren(
+        &ren_fit::RenInput {
+            impacts: used,
+            segments: &segments,
+            model: chosen.model,
+            starts: &starts,
+            object: known,
+            points: &points,
+            emg_support_c: emg_support,
+        },
+        cancel,
+    )
 }
 
 /// Says in `warnings` when the chosen fit is not the one asked for, then the chosen fit's own

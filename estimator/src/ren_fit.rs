@@ -256,26 +256,36 @@ pub struct KnownObject<'a> {
     pub matched: Option<&'a ObjectMatch>,
 }
 
-/// Ren's fit of `model` to `impacts` (their recordings in `segments`, the same order; at
-/// most the first [`MAX_IMPACTS`] are used), started also from `starts` (fits of the same
-/// model, e.g. EMG and LB). `points` are all (λ, c) points, for the fit's statistics;
-/// `emg_support_c` is the EMG fit's mean support damping (s⁻¹), with which its metric is
-/// reported ([`RenFitSummary::emg_hybrid`]); `cancel` stops the search
+/// What Ren's fit works on.
+pub struct RenInput<'a> {
+    /// The impacts (at most the first [`MAX_IMPACTS`] are used).
+    pub impacts: &'a [ImpactFeatures],
+    /// Their recordings, in the same order.
+    pub segments: &'a [Segment],
+    /// The law to fit.
+    pub model: ModelKind,
+    /// Fits of the same law to start from (e.g. EMG and LB).
+    pub starts: &'a [FitResult],
+    /// The recorded object, if known.
+    pub object: Option<KnownObject<'a>>,
+    /// All (λ, c) points, for the fit's statistics.
+    pub points: &'a [(f64, f64)],
+    /// The EMG fit's mean support damping (s⁻¹), with which its metric is reported
+    /// ([`RenFitSummary::emg_hybrid`]).
+    pub emg_support_c: f64,
+}
+
+/// Ren's fit of `input.model` to `input.impacts`; `cancel` stops the search
 /// ([`EstimateError::Cancelled`]).
 ///
 /// # Errors
 /// [`EstimateError::TooFewFeatures`] without features, [`EstimateError::NoConvergence`]
-/// if no start gives a finite metric.
+/// if no start gives a finite metric, [`EstimateError::Cancelled`].
 pub fn fit_ren(
-    impacts: &[ImpactFeatures],
-    segments: &[Segment],
-    model: ModelKind,
-    starts: &[FitResult],
-    object: Option<KnownObject<'_>>,
-    points: &[(f64, f64)],
-    emg_support_c: f64,
+    input: &RenInput<'_>,
     cancel: &std::sync::atomic::AtomicBool,
 ) -> Result<(FitResult, RenFitSummary), EstimateError> {
+    let RenInput { impacts, segments, model, starts, ref object, points, emg_support_c } = *input;
     let n = impacts.len().min(segments.len()).min(MAX_IMPACTS);
     let needed = model.n_params() + 2;
     if n == 0 || points.len() < needed {
