@@ -292,9 +292,11 @@ fn bundle_for_tests() -> Result<(), String> {
 }
 
 /// Runs a command, reporting whether it succeeded (a failure to start is a failure).
+/// Prints how long the step took, so CI's log says where its time goes.
 fn step(name: &str, cmd: &mut Command) -> bool {
     eprintln!("+ {name}");
-    match cmd.status() {
+    let start = std::time::Instant::now();
+    let ok = match cmd.status() {
         Ok(s) if s.success() => true,
         Ok(s) => {
             eprintln!("xtask: {name} failed ({s})");
@@ -304,7 +306,9 @@ fn step(name: &str, cmd: &mut Command) -> bool {
             eprintln!("xtask: cannot run {name}: {e}");
             false
         }
-    }
+    };
+    eprintln!("xtask: {name}: {:.0} s", start.elapsed().as_secs_f64());
+    ok
 }
 
 /// `cargo xtask test [cargo test args]`: installs what the tests need (tests/setup.sh), bundles
@@ -329,11 +333,13 @@ fn test(extra: &[String]) -> Result<(), String> {
     let cargo_bin = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let mut cargo_test = Command::new(&cargo_bin);
     cargo_test
-        .args(["test", "--workspace", "--no-fail-fast"])
+        // Libraries, binaries and test targets: the examples and the (empty) doc-tests are
+        // left to clippy's `--all-targets` check, which compiles them without linking.
+        .args(["test", "--workspace", "--no-fail-fast", "--lib", "--bins", "--tests"])
         .args(extra)
         .env("STRUCK_CLAP", &clap)
         .env("STRUCK_RESONATOR_CLAP", &fx_clap);
-    if !step("cargo test --workspace --no-fail-fast", &mut cargo_test) {
+    if !step("cargo test --workspace --no-fail-fast --lib --bins --tests", &mut cargo_test) {
         failed.push("cargo test");
     }
 

@@ -13,6 +13,8 @@ pub use circular_plate::{circular_plate_bank, free_circular_plate_roots, Circula
 pub use materials::{factory_material, factory_materials, FACTORY_MATERIAL_IDS};
 pub use rect_plate::rect_plate_bank;
 
+use std::sync::OnceLock;
+
 use crate::Bank;
 
 pub use analytic::FACTORY_MAX_FREQ_HZ;
@@ -41,14 +43,22 @@ pub const FACTORY_FEM_BANKS: &[(&str, &str)] = &[
     ("fem-tubular-chime", include_str!("../../factory/banks/fem-tubular-chime.json")),
 ];
 
-/// All factory banks: the analytic `"bar"`, `"circular-plate"`, `"rect-plate"` (computed now,
-/// a few milliseconds each in a release build), then the embedded FEM banks
-/// ([`FACTORY_FEM_BANKS`]). An embedded bank that fails to parse is left out (a test checks
-/// that all of them parse).
+/// All factory banks: the analytic `"bar"`, `"circular-plate"`, `"rect-plate"`, then the
+/// embedded FEM banks ([`FACTORY_FEM_BANKS`]). An embedded bank that fails to parse is left
+/// out (a test checks that all of them parse).
+///
+/// They are computed and parsed once per process and cloned from then on: every plugin
+/// instance asks for them when it activates, and building them (Bessel roots, JSON) took
+/// most of an activation.
 pub fn factory_banks() -> Vec<Bank> {
-    let mut banks = vec![bar_bank(), circular_plate_bank(), rect_plate_bank()];
-    banks.extend(FACTORY_FEM_BANKS.iter().filter_map(|(_, json)| Bank::from_json(json).ok()));
-    banks
+    static BANKS: OnceLock<Vec<Bank>> = OnceLock::new();
+    BANKS
+        .get_or_init(|| {
+            let mut banks = vec![bar_bank(), circular_plate_bank(), rect_plate_bank()];
+            banks.extend(FACTORY_FEM_BANKS.iter().filter_map(|(_, json)| Bank::from_json(json).ok()));
+            banks
+        })
+        .clone()
 }
 
 /// The factory bank with this id (analytic banks computed now), or `None` for an unknown id.
