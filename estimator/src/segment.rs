@@ -15,9 +15,9 @@
 //!   energy that is new in this frame, bin by bin (Σ max(0, P − rise × P_prev)), is at least
 //!   half the previous frames' energy. The first frame of the file counts as a rise: a file
 //!   that starts with the ringing has its onset at sample 0.
-//! - While an impact still rings, a new onset must also be broadband (its new bins span at
-//!   least `MIN_NEW_SPAN_HZ`): a fresh strike excites many modes or a click, whereas beating
-//!   of close modes or a slowly building partial of the same hit raises only one peak.
+//! - While an impact still rings, a new onset must also be broadband (see below): a fresh
+//!   strike excites many modes or a click, whereas beating of close modes or a slowly
+//!   building partial of the same hit raises only a few peaks.
 //! - A candidate is a strike only if what follows is tonal (a quarter of the energy of the
 //!   40 ms from the onset, or from the loudest frame of its first 100 ms — a bell that swells
 //!   after a quiet contact —, lies in spectral peaks ≥ 12 dB over their neighbourhood's
@@ -31,7 +31,14 @@
 //!   (woodblocks, music boxes, temple blocks) rise by 6 dB at −30 dB, a second strike that
 //!   soon after is as loud as the first. Later in the ring it must come within
 //!   `RINGING_RESTRIKE_DB` (20 dB) of that peak: a tap 20 dB softer than the one still
-//!   ringing is taken as part of it.
+//!   ringing is taken as part of it. The same holds within `SAME_STRIKE_S` after the ring
+//!   fell into the floor (a tail cut to digital zeros by a gate comes back for a moment).
+//! - While an impact rings, its new bins must be broad: the bins that rose and lie within
+//!   30 dB of the frame's strongest add up to `MIN_NEW_SPAN_HZ` (two beating partials far
+//!   apart rise together but are not broad).
+//! - The other way round, an onset followed within `SAME_STRIKE_S` by one 10 dB louder than
+//!   anything since was that strike's precursor (a music box's pin lifting the tooth, a
+//!   mallet grazing first): it is reported as skipped and the strike starts at the loud onset.
 
 use realfft::num_complex::Complex64 as C64;
 use realfft::RealFftPlanner;
@@ -96,7 +103,10 @@ const SAME_STRIKE_S: f64 = 0.25;
 /// the late swells of a long ring (a timpani's beating, a bell's warble) stay far under it,
 /// a new tap while the object rings does not.
 const RINGING_RESTRIKE_DB: f64 = 20.0;
-/// New bins of an onset during a ring must span at least this, Hz.
+/// An onset this many times (10 dB) louder than the impact before it, within
+/// `SAME_STRIKE_S` of that impact's onset, makes it a precursor (module docs).
+const PRECURSOR_DB_RATIO: f64 = 10.0;
+/// New bins of an onset during a ring must add up to at least this, Hz.
 const MIN_NEW_SPAN_HZ: f64 = 1500.0;
 /// Share of the following 10 ms's energy in spectral peaks that makes a candidate tonal.
 const TONAL_SHARE: f64 = 0.25;
@@ -257,6 +267,10 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
     let mut ringing = false;
     let mut quiet = 0;
     let mut end_thr = 2.0 * noise;
+    // Frame where the last impact's ring fell into the floor.
+    let mut ring_end = 0;
+    // Onsets dropped as the precursor of a louder strike right after: (sample, dB louder).
+    let mut precursors: Vec<(usize, f64)> = Vec::new();
     for j in 0..nfr {
         spec.power(j, &mut p);
         nu[j] = flat_level(&p, &mut scratch);
@@ -266,31 +280,48 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
             // Decayed into the local floor: four frames under twice the floor before the onset.
             quiet = if e[j] < end_thr { quiet + 1 } else { 0 };
             ringing = quiet < 4;
+            if !ringing {
+                ring_end = j;
+            }
         }
         // The same strike's swell or beat, not a new one (module docs).
         let soon = onsets.last().is_some_and(|&(_, j0)| j < j0 + same_strike);
         let margin_db = if soon { opts.onset_db } else { RINGING_RESTRIKE_DB };
-        let same = ringing && e[j] * 10f64.powf(margin_db / 10.0) < impact_peak;
+        // A ring that dropped to the floor for a moment (a noise gate's or a sample's
+        // truncated tail: runs of digital zeros) and comes back far under its peak is the
+        // same ring, not a strike.
+        let resumed = !ringing && !onsets.is_empty() && j < ring_end + same_strike;
+        let same = (ringing || resumed) && e[j] * 10f64.powf(margin_db / 10.0) < impact_peak;
+        if resumed && same && e[j] >= end_thr {
+            // The ring is back: it ends again where it next falls into the floor.
+            ringing = true;
+            quiet = 0;
+        }
+        let peak_before = impact_peak;
         if ringing {
             impact_peak = impact_peak.max(e[j]);
         }
         if j >= next_allowed && e[j] > onset_thr && !same {
             let total_rise = e[j] > rise * prev_e.max(noise);
-            let (mut new_e, mut lo, mut hi) = (0.0, usize::MAX, 0);
+            let (mut new_e, mut wide) = (0.0, 0);
             let prev_tot: f64 = if nprev == 0 { 0.0 } else { prev_sum.iter().sum::<f64>() / nprev as f64 };
+            // A bin counts towards the breadth of what is new when it rose and is within
+            // 30 dB of the frame's strongest bin.
+            let significant = onset_thr.max(1e-3 * p.iter().fold(0.0f64, |m, &v| m.max(v)));
             for k in 0..nb {
                 let pp = if nprev == 0 { 0.0 } else { prev_sum[k] / nprev as f64 };
                 let extra = p[k] - rise * pp;
                 if extra > 0.0 {
                     new_e += extra;
-                    if p[k] > onset_thr {
-                        lo = lo.min(k);
-                        hi = hi.max(k);
+                    if p[k] > significant {
+                        wide += 1;
                     }
                 }
             }
             let bin_rise = new_e >= 0.5 * prev_tot;
-            let broadband = hi >= lo && hi - lo >= min_span;
+            // Broadband: the risen bins add up to `MIN_NEW_SPAN_HZ` (the span from the lowest
+            // to the highest was fooled by two beating partials far apart).
+            let broadband = wide >= min_span;
             if (total_rise || bin_rise) && (!ringing || broadband) {
                 // Tonal or transient, else a noise floor step.
                 // The loudest frame of the first 100 ms.
@@ -322,6 +353,16 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
                     let thr = before.min(pk) + 0.3 * (pk - before.min(pk));
                     let s = a + x[a..b].iter().position(|v| v.abs() >= thr).unwrap_or(0);
                     if onsets.last().is_none_or(|&(o, _)| s > o) {
+                        // A quiet onset followed within `SAME_STRIKE_S` by one whose first
+                        // 10 ms peak 10 dB over anything since was its precursor (a music box's pin lifting
+                        // the tooth before it is released, a mallet's graze): the strike
+                        // starts here.
+                        if let Some(&(o, j0)) = onsets.last() {
+                            if j < j0 + same_strike && e_on >= PRECURSOR_DB_RATIO * peak_before {
+                                precursors.push((o, 10.0 * (e_on / peak_before).log10()));
+                                onsets.pop();
+                            }
+                        }
                         onsets.push((s, j));
                         // The floor this impact decays into: the one just before it.
                         let pre = if nprev == 0 {
@@ -352,6 +393,17 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
     }
 
     let mut out = Segmentation { noise_var: noise, noise_steps, ..Default::default() };
+    for &(o, db) in &precursors {
+        let next = onsets.iter().find(|p| p.0 > o).map_or(o + 1, |p| p.0);
+        let seg = Segment { start: o, end: next, snr_db: 0.0, noise_var: noise };
+        out.skipped.push((
+            seg,
+            format!(
+                "the precursor of the strike at {:.3} s ({db:.0} dB quieter): taken as part of it",
+                next as f64 / fs
+            ),
+        ));
+    }
     let max_len = (opts.max_impact_s * fs) as usize;
     let min_len = (opts.min_impact_s * fs) as usize;
     for (i, &(s, j0)) in onsets.iter().enumerate() {
