@@ -1250,14 +1250,16 @@ fn fit_emg_optimum(model: ModelKind, d: &Data) -> Result<(ConstrainedFit, usize)
 
 /// [`fit_emg_optimum`], with the subsample's warm start allowed or not (the tests compare).
 fn emg_search(model: ModelKind, d: &Data, warm: bool) -> Result<(ConstrainedFit, usize), EstimateError> {
-    let (fits, mut its) = emg_runs(model, d, warm);
-    // The runs' results in start order: the first that converges free of bounds ends the
-    // search (the LB start usually lands on the optimum; the second start is for when it did
-    // not converge or stopped on a bound); otherwise the lowest value wins, ties to the first.
+    let (fits, mut its, polished) = emg_runs(model, d, warm);
+    // The runs' results in start order: from the usual starts, the first that converges free
+    // of bounds ends the search (the LB start usually lands on the optimum; the second start
+    // is for when it did not converge or stopped on a bound); otherwise, and among polishes
+    // of a subsample's optima (all of them run, in no meaningful order), the lowest value
+    // wins, ties to the first.
     let mut best: Option<ConstrainedFit> = None;
     for r in fits {
         its += r.opt.iterations;
-        if best.as_ref().is_some_and(settled) {
+        if !polished && best.as_ref().is_some_and(settled) {
             continue;
         }
         if r.opt.f.is_finite() && best.as_ref().is_none_or(|b| r.opt.f < b.opt.f) {
@@ -1273,12 +1275,12 @@ fn settled(r: &ConstrainedFit) -> bool {
     r.opt.converged && r.active.is_empty()
 }
 
-/// The EMG's Newton runs, in start order, and the iterations spent before them (the LSQ start,
-/// the subsample's runs). Starts: with many points carrying their own uncertainties (and
+/// The EMG's Newton runs, in start order, the iterations spent before them (the LSQ start,
+/// the subsample's runs) and whether the runs are polishes of a subsample's optima. Starts: with many points carrying their own uncertainties (and
 /// `warm`), every distinct converged optimum of a subsample's runs (the likelihood can have
 /// more than one basin, so each is polished, not only the best); otherwise, or when no polish
 /// converges, [`emg_starts`].
-fn emg_runs(model: ModelKind, d: &Data, warm: bool) -> (Vec<ConstrainedFit>, usize) {
+fn emg_runs(model: ModelKind, d: &Data, warm: bool) -> (Vec<ConstrainedFit>, usize, bool) {
     let n = d.x.len();
     let hetero = d.hetero();
     let floor = if hetero { SIGMA_FLOOR_HETERO } else { SIGMA_FLOOR };
@@ -1323,7 +1325,7 @@ fn emg_runs(model: ModelKind, d: &Data, warm: bool) -> (Vec<ConstrainedFit>, usi
     // Many points: a subsample's optima are starts close enough for a few Newton steps on
     // all of them.
     if warm && hetero && n >= SUBSAMPLE_MIN_POINTS {
-        let (sub_runs, sub_its) = emg_runs(model, &d.subsample(SUBSAMPLE_STRIDE), true);
+        let (sub_runs, sub_its, _) = emg_runs(model, &d.subsample(SUBSAMPLE_STRIDE), true);
         its += sub_its + sub_runs.iter().map(|r| r.opt.iterations).sum::<usize>();
         let mut starts: Vec<Vec<f64>> = Vec::new();
         for r in sub_runs.iter().filter(|r| r.opt.converged && r.opt.f.is_finite()) {
@@ -1341,7 +1343,9 @@ fn emg_runs(model: ModelKind, d: &Data, warm: bool) -> (Vec<ConstrainedFit>, usi
         let (mut g, mut h) = (vec![0.0; k + 2], vec![0.0; (k + 2) * (k + 2)]);
         let lifted: Vec<Vec<f64>> = fits
             .iter()
-            .filter(|r| r.opt.converged && r.opt.x[k] <= bounds.ln_sigma_min + 1e-9)
+            .filter(|r| {
+                r.opt.converged && r.opt.x[k] <= bounds.ln_sigma_min + 1e-9 && ln_sigma_start > r.opt.x[k] + 1e-6
+            })
             .filter(|r| {
                 emg_nll_hess(model, d, &r.opt.x, &mut g, &mut h);
                 // ∂(−log L)/∂σ² = g / (2σ²): negative where a larger σ fits better.
@@ -1357,14 +1361,14 @@ fn emg_runs(model: ModelKind, d: &Data, warm: bool) -> (Vec<ConstrainedFit>, usi
             fits.extend(run(&lifted));
         }
         if fits.iter().any(|r| r.opt.converged && r.opt.f.is_finite()) {
-            return (fits, its);
+            return (fits, its, true);
         }
         its += fits.iter().map(|r| r.opt.iterations).sum::<usize>();
     }
     let lsq = lsq_fit(model, d);
     its += lsq.iterations;
     let starts = emg_starts(model, d, &lsq.params, bounds);
-    (run(&starts), its)
+    (run(&starts), its, false)
 }
 
 /// The EMG fit (thesis §4.2.5, made robust and heteroscedastic): the likelihood's optimum
@@ -1569,6 +1573,7 @@ mod tests {
                 .collect();
             let d = normalise(&p, Some(&sig), model).unwrap();
             assert!(d.x.len() >= SUBSAMPLE_MIN_POINTS);
+            assert!(emg_runs(model, &d, true).2, "{model:?}: the warm path fell back to the full search");
             let (warm, warm_its) = emg_search(model, &d, true).unwrap();
             let (full, full_its) = emg_search(model, &d, false).unwrap();
             assert!(warm.opt.converged && full.opt.converged);

@@ -338,7 +338,8 @@ pub fn extract_features(
             channels: rec.channels,
             duration_s: rec.duration_s(),
             noise_floor_db: 10.0 * seg.noise_var.max(1e-30).log10(),
-            impacts_found: seg.impacts.len() + seg.skipped.len(),
+            // A strike's precursor is part of it, not an impact of its own.
+            impacts_found: seg.impacts.len() + seg.skipped.iter().filter(|s| !segment::is_precursor(&s.1)).count(),
             impacts_used: used,
         });
         progress((fi + 1) as f32 / nfiles as f32);

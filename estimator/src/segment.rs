@@ -31,8 +31,8 @@
 //!   (woodblocks, music boxes, temple blocks) rise by 6 dB at −30 dB, a second strike that
 //!   soon after is as loud as the first. Later in the ring it must come within
 //!   `RINGING_RESTRIKE_DB` (20 dB) of that peak: a tap 20 dB softer than the one still
-//!   ringing is taken as part of it. The same holds within `SAME_STRIKE_S` after the ring
-//!   fell into the floor (a tail cut to digital zeros by a gate comes back for a moment).
+//!   ringing is taken as part of it. The same holds within `SAME_STRIKE_S` after a ring was
+//!   cut to digital silence (a tail cut into runs of zeros by a gate comes back for a moment).
 //! - While an impact rings, its new bins must be broad: the bins that rose and lie within
 //!   30 dB of the frame's strongest add up to `MIN_NEW_SPAN_HZ` (two beating partials far
 //!   apart rise together but are not broad).
@@ -112,6 +112,15 @@ const MIN_NEW_SPAN_HZ: f64 = 1500.0;
 const TONAL_SHARE: f64 = 0.25;
 /// A bin is a peak if it exceeds its neighbourhood's median (±8 bins) by this factor (12 dB).
 const PEAK_OVER_MEDIAN: f64 = 16.0;
+
+/// How the reason of a skipped precursor begins.
+const PRECURSOR: &str = "the precursor";
+
+/// Whether a skipped segment's reason says it was a strike's precursor (part of that strike,
+/// not an impact of its own).
+pub fn is_precursor(reason: &str) -> bool {
+    reason.starts_with(PRECURSOR)
+}
 
 /// Power spectra of the frames of a signal.
 struct FrameSpectra<'a> {
@@ -269,6 +278,7 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
     let mut end_thr = 2.0 * noise;
     // Frame where the last impact's ring fell into the floor.
     let mut ring_end = 0;
+    let mut gated_end = false;
     // Onsets dropped as the precursor of a louder strike right after: (sample, dB louder).
     let mut precursors: Vec<(usize, f64)> = Vec::new();
     for j in 0..nfr {
@@ -282,15 +292,18 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
             ringing = quiet < 4;
             if !ringing {
                 ring_end = j;
+                // Ended on digital silence (a gate, a truncated tail), not by decaying.
+                gated_end = e[j] <= peak_e * 1e-12;
             }
         }
         // The same strike's swell or beat, not a new one (module docs).
         let soon = onsets.last().is_some_and(|&(_, j0)| j < j0 + same_strike);
         let margin_db = if soon { opts.onset_db } else { RINGING_RESTRIKE_DB };
-        // A ring that dropped to the floor for a moment (a noise gate's or a sample's
-        // truncated tail: runs of digital zeros) and comes back far under its peak is the
-        // same ring, not a strike.
-        let resumed = !ringing && !onsets.is_empty() && j < ring_end + same_strike;
+        // A ring cut to digital silence for a moment (a noise gate's or a sample's
+        // truncated tail: runs of zeros) that comes back far under its peak is the same
+        // ring, not a strike. (A ring that decayed into noise is over: a soft tap after it
+        // is a strike.)
+        let resumed = !ringing && gated_end && !onsets.is_empty() && j < ring_end + same_strike;
         let same = (ringing || resumed) && e[j] * 10f64.powf(margin_db / 10.0) < impact_peak;
         if resumed && same && e[j] >= end_thr {
             // The ring is back: it ends again where it next falls into the floor.
@@ -394,14 +407,12 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
 
     let mut out = Segmentation { noise_var: noise, noise_steps, ..Default::default() };
     for &(o, db) in &precursors {
+        // The reason starts with `PRECURSOR` ([`is_precursor`]).
         let next = onsets.iter().find(|p| p.0 > o).map_or(o + 1, |p| p.0);
         let seg = Segment { start: o, end: next, snr_db: 0.0, noise_var: noise };
         out.skipped.push((
             seg,
-            format!(
-                "the precursor of the strike at {:.3} s ({db:.0} dB quieter): taken as part of it",
-                next as f64 / fs
-            ),
+            format!("{PRECURSOR} of the strike at {:.3} s ({db:.0} dB quieter): taken as part of it", next as f64 / fs),
         ));
     }
     let max_len = (opts.max_impact_s * fs) as usize;

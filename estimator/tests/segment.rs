@@ -346,3 +346,30 @@ fn pieces_of_one_strike_are_one_impact() {
         }
     }
 }
+
+/// The other side of the gated-tail rule: a fast ring that decayed into room noise is over,
+/// and a soft tap 17 dB under it 150 ms later is a strike of its own.
+#[test]
+fn a_soft_tap_after_a_decayed_ring_is_a_strike() {
+    let fs = 44_100.0;
+    let mut g = Gen(41);
+    let mut x = vec![0.0; (1.0 * fs) as usize];
+    for (t0, a) in [(0.1, 0.4), (0.35, 0.4 * 10f64.powf(-17.0 / 20.0))] {
+        let i0 = (t0 * fs) as usize;
+        for i in 0..(0.001 * fs) as usize {
+            x[i0 + i] += a * (-(i as f64) / (0.0003 * fs)).exp() * g.normal();
+        }
+        for (f, d, m) in [(700.0, 60.0, 0.6), (1930.0, 90.0, 0.3), (3150.0, 120.0, 0.2)] {
+            add_mode(&mut x, fs, t0, f, d, a * m);
+        }
+    }
+    for v in x.iter_mut() {
+        *v += 3e-5 * g.normal();
+    }
+    let x32: Vec<f32> = x.iter().map(|&v| v as f32).collect();
+    let seg = estimator::segment::segment(&x32, fs, &estimator::SegmentOptions::default());
+    let onsets: Vec<f64> = seg.impacts.iter().map(|i| i.start as f64 / fs).collect();
+    eprintln!("onsets {onsets:?}, skipped {:?}", seg.skipped);
+    assert_eq!(onsets.len(), 2, "{onsets:?}");
+    assert!((onsets[0] - 0.1).abs() < 0.002 && (onsets[1] - 0.35).abs() < 0.002, "{onsets:?}");
+}
