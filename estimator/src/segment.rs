@@ -310,7 +310,6 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
             ringing = true;
             quiet = 0;
         }
-        let peak_before = impact_peak;
         if ringing {
             impact_peak = impact_peak.max(e[j]);
         }
@@ -371,8 +370,12 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
                         // the tooth before it is released, a mallet's graze): the strike
                         // starts here.
                         if let Some(&(o, j0)) = onsets.last() {
-                            if j < j0 + same_strike && e_on >= PRECURSOR_DB_RATIO * peak_before {
-                                precursors.push((o, 10.0 * (e_on / peak_before).log10()));
+                            // Its level before this onset's rise (the last 20 ms, which the
+                            // minimum gap may have let pass before the onset was taken).
+                            let pre_peak =
+                                e[j0..j.saturating_sub(back).max(j0 + 1)].iter().fold(0.0f64, |m, &v| m.max(v));
+                            if j < j0 + same_strike && e_on >= PRECURSOR_DB_RATIO * pre_peak {
+                                precursors.push((o, 10.0 * (e_on / pre_peak).log10()));
                                 onsets.pop();
                             }
                         }
