@@ -9,32 +9,12 @@
 //! (clips: `tests/recordings/fetch.py`'s `CACHE/clips`; the category is the file name's
 //! first word).
 
-use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
-use struck_core::editor::ab::{build, modes_clip, AbRequest, Side};
+use struck_core::editor::ab::{build, modes_clip, Side};
 
-/// Log-spectral distance, dB, over the first `frames` frames (each side floored 100 dB under
-/// the reference's strongest cell).
-fn lsd(a: &[f32], reference: &[f32], frames: usize) -> f64 {
-    use estimator::residual::{power_spectrogram, BINS};
-    let f = |x: &[f32]| power_spectrogram(&x.iter().map(|&v| f64::from(v)).collect::<Vec<f64>>());
-    let (pa, pr) = (f(a), f(reference));
-    let frames = frames.min(pa.frames).min(pr.frames);
-    let floor = pr.power.iter().copied().fold(0.0, f64::max) * 1e-10;
-    let db = |p: f64| 10.0 * (p + floor).log10();
-    let cells = frames * BINS;
-    ((0..cells).map(|i| (db(pa.power[i]) - db(pr.power[i])).powi(2)).sum::<f64>() / cells as f64).sqrt()
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    if v.is_empty() {
-        f64::NAN
-    } else {
-        v[v.len() / 2]
-    }
-}
+mod common;
+use common::{ab_request, clips, frames, lsd, median, name_and_category, write_json};
 
 /// `law` with a constant extra c (the mean support damping), for the laws with a constant
 /// term; the power law has none and is returned as it is.
@@ -60,23 +40,11 @@ struct Row {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let Some(dir) = args.first() else {
-        eprintln!("usage: method_table CLIPS_DIR [--json OUT]");
-        std::process::exit(2);
-    };
-    let json = args.iter().position(|a| a == "--json").and_then(|i| args.get(i + 1));
-    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-        .expect("clips folder")
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "wav"))
-        .collect();
-    files.sort();
+    let (files, json) = clips("method_table CLIPS_DIR [--json OUT]");
     let rate = 48_000.0f32;
     let mut rows: Vec<Row> = Vec::new();
     for f in &files {
-        let name = f.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-        let category = name.split(['-', '_', '.']).next().unwrap_or("").to_string();
+        let (name, category) = name_and_category(f);
         let run = |method| {
             let t = Instant::now();
             let opts = estimator::Options { method, ..estimator::Options::default() };
@@ -92,19 +60,7 @@ fn main() {
             continue;
         };
         let Some(imp) = emg.impacts.first() else { continue };
-        let req = AbRequest {
-            side: Side::Recording,
-            file: f.clone(),
-            onset_s: imp.onset_s,
-            duration_s: imp.duration_s.min(1.0),
-            features: imp.features.clone(),
-            damping: emg.damping(),
-            object: dsp::ObjectModes::new(vec![1e6], &[vec![1.0]]),
-            params: dsp::engine::SoundParams::default(),
-            position: 0.5,
-            gamma_ratio: None,
-            rate,
-        };
+        let req = ab_request(Side::Recording, f, imp, emg.damping(), rate);
         let Ok(a) = build(&req) else {
             eprintln!("{name}: the recording clip failed");
             continue;
@@ -117,9 +73,7 @@ fn main() {
             seconds,
         );
         let b_ren = modes_clip(&imp.features, Some(&ren.damping()), rate, seconds);
-        let hop = estimator::residual::HOP as f64 / f64::from(rate);
-        let attack = (0.05 / hop).round() as usize;
-        let long = (0.35 / hop).round() as usize;
+        let (attack, long) = (frames(0.05, rate), frames(0.35, rate));
         let row = Row {
             clip: name.clone(),
             category,
@@ -173,6 +127,6 @@ fn main() {
             .iter()
             .map(|r| serde_json::json!({"clip": r.clip, "category": r.category, "seconds": r.seconds, "hybrid": r.hybrid, "attack_lsd_db": r.attack, "long_lsd_db": r.long}))
             .collect();
-        let _ = std::fs::write(out, serde_json::to_string_pretty(&v).unwrap_or_default());
+        write_json(&out, &v);
     }
 }

@@ -7,22 +7,11 @@
 //! (clips: `tests/recordings/fetch.py`'s `CACHE/clips`; the category is the file name's
 //! first word).
 
-use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
-use struck_core::editor::ab::{build, AbRequest, Side};
+use struck_core::editor::ab::{build, Side};
 
-/// Log-spectral distance, dB, over the first `frames` frames (each side floored 100 dB under
-/// the reference's strongest cell).
-fn lsd(a: &[f32], reference: &[f32], frames: usize) -> f64 {
-    use estimator::residual::{power_spectrogram, BINS};
-    let f = |x: &[f32]| power_spectrogram(&x.iter().map(|&v| f64::from(v)).collect::<Vec<f64>>());
-    let (pa, pr) = (f(a), f(reference));
-    let frames = frames.min(pa.frames).min(pr.frames);
-    let floor = pr.power.iter().copied().fold(0.0, f64::max) * 1e-10;
-    let db = |p: f64| 10.0 * (p + floor).log10();
-    let cells = frames * BINS;
-    ((0..cells).map(|i| (db(pa.power[i]) - db(pr.power[i])).powi(2)).sum::<f64>() / cells as f64).sqrt()
-}
+mod common;
+use common::{ab_request, clips, frames, lsd, median, name_and_category, write_json};
 
 /// Ren's image-domain metric (§5.2.1, eq. 19) of `a` against `reference` over their first
 /// `seconds`: loudness in half-Bark bands, both calibrated by the reference's image.
@@ -43,33 +32,12 @@ fn psycho(a: &[f32], reference: &[f32], rate: f32, seconds: f64) -> f64 {
 /// Ren's Π_psycho over 350 ms (the same).
 type Row = (String, String, f64, f64, f64, f64, f64, f64);
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    if v.is_empty() {
-        f64::NAN
-    } else {
-        v[v.len() / 2]
-    }
-}
-
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let Some(dir) = args.first() else {
-        eprintln!("usage: residual_table CLIPS_DIR [--json OUT]");
-        std::process::exit(2);
-    };
-    let json = args.iter().position(|a| a == "--json").and_then(|i| args.get(i + 1));
-    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-        .expect("clips folder")
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "wav"))
-        .collect();
-    files.sort();
+    let (files, json) = clips("residual_table CLIPS_DIR [--json OUT]");
     let rate = 48_000.0f32;
     let mut rows: Vec<Row> = Vec::new();
     for f in &files {
-        let name = f.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-        let category = name.split(['-', '_', '.']).next().unwrap_or("").to_string();
+        let (name, category) = name_and_category(f);
         let report = match estimator::estimate(
             std::slice::from_ref(f),
             &estimator::Options::default(),
@@ -83,28 +51,14 @@ fn main() {
             }
         };
         let Some(imp) = report.impacts.first() else { continue };
-        let req = |side| AbRequest {
-            side,
-            file: f.clone(),
-            onset_s: imp.onset_s,
-            duration_s: imp.duration_s.min(1.0),
-            features: imp.features.clone(),
-            damping: report.damping(),
-            object: dsp::ObjectModes::new(vec![1e6], &[vec![1.0]]),
-            params: dsp::engine::SoundParams::default(),
-            position: 0.5,
-            gamma_ratio: None,
-            rate,
-        };
+        let req = |side| ab_request(side, f, imp, report.damping(), rate);
         let (Ok(a), Ok(m), Ok(mr)) =
             (build(&req(Side::Recording)), build(&req(Side::Modes)), build(&req(Side::ModesResidual)))
         else {
             eprintln!("{name}: a clip failed");
             continue;
         };
-        let hop = estimator::residual::HOP as f64 / f64::from(rate);
-        let attack = (0.05 / hop).round() as usize;
-        let long = (0.35 / hop).round() as usize;
+        let (attack, long) = (frames(0.05, rate), frames(0.35, rate));
         let row = (
             name.clone(),
             category,
@@ -148,6 +102,6 @@ fn main() {
             .iter()
             .map(|r| serde_json::json!({"clip": r.0, "category": r.1, "attack_modes_db": r.2, "attack_residual_db": r.3, "long_modes_db": r.4, "long_residual_db": r.5, "psycho_modes": r.6, "psycho_residual": r.7}))
             .collect();
-        let _ = std::fs::write(out, serde_json::to_string_pretty(&v).unwrap_or_default());
+        write_json(&out, &v);
     }
 }

@@ -1074,7 +1074,7 @@ impl CpalMidir {
     }
 }
 
-/// Struck patch: the sample formats `run()`'s stream builders handle (upstream hit `todo!()`
+/// Struck patch: the sample formats `run()`'s stream builders handle (upstream panicked
 /// on any other format a device offered; such configurations are now not chosen).
 fn is_supported_format(format: SampleFormat) -> bool {
     matches!(
