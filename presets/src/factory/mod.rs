@@ -48,8 +48,8 @@ pub const FACTORY_FEM_BANKS: &[(&str, &str)] = &[
 /// out (a test checks that all of them parse).
 ///
 /// They are computed and parsed once per process and cloned from then on: every plugin
-/// instance asks for them when it activates, and building them (Bessel roots, JSON) took
-/// most of an activation.
+/// instance asks for them when it activates, and building them (Bessel roots, JSON) was
+/// about half of an activation (perf, a debug test build).
 pub fn factory_banks() -> Vec<Bank> {
     static BANKS: OnceLock<Vec<Bank>> = OnceLock::new();
     BANKS
