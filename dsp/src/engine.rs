@@ -245,6 +245,11 @@ pub struct SoundParams {
     /// Where the object is held, 0..=1 along the strike path: the support damping then goes
     /// to the modes that move at that point (`None`: to each mode by its random draw).
     pub support_point: Option<f32>,
+    /// Play the support damping recorded mode by mode ([`Engine::set_recorded_support`]) on
+    /// the object it was recorded on, in place of the draws from the mean for those modes
+    /// (*Support: As recorded* with a captured material; issue 10 part 6). Not with a
+    /// [`SoundParams::support_point`].
+    pub recorded_support: bool,
     /// Normalise every strike to [`REFERENCE_RMS`] at velocity 1 (objects, sizes, keys,
     /// materials, positions and mallets then change timbre, not loudness); off: the
     /// physical level of a unit impulse, scaled per object only.
@@ -403,6 +408,7 @@ impl Default for SoundParams {
             quality_db: 60.0,
             support_c: 0.0,
             support_point: None,
+            recorded_support: false,
             normalize: true,
             variation: 0.0,
             contact: ContactParams::default(),
@@ -742,6 +748,17 @@ fn pulse_drive(shape: &PulseShape, d: f64, omega: f64) -> ((C64, C64, C64), Mode
     (shape.drive(d, omega, e_dh, (cs, sn)), pole)
 }
 
+/// The recorded support damping per mode (`recorded`, of `recorded_object`) if it applies to
+/// a voice on `object` under `p`.
+fn recorded_for<'a>(
+    recorded: &'a [f64],
+    recorded_object: Option<usize>,
+    object: usize,
+    p: &SoundParams,
+) -> Option<&'a [f64]> {
+    (p.recorded_support && p.support_point.is_none() && recorded_object == Some(object)).then_some(recorded)
+}
+
 /// Mode `m`'s fixed draw of a unit-mean exponential, for the support damping: a hash of the
 /// mode's index and its reference eigenvalue `lambda_ref` (the bank's, as f32 bits), not a
 /// random state, so an object sounds held the same way on every note and run, and two
@@ -968,6 +985,11 @@ struct ModeSet<'a> {
     support: f64,
     /// Where the object is held (see [`SoundParams::support_point`]).
     support_point: Option<f32>,
+    /// Each mode's recorded extra c (NaN: none), when it applies to this object
+    /// ([`SoundParams::recorded_support`]).
+    recorded: Option<&'a [f64]>,
+    /// The decay scale the recorded extra c is played with (as the law's).
+    decay_scale: f64,
     /// Extra decay rate of the voice (release, pressure), s⁻¹.
     extra: f64,
     /// λ scale of the voice.
@@ -976,6 +998,15 @@ struct ModeSet<'a> {
 }
 
 impl ModeSet<'_> {
+    /// Mode `m`'s support damping c, s⁻¹: its recorded excess if it has one, else the mean
+    /// times its share ([`ObjectModes::support_weight`]).
+    fn support_of(&self, m: usize) -> f64 {
+        match self.recorded.and_then(|r| r.get(m)) {
+            Some(&x) if x.is_finite() => x * self.decay_scale,
+            _ => self.support * self.obj.support_weight(m, self.support_point),
+        }
+    }
+
     /// Fills `poles[m]` = (d, ω) and `amps[m]` = the mode's amplitude before the level (its
     /// gain times the pulse's spectrum; 0 for modes that do not ring) for a strike of
     /// `velocity` with the contact time scaled by `contact_factor`, and returns the plan;
@@ -1009,13 +1040,7 @@ impl ModeSet<'_> {
         let mut peak = 0.0f32;
         for m in 0..obj.num_modes() {
             let lambda = obj.lambdas[m] * self.scale;
-            let Some((d, omega)) = mode_pole(
-                lambda,
-                self.damping,
-                self.support * obj.support_weight(m, self.support_point),
-                self.extra,
-                self.fs,
-            ) else {
+            let Some((d, omega)) = mode_pole(lambda, self.damping, self.support_of(m), self.extra, self.fs) else {
                 amps[m] = 0.0;
                 // ω = 0: the mode does not ring (a lasting contact checks this).
                 poles[m] = (0.0, 0.0);
@@ -1144,6 +1169,11 @@ pub struct Engine {
     /// The residual layer's clip, and the strikes playing it.
     residual_clip: Option<Box<ResidualClip>>,
     residuals: Residuals,
+    /// Support damping recorded mode by mode ([`Engine::set_recorded_support`]): extra c per
+    /// mode of `recorded_object` (NaN: none), and the buffer the next one is written to.
+    recorded: Vec<f64>,
+    recorded_next: Vec<f64>,
+    recorded_object: Option<usize>,
 }
 
 impl Engine {
@@ -1190,6 +1220,47 @@ impl Engine {
             input_position: 0.5,
             residual_clip: None,
             residuals: Residuals::default(),
+            recorded: vec![f64::NAN; max_modes],
+            recorded_next: vec![f64::NAN; max_modes],
+            recorded_object: None,
+        }
+    }
+
+    /// Sets the support damping recorded mode by mode on `object` (issue 10 part 6): mode
+    /// `m` of that object gets the extra c `extra[m]` (s⁻¹, scaled with the decay like the
+    /// law; NaN or beyond the slice: none, the mean's draw plays) while
+    /// [`SoundParams::recorded_support`] is on and no support point is set. `None` clears
+    /// it. Sounding voices take it at once. Realtime-safe (copies into buffers allocated at
+    /// construction).
+    pub fn set_recorded_support(&mut self, object: Option<usize>, extra: &[f64]) {
+        let buf = self.recorded_support_scratch();
+        for (i, x) in buf.iter_mut().enumerate() {
+            *x = extra.get(i).copied().unwrap_or(f64::NAN);
+        }
+        self.commit_recorded_support(object);
+    }
+
+    /// The buffer [`Engine::commit_recorded_support`] takes, one entry per mode (its
+    /// previous contents are undefined): for filling without a slice, e.g. from atomics.
+    /// Realtime-safe.
+    pub fn recorded_support_scratch(&mut self) -> &mut [f64] {
+        &mut self.recorded_next
+    }
+
+    /// Makes the scratch buffer ([`Engine::recorded_support_scratch`]) the recorded support
+    /// of `object` (as [`Engine::set_recorded_support`]). Realtime-safe.
+    pub fn commit_recorded_support(&mut self, object: Option<usize>) {
+        for x in &mut self.recorded_next {
+            if !(x.is_finite() && *x >= 0.0) {
+                *x = f64::NAN;
+            } else {
+                *x = x.min(1e5);
+            }
+        }
+        std::mem::swap(&mut self.recorded, &mut self.recorded_next);
+        self.recorded_object = object.filter(|&o| o < self.objects.len());
+        for v in &mut self.voices {
+            v.dirty = true;
         }
     }
 
@@ -1253,6 +1324,7 @@ impl Engine {
             if p.damping != self.target.damping
                 || p.support_c != self.target.support_c
                 || p.support_point != self.target.support_point
+                || p.recorded_support != self.target.recorded_support
                 || p.release_damping != self.target.release_damping
                 || p.pressure_damping != self.target.pressure_damping
             {
@@ -1539,7 +1611,19 @@ impl Engine {
         let position = (voice.position + voice.position_offset + jitter.position).clamp(0.0, 1.0);
         obj.gains_at(position, &mut self.gains);
         let extra = voice.extra_d(&p);
-        let modes = ModeSet { obj, damping: &damping, support, support_point: p.support_point, extra, scale, fs };
+        let recorded = recorded_for(&self.recorded, self.recorded_object, voice.object, &p);
+        let decay_scale = self.glide.decay_scale;
+        let modes = ModeSet {
+            obj,
+            damping: &damping,
+            support,
+            support_point: p.support_point,
+            recorded,
+            decay_scale,
+            extra,
+            scale,
+            fs,
+        };
         let Some(plan) = modes.plan(&p, velocity, jitter.contact, &self.gains, &mut self.amps, &mut self.poles) else {
             return;
         };
@@ -1626,10 +1710,20 @@ impl Engine {
         let voice = &mut self.voices[v];
         let extra = voice.extra_d(&p);
         let obj = &self.objects[voice.object];
+        let modes = ModeSet {
+            obj,
+            damping: &damping,
+            support,
+            support_point: p.support_point,
+            recorded: recorded_for(&self.recorded, self.recorded_object, voice.object, &p),
+            decay_scale: self.glide.decay_scale,
+            extra,
+            scale,
+            fs,
+        };
         for k in 0..voice.bank.len() {
             let m = usize::from(voice.mode_of_slot[k]);
-            let share = obj.support_weight(m, p.support_point);
-            let c = match mode_pole(obj.lambdas[m] * scale, &damping, support * share, extra, fs) {
+            let c = match mode_pole(obj.lambdas[m] * scale, &damping, modes.support_of(m), extra, fs) {
                 Some((d, omega)) => ModeCoeffs::new(d, omega, fs),
                 // The mode no longer rings (over-damped or past Nyquist): silence it.
                 None => ModeCoeffs::default(),
@@ -1811,7 +1905,19 @@ impl Engine {
         let voice = &mut self.voices[v];
         let obj = &self.objects[voice.object];
         obj.gains_at(voice.position, &mut self.gains);
-        let modes = ModeSet { obj, damping: &damping, support, support_point: p.support_point, extra: 0.0, scale, fs };
+        let recorded = recorded_for(&self.recorded, self.recorded_object, voice.object, &p);
+        let decay_scale = self.glide.decay_scale;
+        let modes = ModeSet {
+            obj,
+            damping: &damping,
+            support,
+            support_point: p.support_point,
+            recorded,
+            decay_scale,
+            extra: 0.0,
+            scale,
+            fs,
+        };
         let Some(plan) = modes.plan(&p, 1.0, 1.0, &self.gains, &mut self.amps, &mut self.poles) else {
             voice.active = false;
             return;
@@ -1845,7 +1951,15 @@ impl Engine {
         let p = self.target;
         let damping = p.damping.scaled(p.decay_scale);
         let strike = Strike { velocity: 1.0, position, lambda_factor: 1.0 };
-        let modes = Self::target_modes(&self.objects, &p, self.sample_rate, self.object, strike, &damping);
+        let modes = Self::target_modes(
+            &self.objects,
+            (&self.recorded, self.recorded_object),
+            &p,
+            self.sample_rate,
+            self.object,
+            strike,
+            &damping,
+        );
         let obj = modes.obj;
         let n = obj.num_modes();
         let mut gains = vec![0.0; n];
@@ -1950,7 +2064,15 @@ impl Engine {
     /// layer's transfer, off the audio thread). Allocates.
     pub fn predict_modes_with(&self, p: SoundParams, object: usize, strike: Strike) -> Vec<(f64, f64, f32)> {
         let damping = p.damping.scaled(p.decay_scale);
-        let modes = Self::target_modes(&self.objects, &p, self.sample_rate, object, strike, &damping);
+        let modes = Self::target_modes(
+            &self.objects,
+            (&self.recorded, self.recorded_object),
+            &p,
+            self.sample_rate,
+            object,
+            strike,
+            &damping,
+        );
         let obj = modes.obj;
         let n = obj.num_modes();
         let mut gains = vec![0.0; n];
@@ -1972,17 +2094,21 @@ impl Engine {
     /// and the pitch reference plan with, the same [`ModeSet::plan`] a note-on uses.
     fn target_modes<'a>(
         objects: &'a [ObjectModes],
+        recorded: (&'a [f64], Option<usize>),
         p: &SoundParams,
         fs: f64,
         object: usize,
         strike: Strike,
         damping: &'a Damping,
     ) -> ModeSet<'a> {
+        let object = object.min(objects.len() - 1);
         ModeSet {
-            obj: &objects[object.min(objects.len() - 1)],
+            obj: &objects[object],
             damping,
             support: p.support_c * p.decay_scale,
             support_point: p.support_point,
+            recorded: recorded_for(recorded.0, recorded.1, object, p),
+            decay_scale: p.decay_scale,
             extra: 0.0,
             scale: p.modulus_ratio * strike.lambda_factor / (p.size * p.size),
             fs,
@@ -1994,7 +2120,15 @@ impl Engine {
     fn scratch_plan(&mut self, object: usize, strike: Strike) -> bool {
         let p = self.target;
         let damping = p.damping.scaled(p.decay_scale);
-        let modes = Self::target_modes(&self.objects, &p, self.sample_rate, object, strike, &damping);
+        let modes = Self::target_modes(
+            &self.objects,
+            (&self.recorded, self.recorded_object),
+            &p,
+            self.sample_rate,
+            object,
+            strike,
+            &damping,
+        );
         let obj = modes.obj;
         obj.gains_at(strike.position, &mut self.gains);
         if modes.plan(&p, strike.velocity, 1.0, &self.gains, &mut self.amps, &mut self.poles).is_none() {
@@ -2343,6 +2477,75 @@ mod tests {
         let (da, db) = (decay(fa), decay(fb));
         assert!((da / (0.5 * (c + 2.0 * s)) - 1.0).abs() < 0.01, "moving mode: {da}");
         assert!((db / (0.5 * c) - 1.0).abs() < 0.01, "mode with a node at the support: {db}");
+    }
+
+    /// Support recorded mode by mode (issue 10 part 6): mode 0 recorded with 30 s⁻¹ of extra c
+    /// decays at (c + 30)/2, mode 1 (none recorded) at (c + S·q₁)/2 with its draw q₁ from the
+    /// mean S; cleared in the middle of the note, mode 0 goes on at (c + S·q₀)/2 (each measured
+    /// from its spectral line, 1 %). Not on another object, not with the flag off, not with a
+    /// support point (the decays predicted there are the mean's).
+    #[test]
+    fn recorded_support_gives_each_recorded_mode_its_own_extra_damping() {
+        let (fa, fb) = (440.0f64, 1500.0f64);
+        let lambdas = vec![(2.0 * PI * fa).powi(2), (2.0 * PI * fb).powi(2)];
+        let obj = ObjectModes::new(lambdas.clone(), &[vec![1.0, 1.0]]);
+        let mut e = Engine::new(vec![obj.clone(), obj], 1, 48_000.0);
+        let (c, s, r) = (4.0, 10.0, 30.0);
+        let p = SoundParams {
+            damping: Damping::Rayleigh { alpha1: c, alpha2: 0.0 },
+            support_c: s,
+            recorded_support: true,
+            ..SoundParams::default()
+        };
+        e.set_params(p);
+        e.set_recorded_support(Some(0), &[r, f64::NAN]);
+        e.reset();
+        e.note_on(
+            NoteId { voice_id: None, channel: 0, key: 60 },
+            Strike { velocity: 1.0, position: 0.0, lambda_factor: 1.0 },
+        );
+        let mut out = vec![0.0f32; 96_000];
+        e.render(&mut out[..9_600]);
+        e.set_recorded_support(None, &[]);
+        e.render(&mut out[9_600..]);
+        let line = |f: f64, t: f64| {
+            let a = (t * 48_000.0) as usize;
+            let (mut re, mut im) = (0.0f64, 0.0f64);
+            for (k, &y) in out[a..a + 4_800].iter().enumerate() {
+                let w = 2.0 * PI * f * (a + k) as f64 / 48_000.0;
+                re += f64::from(y) * w.cos();
+                im += f64::from(y) * w.sin();
+            }
+            re.hypot(im)
+        };
+        let decay = |f: f64, t: f64, dt: f64| (line(f, t) / line(f, t + dt)).ln() / dt;
+        let (q0, q1) = (support_quantile(0, lambdas[0]), support_quantile(1, lambdas[1]));
+        let checks = [
+            ("recorded mode", decay(fa, 0.02, 0.08), 0.5 * (c + r)),
+            ("mode without a record", decay(fb, 0.3, 0.4), 0.5 * (c + s * q1)),
+            ("recorded mode after the record is cleared (at 0.2 s)", decay(fa, 0.25, 0.2), 0.5 * (c + s * q0)),
+        ];
+        for (what, got, want) in checks {
+            assert!((got / want - 1.0).abs() < 0.01, "{what}: {got} vs {want}");
+        }
+        // Where it does not apply, the prediction is the mean's draw.
+        e.set_recorded_support(Some(0), &[r, f64::NAN]);
+        let strike = Strike { velocity: 1.0, position: 0.0, lambda_factor: 1.0 };
+        let d0 = |e: &Engine, p: SoundParams, object: usize| {
+            let modes = e.predict_modes_with(p, object, strike);
+            modes.iter().find(|m| (m.0 - fa).abs() < 1.0).map(|m| m.1).unwrap()
+        };
+        assert!((d0(&e, p, 0) / (0.5 * (c + r)) - 1.0).abs() < 1e-6);
+        let mean = 0.5 * (c + s * q0);
+        for (what, q, object) in [
+            ("another object", p, 1),
+            ("the flag off", SoundParams { recorded_support: false, ..p }, 0),
+            ("a support point", SoundParams { support_point: Some(0.0), ..p }, 0),
+        ] {
+            let got = d0(&e, q, object);
+            let want = if q.support_point.is_some() { 0.5 * (c + s) } else { mean };
+            assert!((got / want - 1.0).abs() < 1e-6, "{what}: {got} vs {want}");
+        }
     }
 
     /// One mode of `freq` Hz with c = `c` (d = c/2), gain 1, level 0.7 (normalisation off),

@@ -46,7 +46,7 @@ use serde::{Deserialize, Serialize};
 pub use error::EstimateError;
 pub use features::{ExtractOptions, Feature, ImpactFit};
 pub use fit::{fit_damping, fit_damping_weighted, FitParams, FitResult, Method, ModelKind};
-pub use object::ObjectMatch;
+pub use object::{ModeSupport, ObjectMatch};
 pub use segment::SegmentOptions;
 pub use wav::Recording;
 
@@ -225,6 +225,24 @@ impl EstimateReport {
     /// (their curve runs through the points) and without partials.
     pub fn support_for(&self, fit: &FitResult) -> Option<f64> {
         support_of(&self.impacts, fit)
+    }
+
+    /// Support damping as recorded mode by mode, for recordings of a known object (issue 10
+    /// part 6; [`object::support_by_mode`]): the object's modes (`lambdas0`, `gains0` as
+    /// given in [`Options`]) that the recordings' strong partials matched at the fitted
+    /// pitch, each with its own excess over `fit`'s law. Empty without an object match or
+    /// for a fit that is not a lower law (as [`Self::support_for`]).
+    pub fn support_by_mode(&self, fit: &FitResult, lambdas0: &[f64], gains0: Option<&[f64]>) -> Vec<ModeSupport> {
+        match self.object.as_ref().filter(|o| o.matched > 0) {
+            Some(o) if fit.is_lower_law() => object::support_by_mode(
+                self.impacts.iter().map(|i| i.features.as_slice()),
+                &fit.damping(),
+                lambdas0,
+                gains0,
+                o.gamma_ratio,
+            ),
+            _ => Vec::new(),
+        }
     }
 }
 

@@ -226,6 +226,93 @@ fn match_impl(
     })
 }
 
+/// One object mode's support excess as recorded (issue 10 part 6;
+/// [`support_by_mode`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ModeSupport {
+    /// Index of the mode in the bank.
+    pub mode: usize,
+    /// The bank's reference eigenvalue λ⁰ of the mode, rad²/s².
+    pub lambda: f64,
+    /// Median over the matched partials of their c above the law at their λ, s⁻¹ (≥ 0).
+    pub extra_c_per_s: f64,
+    /// Recorded partials matched to the mode.
+    pub partials: usize,
+}
+
+/// Tolerance in ln ω within which bank modes are one degenerate set (an axisymmetric
+/// object's mode pairs): a partial matched to one is matched to all of them.
+const DEGENERATE: f64 = 1e-4;
+
+/// The support damping of each of the object's modes as recorded (thesis §4.2.8's excess
+/// over the material's law, mode by mode; issue 10 part 6): every strong partial of each
+/// impact (within 20 dB of the impact's strongest 10 ms after the strike, as
+/// `EstimateReport::support_for` takes them) is matched to the nearest audible bank mode at
+/// the fitted scale `gamma_ratio` (λ = γ/γ₀·λ⁰) within 1 % in frequency (a degenerate set of
+/// modes all take it); a mode's excess is the median over its partials of
+/// max(0, c − law(λ)). `gains0` (each mode's largest |gain|) leaves out silent modes, as the
+/// match does. Modes no partial matched are not listed; the result ascends in mode index.
+pub fn support_by_mode<'a>(
+    impacts: impl IntoIterator<Item = &'a [Feature]>,
+    law: &dsp::Damping,
+    lambdas0: &[f64],
+    gains0: Option<&[f64]>,
+    gamma_ratio: f64,
+) -> Vec<ModeSupport> {
+    if !(gamma_ratio > 0.0 && gamma_ratio.is_finite()) {
+        return Vec::new();
+    }
+    let gmax = gains0.map_or(1.0, |g| g.iter().fold(0.0f64, |m, v| m.max(v.abs())));
+    let audible = |i: usize| gains0.and_then(|g| g.get(i)).map_or(1.0, |v| v.abs() / gmax.max(1e-300)) >= 0.01;
+    let h = 0.5 * gamma_ratio.ln();
+    let mut bank: Vec<(f64, usize)> = lambdas0
+        .iter()
+        .enumerate()
+        .filter(|&(i, &l)| l > 0.0 && l.is_finite() && audible(i))
+        .map(|(i, &l)| (0.5 * l.ln() + h, i))
+        .collect();
+    bank.sort_by(|a, b| a.0.total_cmp(&b.0));
+    if bank.is_empty() {
+        return Vec::new();
+    }
+    let tol = (1.0 + TOL).ln();
+    let mut excess: Vec<Vec<f64>> = vec![Vec::new(); lambdas0.len()];
+    for features in impacts {
+        let heard = |f: &Feature| f.amplitude * (-0.01 * f.decay_per_s).exp();
+        let amax = features.iter().map(heard).fold(0.0f64, f64::max);
+        for f in features.iter().filter(|f| heard(f) >= 0.1 * amax && f.lambda() > 0.0) {
+            let v = 0.5 * f.lambda().ln();
+            let i = bank.partition_point(|b| b.0 < v);
+            let Some(&(bv, _)) = [i.wrapping_sub(1), i]
+                .iter()
+                .filter_map(|&j| bank.get(j))
+                .min_by(|a, b| (a.0 - v).abs().total_cmp(&(b.0 - v).abs()))
+            else {
+                continue;
+            };
+            if (bv - v).abs() > tol {
+                continue;
+            }
+            let e = (f.c() - law.c(f.lambda())).max(0.0);
+            let lo = bank.partition_point(|b| b.0 < bv - DEGENERATE);
+            for &(_, m) in bank[lo..].iter().take_while(|b| b.0 <= bv + DEGENERATE) {
+                excess[m].push(e);
+            }
+        }
+    }
+    excess
+        .into_iter()
+        .enumerate()
+        .filter(|(_, e)| !e.is_empty())
+        .map(|(mode, mut e)| {
+            e.sort_by(f64::total_cmp);
+            let n = e.len();
+            let median = if n % 2 == 1 { e[n / 2] } else { 0.5 * (e[n / 2 - 1] + e[n / 2]) };
+            ModeSupport { mode, lambda: lambdas0[mode], extra_c_per_s: median, partials: n }
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -252,6 +339,58 @@ mod tests {
         assert!((m.gamma_ratio / r - 1.0).abs() < 0.005, "{m:?}");
         assert_eq!(m.matched, 5);
         assert_eq!(m.unmatched_modes_below, 0);
+    }
+
+    /// Issue 10 part 6: each bank mode's excess is the median over the strong partials matched
+    /// to it (truth set here: c = law + excess); a degenerate pair takes its partial's excess
+    /// on both modes; weak partials (≥ 20 dB down), partials more than 1 % from every mode and
+    /// silent modes are left out.
+    #[test]
+    fn support_by_mode_takes_each_matched_modes_median_excess() {
+        use dsp::Damping;
+        let law = Damping::Rayleigh { alpha1: 2.0, alpha2: 1e-8 };
+        let base = std::f64::consts::TAU * 200.0;
+        // Modes 0..5; 2 and 3 a degenerate pair; 5 silent.
+        let l0: Vec<f64> = [1.0, 2.7, 4.1, 4.1, 6.3, 8.0].iter().map(|k: &f64| (k * base).powi(2)).collect();
+        let gains = [1.0, 0.8, 0.5, 0.5, 0.6, 1e-4];
+        let r: f64 = 1.21;
+        let feature = |k: usize, excess: f64, amplitude: f64, detune: f64| {
+            let lambda = r * l0[k] * detune * detune;
+            let c = law.c(lambda) + excess;
+            Feature {
+                freq_hz: (lambda - 0.25 * c * c).sqrt() / std::f64::consts::TAU,
+                decay_per_s: 0.5 * c,
+                amplitude,
+                ..Default::default()
+            }
+        };
+        let impacts: Vec<Vec<Feature>> = vec![
+            vec![
+                feature(0, 1.0, 1.0, 1.0),
+                feature(1, 10.0, 0.5, 1.002),
+                feature(2, 4.0, 0.4, 1.0),
+                feature(4, 0.0, 0.3, 0.999),
+                // 1.5 % above mode 4: no mode's.
+                feature(4, 50.0, 0.3, 1.015),
+                // Mode 5 is silent.
+                feature(5, 9.0, 0.3, 1.0),
+                // 26 dB down: not a strong partial.
+                feature(1, 99.0, 0.05, 1.0),
+            ],
+            vec![feature(0, 3.0, 1.0, 1.0), feature(1, 12.0, 0.6, 1.0)],
+            vec![feature(0, 2.0, 1.0, 1.0), feature(1, 20.0, 0.6, 0.998)],
+        ];
+        let got = support_by_mode(impacts.iter().map(Vec::as_slice), &law, &l0, Some(&gains), r);
+        let by_mode: Vec<(usize, f64, usize)> = got.iter().map(|m| (m.mode, m.extra_c_per_s, m.partials)).collect();
+        let want = [(0, 2.0, 3), (1, 12.0, 3), (2, 4.0, 1), (3, 4.0, 1), (4, 0.0, 1)];
+        assert_eq!(by_mode.len(), want.len(), "{got:?}");
+        for ((m, e, n), (wm, we, wn)) in by_mode.iter().zip(want) {
+            assert_eq!((*m, *n), (wm, wn), "{got:?}");
+            assert!((e - we).abs() < 1e-6, "mode {m}: excess {e} vs {we}");
+        }
+        assert_eq!(got[2].lambda, l0[2]);
+        // No fitted scale, no match.
+        assert!(support_by_mode(impacts.iter().map(Vec::as_slice), &law, &l0, Some(&gains), f64::NAN).is_empty());
     }
 
     /// Issue 10: three partials of a free bar (1 : 2.756 : 5.404, Euler–Bernoulli) matched

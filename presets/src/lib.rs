@@ -34,7 +34,7 @@ pub use error::PresetError;
 pub use factory::{
     factory_bank, factory_banks, factory_material, factory_materials, FACTORY_BANK_IDS, FACTORY_MATERIAL_IDS,
 };
-pub use material::{Material, SupportDamping};
+pub use material::{Material, RecordedMode, RecordedModes, SupportDamping};
 
 /// Version of the JSON formats this build reads and writes.
 pub const SCHEMA_VERSION: u32 = 1;

@@ -46,13 +46,62 @@ pub struct Material {
 }
 
 /// Support damping as recorded: per-mode extra c drawn from an exponential distribution
-/// (the exponential part of the thesis's EMG model, eq. 4.10).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+/// (the exponential part of the thesis's EMG model, eq. 4.10), and, where the recordings
+/// were of a known object, each matched mode's own excess (issue 10 part 6).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SupportDamping {
     /// Mean extra c over modes, s⁻¹: for a captured material, the median excess of the
     /// recorded strong partials' c over the fitted law / ln 2
     /// (`estimator::EstimateReport::support_for`).
     pub mean_c_per_s: f64,
+    /// The recorded object's modes that strong partials of the recordings matched, each with
+    /// its own measured excess: played on that object (*Support: As recorded*), these modes
+    /// get their recorded extra damping and the others the draw from the mean. Absent when
+    /// the object was not known.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub recorded_modes: Option<RecordedModes>,
+}
+
+/// The per-mode support excess of one object's modes as recorded (issue 10 part 6).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RecordedModes {
+    /// Id of the object (bank) the recordings were of.
+    pub object: String,
+    /// The matched modes, in ascending mode index.
+    pub modes: Vec<RecordedMode>,
+}
+
+/// One object mode's recorded support excess.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RecordedMode {
+    /// Index of the mode in the bank.
+    pub mode: usize,
+    /// The bank's reference eigenvalue λ⁰ of that mode, rad²/s²: checked when the material
+    /// is played, so a rebuilt bank whose modes moved does not take another mode's excess.
+    pub lambda: f64,
+    /// Extra c of the mode over the material's law, s⁻¹ (≥ 0): the median over the partials
+    /// that matched it.
+    pub extra_c_per_s: f64,
+    /// How many recorded partials matched it.
+    pub partials: usize,
+}
+
+impl RecordedModes {
+    /// Each mode's extra c for `lambdas` (the bank of [`Self::object`]), `NaN` where the
+    /// material records none: entries whose index is out of range or whose λ⁰ differs from
+    /// the bank's by more than 0.1 % are left out. Also returns how many were left out.
+    /// Allocates.
+    pub fn map_onto(&self, lambdas: &[f64]) -> (Vec<f64>, usize) {
+        let mut out = vec![f64::NAN; lambdas.len()];
+        let mut skipped = 0;
+        for m in &self.modes {
+            match lambdas.get(m.mode) {
+                Some(&l) if (l / m.lambda - 1.0).abs() <= 1e-3 => out[m.mode] = m.extra_c_per_s,
+                _ => skipped += 1,
+            }
+        }
+        (out, skipped)
+    }
 }
 
 impl Material {
@@ -113,7 +162,7 @@ impl Material {
         if let Some(r) = &self.residual {
             r.validate()?;
         }
-        if let Some(sd) = self.support {
+        if let Some(sd) = &self.support {
             if !(sd.mean_c_per_s.is_finite() && (0.0..=1e5).contains(&sd.mean_c_per_s)) {
                 return Err(PresetError::invalid(
                     "support.mean_c_per_s",
@@ -123,13 +172,21 @@ impl Material {
                     ),
                 ));
             }
+            if let Some(r) = &sd.recorded_modes {
+                r.validate()?;
+            }
         }
         Ok(())
     }
 
     /// Mean support damping recorded with the material, s⁻¹ (0 for the free material).
     pub fn support_c(&self) -> f64 {
-        self.support.map_or(0.0, |s| s.mean_c_per_s)
+        self.support.as_ref().map_or(0.0, |s| s.mean_c_per_s)
+    }
+
+    /// The per-mode support excess recorded with the material, if its object was known.
+    pub fn recorded_modes(&self) -> Option<&RecordedModes> {
+        self.support.as_ref().and_then(|s| s.recorded_modes.as_ref())
     }
 
     /// The engine damping law.
@@ -146,6 +203,45 @@ impl Material {
         let d = self.damping.to_damping().ok()?;
         let omega = 2.0 * std::f64::consts::PI * freq_hz;
         Some(1000f64.ln() / (0.5 * d.c(omega * omega)))
+    }
+}
+
+impl RecordedModes {
+    /// Checks the object id and every mode.
+    ///
+    /// # Errors
+    /// [`PresetError::Invalid`] naming the field: an object id that is not kebab-case, mode
+    /// indices not strictly ascending, a λ⁰ that is not finite and > 0, an extra c that is not
+    /// finite and in 0..=100000 s⁻¹.
+    pub fn validate(&self) -> Result<(), PresetError> {
+        json::check_id(&self.object).map_err(|e| match e {
+            PresetError::Invalid { reason, .. } => PresetError::invalid("support.recorded_modes.object", reason),
+            e => e,
+        })?;
+        let mut last = None;
+        for (i, m) in self.modes.iter().enumerate() {
+            let field = |f: &str| format!("support.recorded_modes.modes[{i}].{f}");
+            if last.is_some_and(|l| m.mode <= l) {
+                return Err(PresetError::invalid(
+                    field("mode"),
+                    format!("mode indices must ascend; found {} after {}", m.mode, last.unwrap_or(0)),
+                ));
+            }
+            last = Some(m.mode);
+            if !(m.lambda.is_finite() && m.lambda > 0.0) {
+                return Err(PresetError::invalid(
+                    field("lambda"),
+                    format!("must be finite and > 0 (rad^2/s^2); found {}", m.lambda),
+                ));
+            }
+            if !(m.extra_c_per_s.is_finite() && (0.0..=1e5).contains(&m.extra_c_per_s)) {
+                return Err(PresetError::invalid(
+                    field("extra_c_per_s"),
+                    format!("must be finite and in 0..=100000 (1/s); found {}", m.extra_c_per_s),
+                ));
+            }
+        }
+        Ok(())
     }
 }
 

@@ -154,13 +154,53 @@ fn invalid_materials_name_the_field() {
         "damping.params[2]",
     );
     check(&|m| m.damping = DampingSpec { model: DampingModel::Caughey, params: vec![-5.0, 1e-7] }, "damping.params");
-    check(&|m| m.support = Some(presets::SupportDamping { mean_c_per_s: -1.0 }), "support.mean_c_per_s");
-    check(&|m| m.support = Some(presets::SupportDamping { mean_c_per_s: 2e5 }), "support.mean_c_per_s");
+    check(
+        &|m| m.support = Some(presets::SupportDamping { mean_c_per_s: -1.0, recorded_modes: None }),
+        "support.mean_c_per_s",
+    );
+    check(
+        &|m| m.support = Some(presets::SupportDamping { mean_c_per_s: 2e5, recorded_modes: None }),
+        "support.mean_c_per_s",
+    );
     // A valid support round-trips through JSON; a material without one writes no field.
     let mut m = good.clone();
     assert!(!m.to_json().contains("support"));
-    m.support = Some(presets::SupportDamping { mean_c_per_s: 12.5 });
+    m.support = Some(presets::SupportDamping { mean_c_per_s: 12.5, recorded_modes: None });
     assert_eq!(Material::from_json(&m.to_json()).unwrap().support_c(), 12.5);
+    // Per-mode support as recorded (issue 10 part 6): every field is checked by name.
+    let mode = |mode: usize, lambda: f64, extra: f64| presets::RecordedMode {
+        mode,
+        lambda,
+        extra_c_per_s: extra,
+        partials: 1,
+    };
+    let with_modes = |object: &str, modes: Vec<presets::RecordedMode>| {
+        let object = object.to_string();
+        move |m: &mut Material| {
+            m.support = Some(presets::SupportDamping {
+                mean_c_per_s: 3.0,
+                recorded_modes: Some(presets::RecordedModes { object: object.clone(), modes: modes.clone() }),
+            })
+        }
+    };
+    check(&with_modes("Bar", vec![]), "support.recorded_modes.object");
+    check(&with_modes("bar", vec![mode(2, 1e6, 1.0), mode(2, 2e6, 1.0)]), "support.recorded_modes.modes[1].mode");
+    check(&with_modes("bar", vec![mode(0, 0.0, 1.0)]), "support.recorded_modes.modes[0].lambda");
+    check(
+        &with_modes("bar", vec![mode(0, 1e6, 1.0), mode(3, 4e6, -0.5)]),
+        "support.recorded_modes.modes[1].extra_c_per_s",
+    );
+    check(&with_modes("bar", vec![mode(0, 1e6, f64::NAN)]), "support.recorded_modes.modes[0].extra_c_per_s");
+    let mut m = good.clone();
+    with_modes("bar", vec![mode(0, 1e6, 1.5), mode(4, 9e6, 20.0), mode(9, 1e8, 7.0)])(&mut m);
+    let back = Material::from_json(&m.to_json()).unwrap();
+    assert_eq!(back, m);
+    // Mapped onto a bank: out-of-range indices and moved eigenvalues are left out.
+    let lambdas = [1e6, 2e6, 3e6, 4e6, 9.05e6];
+    let (extra, skipped) = back.recorded_modes().unwrap().map_onto(&lambdas);
+    assert_eq!(skipped, 2, "{extra:?}");
+    assert_eq!(extra[0], 1.5);
+    assert!(extra[1..].iter().all(|x| x.is_nan()), "{extra:?}");
 }
 
 #[test]

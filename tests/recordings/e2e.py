@@ -119,6 +119,62 @@ def render_check(struck, mat_path, clip, ref, tmp):
     return {"partials": rows}
 
 
+# Instruments with a factory object of their own (issue 10 part 6: "rendered on the matched
+# object"): each clip is captured with `--object`, so its support is recorded mode by mode.
+OBJECTS = {
+    "tubular bell": "fem-tubular-chime",
+    "glockenspiel": "fem-glockenspiel-bar",
+    "marimba": "fem-marimba-bar",
+    "xylophone": "fem-xylophone-bar",
+    "vibraphone": "fem-vibraphone-bar",
+}
+
+
+def object_check(struck, clip, obj, ref, cache, tmp):
+    """One clip captured with --object OBJ and rendered on OBJ at the recorded pitch, three
+    ways: support as recorded mode by mode (the material as written), the mean's draws only
+    (the per-mode record taken out) and the free material. Each of the clip's reference
+    partials is looked for in each render (subspace.py, within 0.5 %); T60 ratios
+    render/recording."""
+    mat = os.path.join(tmp, "obj-mat.json")
+    if os.path.exists(mat):
+        os.remove(mat)
+    p = subprocess.run([struck, "estimate", os.path.join(cache, clip["wav"]), "--object", obj, "--out", mat,
+                        "--no-residual"], capture_output=True, text=True)
+    if p.returncode != 0 or not os.path.exists(mat):
+        return {"error": (p.stderr.strip().splitlines() or ["?"])[-1]}
+    with open(mat) as f:
+        material = json.load(f)
+    recorded = ((material.get("support") or {}).get("recorded_modes") or {}).get("modes", [])
+    mean_only = json.loads(json.dumps(material))
+    if mean_only.get("support"):
+        mean_only["support"].pop("recorded_modes", None)
+    mean_path = os.path.join(tmp, "obj-mat-mean.json")
+    with open(mean_path, "w") as f:
+        json.dump(mean_only, f)
+    out = {"object": obj, "recorded_modes": len(recorded)}
+    for label, path, extra in (("recorded", mat, []), ("mean", mean_path, []), ("free", mat, ["support=0"])):
+        wav = os.path.join(tmp, "obj-render.wav")
+        cmd = [struck, "render", "--object", obj, "--material", path, "--notes", "60:100", "--seconds", "3",
+               "--sample-rate", "48000", "--out", wav]
+        for kv in ["keytune=0", "gamma=1", "size=1", "matpitch=1", "noise=0", "quality=120", "pressdamp=0",
+                   "release=0", "hard=1", *extra]:
+            cmd += ["--set", kv]
+        r = subprocess.run(cmd, capture_output=True, text=True)
+        if r.returncode != 0:
+            return {"error": (r.stderr.strip().splitlines() or ["?"])[-1]}
+        x, fs = subspace.read_wav(wav)
+        got = subspace.analyse(x, fs)
+        ratios = []
+        for q in ref["partials"]:
+            m = [g for g in got if abs(g["freq_hz"] - q["freq_hz"]) <= 0.005 * q["freq_hz"]]
+            if m:
+                g = max(m, key=lambda g: g["amplitude"])
+                ratios.append(q["decay_per_s"] / g["decay_per_s"] if g["decay_per_s"] > 0 else float("inf"))
+        out[label] = ratios
+    return out
+
+
 def main():
     ap = argparse.ArgumentParser(description="End to end: captured material vs the recording's decays")
     ap.add_argument("--struck", default=default_struck())
@@ -126,6 +182,9 @@ def main():
     ap.add_argument("--model", default=None)
     ap.add_argument("--method", default=None)
     ap.add_argument("--render", action="store_true")
+    ap.add_argument("--objects", action="store_true",
+                    help="also capture each clip of an instrument with a factory object of its own on that object "
+                         "and compare renders there (support as recorded mode by mode, the mean only, free)")
     ap.add_argument("--json", dest="json_out")
     a = ap.parse_args()
     with open(os.path.join(a.cache, "manifest.json")) as f:
@@ -204,6 +263,26 @@ def main():
                         else "  rendered: no partial found"
             print(line)
             results.append(res)
+        object_rows = []
+        if a.objects:
+            print()
+            for c in clips:
+                obj = OBJECTS.get(c["object"])
+                if not obj:
+                    continue
+                oc = object_check(a.struck, c, obj, reference_for(c, a.cache), a.cache, tmp)
+                oc["clip"] = c["id"]
+                object_rows.append(oc)
+                if "error" in oc:
+                    print(f"{c['id']:40s} on {obj}: FAILED: {oc['error']}")
+                    continue
+                parts = []
+                for label in ("recorded", "mean", "free"):
+                    r = oc[label]
+                    w = sum(abs(v - 1) <= 0.25 for v in r)
+                    parts.append(f"{label} {w}/{len(r)} within 25 %" + (f" (median {median(r):.2f})" if r else ""))
+                print(f"{c['id']:40s} on {obj} ({oc['recorded_modes']} modes recorded): " + "; ".join(parts))
+
     fin = [r for r in all_ratios if math.isfinite(r)]
     summary = {"instruments": len(results), "failed": sum("error" in r for r in results),
                "partials": len(all_ratios), "median_t60_ratio": median(fin),
@@ -213,6 +292,16 @@ def main():
                "longer_than_recording": sum(r > 1 for r in all_ratios) / max(1, len(all_ratios))}
     if render_ratios:
         summary["render_median_t60_ratio"] = median(render_ratios)
+    ok_rows = [r for r in object_rows if "error" not in r]
+    if ok_rows:
+        for label in ("recorded", "mean", "free"):
+            allr = [v for r in ok_rows for v in r[label]]
+            summary[f"objects_{label}_within_25"] = sum(abs(v - 1) <= 0.25 for v in allr) / max(1, len(allr))
+            summary[f"objects_{label}_median_t60_ratio"] = median([v for v in allr if math.isfinite(v)])
+            summary[f"objects_{label}_partials"] = len(allr)
+        summary["objects_reference_partials"] = sum(len(reference_for(c, a.cache)["partials"]) for c in clips
+                                                    if OBJECTS.get(c["object"]))
+        summary["objects_failed"] = sum("error" in r for r in object_rows)
     print()
     print(f"e2e: {summary['instruments']} instruments ({summary['failed']} failed), {summary['partials']} partials; "
           f"T60 material (support as recorded)/recording median {summary['median_t60_ratio']:.2f}, within 25 %: "
@@ -220,6 +309,12 @@ def main():
           f"free material median {summary['median_t60_ratio_free']:.2f}, within 25 %: {100 * summary['within_25_free']:.1f} %"
           + (f"; rendered median {summary['render_median_t60_ratio']:.2f}" if render_ratios else "")
           + f"; {time.time() - t0:.1f} s")
+    if ok_rows:
+        print("on their own objects (" + f"{len(ok_rows)} clips, {summary['objects_failed']} failed; "
+              + f"{summary['objects_reference_partials']} reference partials): "
+              + "; ".join(f"{label}: {summary[f'objects_{label}_partials']} found, "
+                          f"{100 * summary[f'objects_{label}_within_25']:.1f} % within 25 %, median "
+                          f"{summary[f'objects_{label}_median_t60_ratio']:.2f}" for label in ("recorded", "mean", "free")))
     if a.json_out:
         with open(a.json_out, "w") as f:
             json.dump({"summary": summary, "instruments": results}, f, indent=1)

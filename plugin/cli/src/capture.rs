@@ -159,8 +159,12 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
         specific_modulus,
         damping: DampingSpec::from_damping(&damping),
         notes: report.warnings.join("; "),
-        // The plugin plays it held as recorded by default (Support: As recorded).
-        support: report.support_c().map(|mean_c_per_s| presets::SupportDamping { mean_c_per_s }),
+        // The plugin plays it held as recorded by default (Support: As recorded); on the
+        // recorded object, each matched mode with its own recorded excess (issue 10 part 6).
+        support: report.support_c().map(|mean_c_per_s| presets::SupportDamping {
+            mean_c_per_s,
+            recorded_modes: bank.and_then(|b| struck::shared::recorded_modes(&report, &report.chosen, b)),
+        }),
         residual,
     };
     material.validate().map_err(|e| format!("the fitted material is not valid ({e}); nothing was written"))?;
@@ -196,8 +200,11 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
     let kept = material.residual.as_ref().map_or_else(String::new, |r| {
         format!("; kept the first impact's residual ({} frames, {:.1} KB)", r.frames, r.levels.len() as f64 / 1000.0)
     });
+    let held = material.recorded_modes().map_or_else(String::new, |r| {
+        format!("; support as recorded on {} mode by mode ({} modes matched)", r.object, r.modes.len())
+    });
     Ok(format!(
-        "wrote {}: {} {:?} params {:?} from {} features in {} impacts{ren}{ren_fit}{kept}",
+        "wrote {}: {} {:?} params {:?} from {} features in {} impacts{ren}{ren_fit}{kept}{held}",
         args.out.display(),
         report.model,
         report.method,

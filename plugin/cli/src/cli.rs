@@ -301,6 +301,28 @@ pub fn configured_host(opts: &SoundOptions, max_block: usize) -> Result<OfflineH
             host.set_param("csupport", m.support_c().min(2000.0) as f32).map_err(|e| e.to_string())?;
             let reference = lib.banks.get(object).map_or(0.0, |b| b.reference.specific_modulus);
             file_modulus = m.specific_modulus.filter(|&g| g > 0.0 && reference > 0.0).map(|g| g / reference);
+            // Its support recorded mode by mode on its object (issue 10 part 6), played there
+            // while Support is As recorded.
+            let mapping = host
+                .plugin_mut()
+                .set_user_support(m.recorded_modes().cloned())
+                .map_err(|e| format!("{}: {e}", opts.material))?;
+            if let Some(r) = m.recorded_modes() {
+                if mapping.object != Some(object) {
+                    warn(&format!(
+                        "{}: its support was recorded mode by mode on '{}'; on this object each mode gets a draw from the mean",
+                        opts.material, r.object
+                    ));
+                } else if mapping.skipped > 0 {
+                    warn(&format!(
+                        "{}: {} of its {} recorded modes do not match the bank '{}' any more (rebuilt?); they get a draw from the mean",
+                        opts.material,
+                        mapping.skipped,
+                        r.modes.len(),
+                        r.object
+                    ));
+                }
+            }
             // Its residual, if it keeps one (issue 15): the residual layer plays it.
             host.plugin_mut().set_user_residual(m.residual.clone()).map_err(|e| format!("{}: {e}", opts.material))?;
         }

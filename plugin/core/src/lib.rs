@@ -17,6 +17,7 @@ pub mod resample;
 pub mod residual_field;
 pub mod residual_layer;
 pub mod shared;
+pub mod user_support;
 pub mod user_texture;
 
 use dsp::engine::{ContactParams, Engine, NoteId, SoundParams, Strike};
@@ -221,6 +222,23 @@ impl<V: Variant> StruckPlugin<V> {
             self.params.user_texture.apply(e);
         }
         Ok(())
+    }
+
+    /// Sets (or clears) the *Custom* material's support damping recorded mode by mode (a
+    /// captured material's `support.recorded_modes`), kept with the project and played on
+    /// its object while *Support* is *As recorded*. Not for the audio thread.
+    ///
+    /// # Errors
+    /// A recorded support that does not validate.
+    pub fn set_user_support(
+        &mut self,
+        support: Option<presets::RecordedModes>,
+    ) -> Result<user_support::SupportMapping, String> {
+        let mapping = self.params.user_support.set_source(support)?;
+        if let Some(e) = self.engine.as_mut() {
+            self.params.user_support.apply(e);
+        }
+        Ok(mapping)
     }
 
     /// Keeps `residual` as the *Custom* material's residual (with the project); it plays
@@ -453,6 +471,10 @@ pub fn sound_params_of(p: &StruckParams, library: &Library) -> SoundParams {
         quality_db: p.quality_db.value(),
         support_c,
         support_point: p.support_at_point.value().then(|| p.support_point.value()),
+        // The Custom material's support recorded mode by mode (a captured material of a known
+        // object), played on that object.
+        recorded_support: p.support_mode.value() == SupportMode::AsRecorded
+            && p.material.value().max(0) as usize >= library.custom_material_index(),
         contact: ContactParams {
             excitation: p.excitation.value().excitation(),
             speed_mps: f64::from(p.contact_speed.value()),
@@ -531,6 +553,7 @@ impl<V: Variant> Plugin for StruckPlugin<V> {
         // The project's user texture (not on the audio thread: activation may allocate).
         if let Some(e) = self.engine.as_mut() {
             self.params.user_texture.restore(e);
+            self.params.user_support.restore(e);
         }
         // The residual for the settings as they are, then a worker for their changes.
         self.refresh_residual();
@@ -600,6 +623,7 @@ impl<V: Variant> Plugin for StruckPlugin<V> {
         // A user texture set since the last block (editor, command line, a loaded state).
         if let Some(e) = self.engine.as_mut() {
             self.params.user_texture.apply(e);
+            self.params.user_support.apply(e);
         }
         // The residual transferred for the settings as they are, once the worker has it (an
         // offline render waits for it, once per key: sleeping allocates nothing).

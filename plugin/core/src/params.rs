@@ -380,6 +380,10 @@ pub struct StruckParams {
     /// from), kept with the project.
     #[persist = "user-residual"]
     pub user_residual: crate::residual_field::ResidualField,
+    /// The *Custom* material's support damping recorded mode by mode (from the captured
+    /// material it was loaded from), kept with the project.
+    #[persist = "user-support"]
+    pub user_support: crate::user_support::UserSupportField,
 }
 
 /// Values of the *Custom* material knobs (plain units) that reproduce a damping law.
@@ -708,6 +712,7 @@ impl StruckParams {
             capture: Mutex::new(None),
             user_texture: Default::default(),
             user_residual: Default::default(),
+            user_support: crate::user_support::UserSupportField::new(lib.clone()),
         }
     }
 

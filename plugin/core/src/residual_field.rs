@@ -25,6 +25,9 @@ const SEED: u64 = 1;
 pub struct Key {
     /// The residual's generation (each set source is a new one).
     pub generation: u64,
+    /// The recorded per-mode support's generation
+    /// ([`crate::user_support::UserSupportField::generation`]).
+    pub support_generation: u64,
     /// Object index.
     pub object: usize,
     /// The controls that shape the target modes (the others at their defaults).

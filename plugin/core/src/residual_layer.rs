@@ -63,12 +63,20 @@ pub fn wanted_key(
         quality_db: full.quality_db,
         support_c: full.support_c,
         support_point: full.support_point,
+        recorded_support: full.recorded_support,
         normalize: full.normalize,
         ..SoundParams::default()
     };
     let root = p.root_note.value().clamp(0, 127) as u8;
     let strike = crate::strike_for_of(p, library, root, 1.0);
-    Some(Key { generation, object: crate::object_index_of(p, library), sound, strike, sample_rate })
+    Some(Key {
+        generation,
+        support_generation: p.user_support.generation(),
+        object: crate::object_index_of(p, library),
+        sound,
+        strike,
+        sample_rate,
+    })
 }
 
 /// The residual of `report`'s first impact as a captured material keeps it: the first
@@ -138,7 +146,9 @@ pub fn start_worker(params: Arc<StruckParams>, library: Arc<Library>, sample_rat
                     if engine.as_ref().is_none_or(|(rate, _)| *rate != fs) {
                         engine = Some((fs, Engine::new(library.object_modes(), 1, f64::from(fs))));
                     }
-                    if let Some((_, e)) = engine.as_ref() {
+                    if let Some((_, e)) = engine.as_mut() {
+                        // The modes decay as the audio thread's engine plays them.
+                        params.user_support.install(e);
                         field.offer(k, make_clip(e, &src, &k));
                     }
                 }

@@ -248,7 +248,42 @@ pub struct CapturedObject {
     pub specific_modulus: f64,
 }
 
+/// The support damping recorded mode by mode on `bank` (issue 10 part 6;
+/// [`EstimateReport::support_by_mode`]) for a material of `fit`, when the recordings were
+/// matched to that bank; `None` when no mode matched.
+pub fn recorded_modes(
+    report: &EstimateReport,
+    fit: &estimator::FitResult,
+    bank: &presets::Bank,
+) -> Option<presets::RecordedModes> {
+    let gains = bank.max_gains();
+    let modes: Vec<presets::RecordedMode> = report
+        .support_by_mode(fit, &bank.lambdas, Some(&gains))
+        .into_iter()
+        .map(|m| presets::RecordedMode {
+            mode: m.mode,
+            lambda: m.lambda,
+            extra_c_per_s: m.extra_c_per_s.min(estimator::MAX_SUPPORT_C),
+            partials: m.partials,
+        })
+        .collect();
+    (!modes.is_empty()).then(|| presets::RecordedModes { object: bank.id.clone(), modes })
+}
+
 impl CaptureRecord {
+    /// The support damping recorded mode by mode on the capture's object, for `fit`
+    /// ([`recorded_modes`]), when "Recordings are of the current object" was on and that
+    /// object is in `library`.
+    pub fn recorded_modes(
+        &self,
+        fit: &estimator::FitResult,
+        library: &crate::library::Library,
+    ) -> Option<presets::RecordedModes> {
+        let object = self.object.as_ref()?;
+        let bank = &library.banks[library.bank_index(&object.id)?];
+        recorded_modes(&self.report, fit, bank)
+    }
+
     /// γ = (γ/γ₀)·γ₀ from the object match, if there was one and it is usable.
     pub fn specific_modulus(&self) -> Option<f64> {
         match (&self.object, &self.report.object) {

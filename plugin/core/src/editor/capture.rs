@@ -214,7 +214,12 @@ fn method_color(m: Method) -> Color32 {
 /// The material a capture saves: the chosen law, with its provenance, and the specific
 /// modulus γ = (γ/γ₀)·γ₀ when the recordings were matched to a known object (Ren §5), so
 /// *Material sets pitch* plays it at the recording's pitch on that object.
-pub(super) fn captured_material(name: &str, rec: &CaptureRecord, fit: &estimator::FitResult) -> Material {
+pub(super) fn captured_material(
+    name: &str,
+    rec: &CaptureRecord,
+    fit: &estimator::FitResult,
+    library: &crate::library::Library,
+) -> Material {
     let names: Vec<&str> =
         rec.files.iter().map(|f| Path::new(f).file_name().and_then(|n| n.to_str()).unwrap_or(f.as_str())).collect();
     Material {
@@ -232,7 +237,10 @@ pub(super) fn captured_material(name: &str, rec: &CaptureRecord, fit: &estimator
         specific_modulus: rec.specific_modulus(),
         damping: DampingSpec::from_damping(&fit.damping()),
         notes: rec.report.warnings.join("; "),
-        support: rec.report.support_for(fit).map(|mean_c_per_s| presets::SupportDamping { mean_c_per_s }),
+        support: rec.report.support_for(fit).map(|mean_c_per_s| presets::SupportDamping {
+            mean_c_per_s,
+            recorded_modes: rec.recorded_modes(fit, library),
+        }),
         residual: capture_residual(rec, fit).unwrap_or(None),
     }
 }
@@ -540,6 +548,9 @@ impl CapturePanel {
                 match apply_damping(&params, custom, cx.setter, &fit.damping(), support) {
                     Ok(()) => {
                         // The capture's residual goes with its law (issue 15).
+                        // And its support recorded mode by mode, on the recorded object.
+                        let recorded = rec.report.support_for(&fit).and(rec.recorded_modes(&fit, cx.library));
+                        let _ = params.user_support.set_source(recorded);
                         let kept = capture_residual(&rec, &fit)
                             .and_then(|r| params.user_residual.set_source(r).map(|()| params.user_residual.is_set()));
                         if kept.is_err() {
@@ -561,7 +572,7 @@ impl CapturePanel {
             let dir = cx.material_dir.to_path_buf();
             if ui.button("Save material").on_hover_text(format!("Write a user material to {}", dir.display())).clicked()
             {
-                let m = captured_material(&self.save_name, &rec, &fit);
+                let m = captured_material(&self.save_name, &rec, &fit, cx.library);
                 let path = dir.join(format!("{}.json", m.id));
                 let out = std::fs::create_dir_all(&dir)
                     .map_err(|e| format!("cannot create {}: {e}", dir.display()))

@@ -111,7 +111,8 @@ impl MaterialPanel {
             (None, Some(u)) => format!("Custom: {u}"),
             (None, None) => "Custom (knobs)".into(),
         };
-        let mut chosen_user: Option<(String, dsp::Damping, f64, Option<presets::residual::ResidualSpectrogram>)> = None;
+        // A user material chosen: its name, law, and the material itself.
+        let mut chosen_user: Option<(String, dsp::Damping, presets::Material)> = None;
         ui.horizontal(|ui| {
             egui::ComboBox::from_label("Material").selected_text(shown).width(220.0).show_ui(ui, |ui| {
                 ui.label(egui::RichText::new("Factory").weak());
@@ -139,7 +140,7 @@ impl MaterialPanel {
                                 .clicked()
                             {
                                 match m.to_damping() {
-                                    Ok(d) => chosen_user = Some((m.name.clone(), d, m.support_c(), m.residual.clone())),
+                                    Ok(d) => chosen_user = Some((m.name.clone(), d, m.clone())),
                                     Err(e) => self.message = Some(e.to_string()),
                                 }
                             }
@@ -155,13 +156,19 @@ impl MaterialPanel {
                 self.user = None;
             }
         });
-        if let Some((name, d, support, residual)) = chosen_user {
-            // The material's residual goes with its law into Custom (none: none plays).
-            match apply_damping(p, custom, setter, &d, support).and_then(|()| p.user_residual.set_source(residual)) {
+        if let Some((name, d, m)) = chosen_user {
+            let (support, residual, recorded) = (m.support_c(), m.residual.clone(), m.recorded_modes().cloned());
+            // The material's residual and per-mode support go with its law into Custom (none:
+            // none plays).
+            match apply_damping(p, custom, setter, &d, support)
+                .and_then(|()| p.user_residual.set_source(residual))
+                .and_then(|()| p.user_support.set_source(recorded).map(|_| ()))
+            {
                 Ok(()) => self.loaded_user = Some(name),
                 Err(e) => {
-                    // Never an earlier material's residual with this law.
+                    // Never an earlier material's residual or support with this law.
                     let _ = p.user_residual.set_source(None);
+                    let _ = p.user_support.set_source(None);
                     self.message = Some(e);
                 }
             }
@@ -221,6 +228,17 @@ fn knob_groups(ui: &mut egui::Ui, cx: &PanelCtx, panel: &mut MaterialPanel) {
             param_row(ui, setter, &p.caughey_10k_per_s);
             param_row(ui, setter, &p.custom_support_per_s);
         });
+        // Support recorded mode by mode (issue 10 part 6): where it plays.
+        if let Some(r) = p.user_support.source() {
+            ui.label(
+                egui::RichText::new(format!(
+                    "Support as recorded on {}: {} modes with their own measured damping (on that object, Support: As recorded, not held at a point)",
+                    r.object,
+                    r.modes.len()
+                ))
+                .weak(),
+            );
+        }
     });
     egui::CollapsingHeader::new("Residual").default_open(p.user_residual.is_set()).show(ui, |ui| {
         egui::Grid::new("residual-knobs").num_columns(2).show(ui, |ui| {
