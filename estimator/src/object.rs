@@ -240,9 +240,11 @@ pub struct ModeSupport {
     pub partials: usize,
 }
 
-/// Tolerance in ln ω within which bank modes are one degenerate set (an axisymmetric
-/// object's mode pairs): a partial matched to one is matched to all of them.
-const DEGENERATE: f64 = 1e-4;
+/// Tolerance in ln ω (0.2 %, 3.5 cents) within which bank modes are one degenerate set: an
+/// axisymmetric object's mode pairs, split by the mesh by up to ~0.14 % in the factory FEM
+/// banks, which no recording resolves (a 1 s partial's frequency resolution is ~1 Hz, 0.2 %
+/// at 500 Hz): a partial matched to one is matched to all of them.
+const DEGENERATE: f64 = 2e-3;
 
 /// The support damping of each of the object's modes as recorded (thesis §4.2.8's excess
 /// over the material's law, mode by mode; issue 10 part 6): every strong partial of each
@@ -350,8 +352,9 @@ mod tests {
         use dsp::Damping;
         let law = Damping::Rayleigh { alpha1: 2.0, alpha2: 1e-8 };
         let base = std::f64::consts::TAU * 200.0;
-        // Modes 0..5; 2 and 3 a degenerate pair; 5 silent.
-        let l0: Vec<f64> = [1.0, 2.7, 4.1, 4.1, 6.3, 8.0].iter().map(|k: &f64| (k * base).powi(2)).collect();
+        // Modes 0..5; 2 and 3 a degenerate pair split by 0.05 % (as a mesh splits them); 5
+        // silent.
+        let l0: Vec<f64> = [1.0, 2.7, 4.1, 4.1 * 1.0005, 6.3, 8.0].iter().map(|k: &f64| (k * base).powi(2)).collect();
         let gains = [1.0, 0.8, 0.5, 0.5, 0.6, 1e-4];
         let r: f64 = 1.21;
         let feature = |k: usize, excess: f64, amplitude: f64, detune: f64| {

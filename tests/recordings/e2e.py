@@ -135,7 +135,7 @@ def object_check(struck, clip, obj, ref, cache, tmp):
     ways: support as recorded mode by mode (the material as written), the mean's draws only
     (the per-mode record taken out) and the free material. Each of the clip's reference
     partials is looked for in each render (subspace.py, within 0.5 %); T60 ratios
-    render/recording."""
+    render/recording, one per reference partial (None where that render does not hold it)."""
     mat = os.path.join(tmp, "obj-mat.json")
     if os.path.exists(mat):
         os.remove(mat)
@@ -171,6 +171,8 @@ def object_check(struck, clip, obj, ref, cache, tmp):
             if m:
                 g = max(m, key=lambda g: g["amplitude"])
                 ratios.append(q["decay_per_s"] / g["decay_per_s"] if g["decay_per_s"] > 0 else float("inf"))
+            else:
+                ratios.append(None)
         out[label] = ratios
     return out
 
@@ -278,7 +280,7 @@ def main():
                     continue
                 parts = []
                 for label in ("recorded", "mean", "free"):
-                    r = oc[label]
+                    r = [v for v in oc[label] if v is not None]
                     w = sum(abs(v - 1) <= 0.25 for v in r)
                     parts.append(f"{label} {w}/{len(r)} within 25 %" + (f" (median {median(r):.2f})" if r else ""))
                 print(f"{c['id']:40s} on {obj} ({oc['recorded_modes']} modes recorded): " + "; ".join(parts))
@@ -294,8 +296,11 @@ def main():
         summary["render_median_t60_ratio"] = median(render_ratios)
     ok_rows = [r for r in object_rows if "error" not in r]
     if ok_rows:
+        # Compared on one set: the reference partials every one of the three renders holds.
+        common = [(r, i) for r in ok_rows for i in range(len(r["recorded"]))
+                  if all(r[label][i] is not None for label in ("recorded", "mean", "free"))]
         for label in ("recorded", "mean", "free"):
-            allr = [v for r in ok_rows for v in r[label]]
+            allr = [r[label][i] for r, i in common]
             summary[f"objects_{label}_within_25"] = sum(abs(v - 1) <= 0.25 for v in allr) / max(1, len(allr))
             summary[f"objects_{label}_median_t60_ratio"] = median([v for v in allr if math.isfinite(v)])
             summary[f"objects_{label}_partials"] = len(allr)
@@ -311,13 +316,14 @@ def main():
           + f"; {time.time() - t0:.1f} s")
     if ok_rows:
         print("on their own objects (" + f"{len(ok_rows)} clips, {summary['objects_failed']} failed; "
-              + f"{summary['objects_reference_partials']} reference partials): "
-              + "; ".join(f"{label}: {summary[f'objects_{label}_partials']} found, "
+              + f"{summary['objects_reference_partials']} reference partials, "
+              + f"{summary['objects_recorded_partials']} found in all three renders): "
+              + "; ".join(f"{label}: "
                           f"{100 * summary[f'objects_{label}_within_25']:.1f} % within 25 %, median "
                           f"{summary[f'objects_{label}_median_t60_ratio']:.2f}" for label in ("recorded", "mean", "free")))
     if a.json_out:
         with open(a.json_out, "w") as f:
-            json.dump({"summary": summary, "instruments": results}, f, indent=1)
+            json.dump({"summary": summary, "instruments": results, "objects": object_rows}, f, indent=1)
 
 
 if __name__ == "__main__":

@@ -292,6 +292,8 @@ pub fn configured_host(opts: &SoundOptions, max_block: usize) -> Result<OfflineH
     // A material file's own specific modulus (γ/γ₀ of this object), played when *Material
     // sets pitch* is on, as the plugin plays a library material's.
     let mut file_modulus = None;
+    // A material file's support recorded mode by mode: its object, modes and their mapping.
+    let mut held = None;
     match resolve_material(&lib, &opts.material)? {
         MaterialChoice::Factory(i) => host.set_param("material", i as f32).map_err(|e| e.to_string())?,
         MaterialChoice::File(m) => {
@@ -307,22 +309,7 @@ pub fn configured_host(opts: &SoundOptions, max_block: usize) -> Result<OfflineH
                 .plugin_mut()
                 .set_user_support(m.recorded_modes().cloned())
                 .map_err(|e| format!("{}: {e}", opts.material))?;
-            if let Some(r) = m.recorded_modes() {
-                if mapping.object != Some(object) {
-                    warn(&format!(
-                        "{}: its support was recorded mode by mode on '{}'; on this object each mode gets a draw from the mean",
-                        opts.material, r.object
-                    ));
-                } else if mapping.skipped > 0 {
-                    warn(&format!(
-                        "{}: {} of its {} recorded modes do not match the bank '{}' any more (rebuilt?); they get a draw from the mean",
-                        opts.material,
-                        mapping.skipped,
-                        r.modes.len(),
-                        r.object
-                    ));
-                }
-            }
+            held = m.recorded_modes().map(|r| (r.object.clone(), r.modes.len(), mapping));
             // Its residual, if it keeps one (issue 15): the residual layer plays it.
             host.plugin_mut().set_user_residual(m.residual.clone()).map_err(|e| format!("{}: {e}", opts.material))?;
         }
@@ -339,6 +326,29 @@ pub fn configured_host(opts: &SoundOptions, max_block: usize) -> Result<OfflineH
         let (k, v) = kv.split_once('=').ok_or_else(|| format!("--set expects id=value, got '{kv}'"))?;
         let v: f32 = v.trim().parse().map_err(|_| format!("--set {k}: '{v}' is not a number"))?;
         host.set_param_checked(k.trim(), v).map_err(|e| format!("--set {}: {e}", kv.trim()))?;
+    }
+    // Said once the options are set: whether the per-mode record plays.
+    if let Some((recorded_on, count, mapping)) = held {
+        let p = host.plugin().struck_params();
+        let as_recorded = p.support_mode.value() == struck::params::SupportMode::AsRecorded;
+        if as_recorded && !p.support_at_point.value() {
+            if mapping.object != Some(object) {
+                warn(&format!(
+                    "{}: its support was recorded mode by mode on '{recorded_on}'; on this object each mode gets a draw from the mean",
+                    opts.material
+                ));
+            } else if mapping.skipped > 0 {
+                warn(&format!(
+                    "{}: {} of its {count} recorded modes do not match the bank '{recorded_on}' any more (rebuilt?); they get a draw from the mean",
+                    opts.material, mapping.skipped
+                ));
+            }
+        } else if as_recorded {
+            warn(&format!(
+                "{}: held at a point, the support recorded mode by mode on '{recorded_on}' does not play",
+                opts.material
+            ));
+        }
     }
     if let Some(ratio) = file_modulus {
         if host.plugin().struck_params().material_pitch.value() {

@@ -16,8 +16,9 @@ type Mapped = Box<(Option<usize>, Vec<f64>)>;
 /// The recorded per-mode support, and its handoff to the audio thread.
 pub struct UserSupportField {
     library: Arc<Library>,
-    /// As saved with the project (`None`: none).
-    source: Mutex<Option<RecordedModes>>,
+    /// As saved with the project (`None`: none), and how it maps onto the library. Held
+    /// while a set or a restore runs, so the engine always gets the kept source's mapping.
+    source: Mutex<(Option<RecordedModes>, SupportMapping)>,
     /// Setter → audio thread: the mapping to play next. At most one waits.
     pending: ArrayQueue<Mapped>,
     /// Audio thread → setter: mappings played, freed at the next set.
@@ -27,7 +28,7 @@ pub struct UserSupportField {
 }
 
 /// How a recorded support maps onto the library.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct SupportMapping {
     /// The object's index, `None` if no bank of the library has its id.
     pub object: Option<usize>,
@@ -42,7 +43,7 @@ impl UserSupportField {
     pub fn new(library: Arc<Library>) -> Self {
         UserSupportField {
             library,
-            source: Mutex::new(None),
+            source: Mutex::new((None, SupportMapping::default())),
             pending: ArrayQueue::new(2),
             done: ArrayQueue::new(4),
             generation: AtomicU64::new(0),
@@ -57,7 +58,18 @@ impl UserSupportField {
 
     /// The recorded support kept (a copy).
     pub fn source(&self) -> Option<RecordedModes> {
-        self.source.lock().ok().and_then(|s| s.clone())
+        self.lock().0.clone()
+    }
+
+    /// The object the kept record names and how it maps onto the library (`None`: no
+    /// record).
+    pub fn status(&self) -> Option<(String, SupportMapping)> {
+        let g = self.lock();
+        g.0.as_ref().map(|r| (r.object.clone(), g.1.clone()))
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, (Option<RecordedModes>, SupportMapping)> {
+        self.source.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
     /// The engine's form of `source` on this library, and how it mapped. Allocates.
@@ -83,13 +95,16 @@ impl UserSupportField {
         if let Some(r) = &source {
             r.validate().map_err(|e| e.to_string())?;
         }
-        let (mapped, report) = self.map_source(source.as_ref());
+        let mut slot = self.lock();
         while self.done.pop().is_some() {}
+        if slot.0 == source {
+            // The same record (a state loaded again): nothing to hand over or transfer.
+            return Ok(slot.1.clone());
+        }
+        let (mapped, report) = self.map_source(source.as_ref());
         while self.pending.pop().is_some() {}
         let _ = self.pending.push(mapped);
-        if let Ok(mut slot) = self.source.lock() {
-            *slot = source;
-        }
+        *slot = (source, report.clone());
         self.generation.fetch_add(1, Ordering::AcqRel);
         Ok(report)
     }
@@ -113,8 +128,10 @@ impl UserSupportField {
 
     /// Plays the kept source in `engine` now (a new engine at activation). Allocates.
     pub fn restore(&self, engine: &mut dsp::Engine) {
+        let slot = self.lock();
         while self.pending.pop().is_some() {}
-        self.install(engine);
+        let (mapped, _) = self.map_source(slot.0.as_ref());
+        engine.set_recorded_support(mapped.0, &mapped.1);
     }
 
     /// Sets the kept source in `engine` without touching what waits for the audio thread
@@ -138,9 +155,50 @@ impl<'a> PersistentField<'a, Option<RecordedModes>> for UserSupportField {
     where
         F: Fn(&Option<RecordedModes>) -> R,
     {
-        match self.source.lock() {
-            Ok(g) => f(&g),
-            Err(p) => f(&p.into_inner()),
-        }
+        f(&self.lock().0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use presets::RecordedMode;
+
+    /// The mapping onto the library, a record naming an object the library lacks, and a
+    /// state loaded again with the same record (no new generation, so no new residual
+    /// transfer).
+    #[test]
+    fn records_map_onto_the_library_and_an_unchanged_one_is_not_handed_over_again() {
+        let lib = Library::factory();
+        let bar = lib.bank_index("bar").expect("factory bar");
+        let l = &lib.banks[bar].lambdas;
+        let field = UserSupportField::new(lib.clone());
+        assert_eq!(field.generation(), 0);
+        let record = |object: &str, lambda1: f64| RecordedModes {
+            object: object.into(),
+            modes: vec![
+                RecordedMode { mode: 0, lambda: l[0], extra_c_per_s: 5.0, partials: 1 },
+                RecordedMode { mode: 1, lambda: lambda1, extra_c_per_s: 9.0, partials: 2 },
+            ],
+        };
+        let m = field.set_source(Some(record("bar", l[1]))).unwrap();
+        assert_eq!(m, SupportMapping { object: Some(bar), modes: 2, skipped: 0 });
+        assert_eq!(field.generation(), 1);
+        assert_eq!(field.set_source(Some(record("bar", l[1]))).unwrap(), m);
+        assert_eq!(field.generation(), 1, "the same record again must not be a new one");
+        // A moved eigenvalue (a rebuilt bank) is left out.
+        let m = field.set_source(Some(record("bar", l[1] * 1.01))).unwrap();
+        assert_eq!(m, SupportMapping { object: Some(bar), modes: 1, skipped: 1 });
+        assert_eq!(field.generation(), 2);
+        let m = field.set_source(Some(record("teapot", l[1]))).unwrap();
+        assert_eq!(m, SupportMapping { object: None, modes: 0, skipped: 2 });
+        assert_eq!(field.status(), Some(("teapot".to_string(), m)));
+        // An invalid record changes nothing.
+        let mut bad = record("bar", l[1]);
+        bad.modes[1].extra_c_per_s = -1.0;
+        assert!(field.set_source(Some(bad)).is_err());
+        assert_eq!(field.source().map(|r| r.object), Some("teapot".to_string()));
+        field.set_source(None).unwrap();
+        assert_eq!(field.status(), None);
     }
 }

@@ -547,23 +547,33 @@ impl CapturePanel {
                 let support = rec.report.support_for(&fit).unwrap_or(0.0);
                 match apply_damping(&params, custom, cx.setter, &fit.damping(), support) {
                     Ok(()) => {
-                        // The capture's residual goes with its law (issue 15).
-                        // And its support recorded mode by mode, on the recorded object.
+                        // Its support recorded mode by mode on the recorded object (issue 10
+                        // part 6); none of an earlier capture's if it cannot be kept.
                         let recorded = rec.report.support_for(&fit).and(rec.recorded_modes(&fit, cx.library));
-                        let _ = params.user_support.set_source(recorded);
+                        let held = params.user_support.set_source(recorded).map(|m| m.modes);
+                        if held.is_err() {
+                            let _ = params.user_support.set_source(None);
+                        }
+                        // The capture's residual goes with its law (issue 15).
                         let kept = capture_residual(&rec, &fit)
                             .and_then(|r| params.user_residual.set_source(r).map(|()| params.user_residual.is_set()));
                         if kept.is_err() {
                             // No residual for this law: none of an earlier one either.
                             let _ = params.user_residual.set_source(None);
                         }
-                        self.message = Some(match kept {
+                        let mut message = match kept {
                             Ok(true) => {
                                 format!("applied the {} fit and its residual to the Custom material", fit.method.name())
                             }
                             Ok(false) => format!("applied the {} fit to the Custom material", fit.method.name()),
                             Err(e) => format!("applied the {} fit to the Custom material; {e}", fit.method.name()),
-                        });
+                        };
+                        match held {
+                            Ok(0) => {}
+                            Ok(n) => message += &format!(", with the support of {n} modes as recorded"),
+                            Err(e) => message += &format!("; no per-mode support kept: {e}"),
+                        }
+                        self.message = Some(message);
                     }
                     Err(e) => self.message = Some(e),
                 }

@@ -228,16 +228,32 @@ fn knob_groups(ui: &mut egui::Ui, cx: &PanelCtx, panel: &mut MaterialPanel) {
             param_row(ui, setter, &p.caughey_10k_per_s);
             param_row(ui, setter, &p.custom_support_per_s);
         });
-        // Support recorded mode by mode (issue 10 part 6): where it plays.
-        if let Some(r) = p.user_support.source() {
-            ui.label(
-                egui::RichText::new(format!(
-                    "Support as recorded on {}: {} modes with their own measured damping (on that object, Support: As recorded, not held at a point)",
-                    r.object,
-                    r.modes.len()
-                ))
-                .weak(),
-            );
+        // Support recorded mode by mode (issue 10 part 6): where it plays, and whether it does.
+        if let Some((object, mapping)) = p.user_support.status() {
+            let text = match mapping.object {
+                None => format!("Support recorded mode by mode on '{object}', which is not in the library: not played"),
+                Some(o) => {
+                    let name = cx.library.banks.get(o).map_or(object.as_str(), |b| b.name.as_str());
+                    let mut t = format!(
+                        "Support as recorded on {name}: {} modes with their own measured damping",
+                        mapping.modes
+                    );
+                    if mapping.skipped > 0 {
+                        t += &format!(" ({} no longer match the bank)", mapping.skipped);
+                    }
+                    let playing = selected >= custom
+                        && crate::object_index_of(p, cx.library) == o
+                        && p.support_mode.value() == crate::params::SupportMode::AsRecorded
+                        && !p.support_at_point.value();
+                    t += if playing {
+                        ": playing"
+                    } else {
+                        ": plays with Custom on that object, Support As recorded, not held at a point"
+                    };
+                    t
+                }
+            };
+            ui.label(egui::RichText::new(text).weak());
         }
     });
     egui::CollapsingHeader::new("Residual").default_open(p.user_residual.is_set()).show(ui, |ui| {
