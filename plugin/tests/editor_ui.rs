@@ -486,6 +486,21 @@ fn ab_plays_the_recording_and_resyntheses_and_a_known_object_gives_gamma() {
         std::fs::read_dir(&dir).expect("user folder").filter_map(Result::ok).map(|e| e.path()).collect();
     let saved = presets::Material::load(&files[0]).expect("a valid material");
     assert!((saved.specific_modulus.expect("γ saved") / want - 1.0).abs() < 0.005);
+    // And its support recorded mode by mode on the plate (issue 10 part 6): the plate's
+    // modes the taps' strong partials matched, each at the bank's λ⁰.
+    let recorded = saved.recorded_modes().expect("the support is recorded mode by mode");
+    assert_eq!(recorded.object, "circular-plate");
+    assert!(!recorded.modes.is_empty());
+    for m in &recorded.modes {
+        assert_eq!(m.lambda, lib.banks[plate].lambdas[m.mode]);
+        assert!(m.extra_c_per_s >= 0.0 && m.partials >= 1, "{m:?}");
+    }
+    // Apply hands it to the Custom material, kept with the project.
+    h.get_by_label("Apply").click();
+    h.run_steps(2);
+    let kept = params.user_support.source().expect("Apply keeps the per-mode support");
+    assert_eq!(kept.object, "circular-plate");
+    assert_eq!(kept.modes.len(), recorded.modes.len());
     let _ = std::fs::remove_dir_all(&dir);
     let _ = std::fs::remove_file(&wav);
 }
