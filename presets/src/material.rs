@@ -211,8 +211,8 @@ impl RecordedModes {
     ///
     /// # Errors
     /// [`PresetError::Invalid`] naming the field: an object id that is not kebab-case, mode
-    /// indices not strictly ascending, a λ⁰ that is not finite and > 0, an extra c that is not
-    /// finite and in 0..=100000 s⁻¹.
+    /// indices not strictly ascending, a λ⁰ that is not finite and > 0, no partials, an extra
+    /// c that is not finite and in 0..=100000 s⁻¹.
     pub fn validate(&self) -> Result<(), PresetError> {
         json::check_id(&self.object).map_err(|e| match e {
             PresetError::Invalid { reason, .. } => PresetError::invalid("support.recorded_modes.object", reason),
@@ -232,6 +232,12 @@ impl RecordedModes {
                 return Err(PresetError::invalid(
                     field("lambda"),
                     format!("must be finite and > 0 (rad^2/s^2); found {}", m.lambda),
+                ));
+            }
+            if m.partials == 0 {
+                return Err(PresetError::invalid(
+                    field("partials"),
+                    "must be at least 1 (the recorded partials matched to the mode)",
                 ));
             }
             if !(m.extra_c_per_s.is_finite() && (0.0..=1e5).contains(&m.extra_c_per_s)) {

@@ -191,6 +191,9 @@ fn invalid_materials_name_the_field() {
         "support.recorded_modes.modes[1].extra_c_per_s",
     );
     check(&with_modes("bar", vec![mode(0, 1e6, f64::NAN)]), "support.recorded_modes.modes[0].extra_c_per_s");
+    let mut none = mode(1, 1e6, 1.0);
+    none.partials = 0;
+    check(&with_modes("bar", vec![none]), "support.recorded_modes.modes[0].partials");
     let mut m = good.clone();
     with_modes("bar", vec![mode(0, 1e6, 1.5), mode(4, 9e6, 20.0), mode(9, 1e8, 7.0)])(&mut m);
     let back = Material::from_json(&m.to_json()).unwrap();

@@ -218,3 +218,27 @@ fn bank_build_from_an_obj_surface_then_render_it() {
         let _ = std::fs::remove_file(f);
     }
 }
+
+/// `--set` takes a stepped parameter's option by name, as the README writes it
+/// (`--set support=off`), without case, spaces or hyphens; a switch takes on/off; a name that
+/// is no option is refused naming the options.
+#[test]
+fn set_takes_options_by_name() {
+    let host = |set: &[&str]| {
+        let opts = SoundOptions { set: set.iter().map(|s| s.to_string()).collect(), ..SoundOptions::default() };
+        struck_cli::cli::configured_host(&opts, 64)
+    };
+    let value = |set: &[&str], id: &str| host(set).expect("valid options").param(id).expect("param");
+    assert_eq!(value(&["support=off"], "support"), 0.0);
+    assert_eq!(value(&["support=As recorded"], "support"), 1.0);
+    assert_eq!(value(&["support=as-recorded"], "support"), 1.0);
+    assert_eq!(value(&["support=AMOUNT"], "support"), 2.0);
+    assert_eq!(value(&["support=2"], "support"), 2.0);
+    assert_eq!(value(&["keytune=off"], "keytune"), 0.0);
+    assert_eq!(value(&["keytune=on"], "keytune"), 1.0);
+    let err = host(&["support=sideways"]).err().expect("no such option");
+    assert!(err.contains("Off") && err.contains("As recorded") && err.contains("Amount"), "{err}");
+    let err = host(&["size=big"]).err().expect("not a number");
+    assert!(err.contains("takes a number"), "{err}");
+    assert!(host(&["support=7"]).is_err());
+}

@@ -273,6 +273,12 @@ pub fn set_custom_damping(host: &mut OfflineHost, d: &Damping) -> Result<(), Str
 /// # Errors
 /// Unknown object, material or parameter; a bad `id=value`; an unusable sample rate.
 pub fn configured_host(opts: &SoundOptions, max_block: usize) -> Result<OfflineHost, String> {
+    configure(opts, max_block, true)
+}
+
+/// [`configured_host`], with its warnings said only when `say` (a probe host built before
+/// the one that renders keeps quiet, so each is said once).
+fn configure(opts: &SoundOptions, max_block: usize, say: bool) -> Result<OfflineHost, String> {
     let factory = Library::factory();
     // An object given as a bank file (`struck bank build` output) plays through a library with
     // that bank added.
@@ -324,22 +330,27 @@ pub fn configured_host(opts: &SoundOptions, max_block: usize) -> Result<OfflineH
     }
     for kv in &opts.set {
         let (k, v) = kv.split_once('=').ok_or_else(|| format!("--set expects id=value, got '{kv}'"))?;
-        let v: f32 = v.trim().parse().map_err(|_| format!("--set {k}: '{v}' is not a number"))?;
-        host.set_param_checked(k.trim(), v).map_err(|e| format!("--set {}: {e}", kv.trim()))?;
+        host.set_param_text(k.trim(), v).map_err(|e| format!("--set {}: {e}", kv.trim()))?;
     }
     // Said once the options are set: whether the per-mode record plays.
-    if let Some((recorded_on, count, mapping)) = held {
+    if let Some((recorded_on, count, mapping)) = held.filter(|_| say) {
         let p = host.plugin().struck_params();
         let as_recorded = p.support_mode.value() == struck::params::SupportMode::AsRecorded;
         if as_recorded && !p.support_at_point.value() {
-            if mapping.object != Some(object) {
+            if mapping.object.is_none() {
+                warn(&format!(
+                    "{}: its support was recorded mode by mode on '{recorded_on}', which is not an object here (`struck objects`); each mode gets a draw from the mean",
+                    opts.material
+                ));
+            } else if mapping.object != Some(object) {
                 warn(&format!(
                     "{}: its support was recorded mode by mode on '{recorded_on}'; on this object each mode gets a draw from the mean",
                     opts.material
                 ));
             } else if mapping.skipped > 0 {
+                let n = lib.banks.get(object).map_or(0, |b| b.lambdas.len());
                 warn(&format!(
-                    "{}: {} of its {count} recorded modes do not match the bank '{recorded_on}' any more (rebuilt?); they get a draw from the mean",
+                    "{}: {} of its {count} recorded modes are not in '{recorded_on}' as it is now (an index past its {n} modes, or an eigenvalue moved by more than 0.1 %: rebuilt?); they get a draw from the mean",
                     opts.material, mapping.skipped
                 ));
             }
@@ -764,7 +775,7 @@ pub fn render_with_stats(opts: &RenderOptions) -> Result<(String, RenderStats), 
         }
         Ok(host)
     };
-    let probe = configured_host(&sound, opts.block_size)?;
+    let probe = configure(&sound, opts.block_size, false)?;
     if probe.param("excite").map_err(|e| e.to_string())? >= 1.0 {
         // In a lasting excitation the brightness expression sets a note's speed: a note's
         // own position goes as the position's polyphonic modulation instead.

@@ -344,6 +344,49 @@ impl<V: Variant> OfflineHost<V> {
         self.set_param(id, plain.clamp(min, max))
     }
 
+    /// Sets a parameter from text typed by a user: a number (as
+    /// [`set_param_checked`](Self::set_param_checked)), or one of a stepped parameter's
+    /// options by name, compared without case, spaces, hyphens or underscores ("off",
+    /// "as-recorded", "Amount"; "on"/"off" for a switch).
+    ///
+    /// # Errors
+    /// [`HostError::UnknownParam`], [`HostError::OutOfRange`] for a number outside the range,
+    /// [`HostError::Config`] naming the options for a name that is none of them.
+    pub fn set_param_text(&mut self, id: &str, text: &str) -> Result<(), HostError> {
+        let text = text.trim();
+        if let Ok(v) = text.parse::<f32>() {
+            return self.set_param_checked(id, v);
+        }
+        let ptr = *self.params.get(id).ok_or_else(|| HostError::UnknownParam(id.to_string()))?;
+        let key = |s: &str| s.chars().filter(|c| c.is_alphanumeric()).flat_map(char::to_lowercase).collect::<String>();
+        let wanted = key(text);
+        // SAFETY: see the Send impl.
+        let (steps, name) = unsafe { (ptr.step_count(), ptr.name().to_string()) };
+        let mut names = Vec::new();
+        if let Some(steps) = steps.filter(|&n| n > 0 && n <= 64) {
+            for i in 0..=steps {
+                let normalized = i as f32 / steps as f32;
+                // SAFETY: see the Send impl.
+                let (label, plain) =
+                    unsafe { (ptr.normalized_value_to_string(normalized, false), ptr.preview_plain(normalized)) };
+                let on_off = match (steps, i) {
+                    (1, 0) if label.eq_ignore_ascii_case("off") || label.eq_ignore_ascii_case("false") => "off",
+                    (1, 1) if label.eq_ignore_ascii_case("on") || label.eq_ignore_ascii_case("true") => "on",
+                    _ => "",
+                };
+                if key(&label) == wanted || (!on_off.is_empty() && wanted == on_off) {
+                    return self.set_param_checked(id, plain);
+                }
+                names.push(label);
+            }
+        }
+        Err(HostError::Config(if names.is_empty() {
+            format!("{id} ({name}) takes a number, not '{text}' (see `struck params`)")
+        } else {
+            format!("{id} ({name}) takes a number or one of: {}; not '{text}'", names.join(", "))
+        }))
+    }
+
     /// A parameter's plain value.
     ///
     /// # Errors
