@@ -1068,23 +1068,38 @@ pub fn print_params(json: bool) -> Result<(), String> {
     let mut rows = Vec::new();
     for (id, ptr, _) in params.param_map() {
         // SAFETY: the pointers target `params`, alive for this whole function.
-        let (name, def, lo, hi, shown) = unsafe {
+        let (name, def, lo, hi, shown, steps) = unsafe {
             (
                 ptr.name().to_string(),
                 ptr.default_plain_value(),
                 ptr.preview_plain(0.0),
                 ptr.preview_plain(1.0),
                 ptr.normalized_value_to_string(ptr.default_normalized_value(), true),
+                ptr.step_count(),
             )
         };
-        rows.push((id, name, def, lo, hi, shown));
+        // A choice's options by name (`--set support=off` takes them; switches: on/off).
+        let options: Vec<String> = match steps {
+            Some(n) if (2..=8).contains(&n) => (0..=n)
+                // SAFETY: as above.
+                .map(|i| unsafe { ptr.normalized_value_to_string(i as f32 / n as f32, false) })
+                .collect(),
+            _ => Vec::new(),
+        };
+        rows.push((id, name, def, lo, hi, shown, options));
     }
     if json {
-        let v: Vec<_> = rows.iter().map(|(id, n, d, lo, hi, s)| serde_json::json!({"id": id, "name": n, "default": d, "min": lo, "max": hi, "default_text": s})).collect();
+        let v: Vec<_> = rows
+            .iter()
+            .map(|(id, n, d, lo, hi, s, o)| {
+                serde_json::json!({"id": id, "name": n, "default": d, "min": lo, "max": hi, "default_text": s, "options": o})
+            })
+            .collect();
         outln!("{}", serde_json::to_string_pretty(&v).map_err(|e| e.to_string())?);
     } else {
-        for (id, n, d, lo, hi, s) in rows {
-            outln!("{id:10} {n:24} default {d:<10} range {lo}..={hi}  ({s})");
+        for (id, n, d, lo, hi, s, o) in rows {
+            let o = if o.is_empty() { String::new() } else { format!("  options: {}", o.join(" | ")) };
+            outln!("{id:10} {n:24} default {d:<10} range {lo}..={hi}  ({s}){o}");
         }
     }
     Ok(())
