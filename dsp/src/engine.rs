@@ -1170,9 +1170,8 @@ pub struct Engine {
     residual_clip: Option<Box<ResidualClip>>,
     residuals: Residuals,
     /// Support damping recorded mode by mode ([`Engine::set_recorded_support`]): extra c per
-    /// mode of `recorded_object` (NaN: none), and the buffer the next one is written to.
+    /// mode of `recorded_object` (NaN: none), allocated at construction.
     recorded: Vec<f64>,
-    recorded_next: Vec<f64>,
     recorded_object: Option<usize>,
 }
 
@@ -1221,7 +1220,6 @@ impl Engine {
             residual_clip: None,
             residuals: Residuals::default(),
             recorded: vec![f64::NAN; max_modes],
-            recorded_next: vec![f64::NAN; max_modes],
             recorded_object: None,
         }
     }
@@ -1230,34 +1228,15 @@ impl Engine {
     /// `m` of that object gets the extra c `extra[m]` (s⁻¹, scaled with the decay like the
     /// law; NaN or beyond the slice: none, the mean's draw plays) while
     /// [`SoundParams::recorded_support`] is on and no support point is set. `None` clears
-    /// it. Sounding voices take it at once. Realtime-safe (copies into buffers allocated at
+    /// it. Sounding voices take it at once. Realtime-safe (copies into a buffer allocated at
     /// construction).
     pub fn set_recorded_support(&mut self, object: Option<usize>, extra: &[f64]) {
-        let buf = self.recorded_support_scratch();
-        for (i, x) in buf.iter_mut().enumerate() {
-            *x = extra.get(i).copied().unwrap_or(f64::NAN);
+        for (i, x) in self.recorded.iter_mut().enumerate() {
+            *x = match extra.get(i) {
+                Some(&v) if v.is_finite() && v >= 0.0 => v.min(1e5),
+                _ => f64::NAN,
+            };
         }
-        self.commit_recorded_support(object);
-    }
-
-    /// The buffer [`Engine::commit_recorded_support`] takes, one entry per mode (its
-    /// previous contents are undefined): for filling without a slice, e.g. from atomics.
-    /// Realtime-safe.
-    pub fn recorded_support_scratch(&mut self) -> &mut [f64] {
-        &mut self.recorded_next
-    }
-
-    /// Makes the scratch buffer ([`Engine::recorded_support_scratch`]) the recorded support
-    /// of `object` (as [`Engine::set_recorded_support`]). Realtime-safe.
-    pub fn commit_recorded_support(&mut self, object: Option<usize>) {
-        for x in &mut self.recorded_next {
-            if !(x.is_finite() && *x >= 0.0) {
-                *x = f64::NAN;
-            } else {
-                *x = x.min(1e5);
-            }
-        }
-        std::mem::swap(&mut self.recorded, &mut self.recorded_next);
         self.recorded_object = object.filter(|&o| o < self.objects.len());
         for v in &mut self.voices {
             v.dirty = true;
