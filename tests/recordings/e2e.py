@@ -131,40 +131,16 @@ OBJECTS = {
 
 
 def own_modes_bank(struck, clip, cache, tmp, top=24):
-    """A bank of the clip's own modes as Struck extracts them (`struck features`: the first
-    impact's strongest partials by amplitude, at most `top`, within 30 dB of the strongest;
-    one strike point with gains = amplitudes): the
-    issue's "or on the recording's own modes", with nothing from the reference analysis."""
-    p = subprocess.run([struck, "features", os.path.join(cache, clip["wav"]), "--json"], capture_output=True, text=True)
-    if p.returncode != 0:
-        return None
-    imps = json.loads(p.stdout).get("impacts", [])
-    if not imps:
-        return None
-    feats = sorted(imps[0]["features"], key=lambda f: -f["amplitude"])[:top]
-    feats = [f for f in feats if f["freq_hz"] > 0 and f["amplitude"] > 0]
-    if not feats:
-        return None
-    # The partials heard (within 30 dB of the strongest), as the object match counts them.
-    feats = [f for f in feats if f["amplitude"] >= 10 ** (-30 / 20) * feats[0]["amplitude"]]
-    # The bank's order is by λ = ω² + d² (a close pair's order by frequency may differ).
-    feats.sort(key=lambda f: (2 * math.pi * f["freq_hz"]) ** 2 + f["decay_per_s"] ** 2)
-    amax = max(f["amplitude"] for f in feats)
-    bank = {
-        "schema_version": 1, "id": "own-modes", "name": "Own modes",
-        "description": f"the strongest partials Struck extracts from {clip['id']} (validation only)",
-        "provenance": "tests/recordings/e2e.py from `struck features`",
-        "reference": {"specific_modulus": 1.0, "poisson": 0.3, "density": 1000.0,
-                      "dimensions_m": [1.0, 0.1, 0.1], "size_m": 1.0},
-        "lambdas": [(2 * math.pi * f["freq_hz"]) ** 2 + f["decay_per_s"] ** 2 for f in feats],
-        "points": [{"label": "p", "xy": [0.5, 0.5], "position_m": [0.5, 0.05, 0.1]}],
-        "gains": [[f["amplitude"] / amax for f in feats]],
-        "mode_labels": [f"{f['freq_hz']:.1f} Hz" for f in feats],
-    }
+    """A bank of the clip's own modes as Struck extracts them (`struck bank capture`: the
+    first impact's strongest partials, at most `top`, within 30 dB of the strongest, at one
+    strike point with gains = amplitudes): the issue's "or on the recording's own modes",
+    with nothing from the reference analysis."""
     path = os.path.join(tmp, "own-bank.json")
-    with open(path, "w") as f:
-        json.dump(bank, f)
-    return path
+    if os.path.exists(path):
+        os.remove(path)
+    p = subprocess.run([struck, "bank", "capture", os.path.join(cache, clip["wav"]), "--modes", str(top),
+                        "--range-db", "30", "--id", "own-modes", "--out", path], capture_output=True, text=True)
+    return path if p.returncode == 0 and os.path.exists(path) else None
 
 
 def object_check(struck, clip, obj, ref, cache, tmp):
@@ -225,8 +201,8 @@ def main():
                     help="also capture each clip of an instrument with a factory object of its own on that object "
                          "and compare renders there (support as recorded mode by mode, the mean only, free)")
     ap.add_argument("--own-modes", action="store_true",
-                    help="with --objects: every clip on a bank of its own modes as `struck features` extracts "
-                         "them, instead of the instruments' factory objects")
+                    help="with --objects: every clip on a bank of its own modes (`struck bank capture`), "
+                         "instead of the instruments' factory objects")
     ap.add_argument("--json", dest="json_out")
     a = ap.parse_args()
     a.objects = a.objects or a.own_modes

@@ -118,32 +118,7 @@ fn a_captured_material_plays_each_modes_recorded_support_on_its_object() {
         })
         .collect();
     let wav = tmp("held-bar.wav");
-    {
-        let spec = hound::WavSpec {
-            channels: 1,
-            sample_rate: sr,
-            bits_per_sample: 32,
-            sample_format: hound::SampleFormat::Float,
-        };
-        let mut w = hound::WavWriter::create(&wav, spec).unwrap();
-        let mut noise = 0x1234_5678u32;
-        let tap_len = 2 * sr as usize;
-        for tap in 0..4 {
-            let level = 0.1 * (1.0 - 0.15 * f64::from(tap));
-            for n in 0..tap_len {
-                let t = n as f64 / fs;
-                let mut v: f64 = truth
-                    .iter()
-                    .enumerate()
-                    .map(|(k, &(f, d, a))| a * (-d * t).exp() * (2.0 * PI * f * t + 0.7 * k as f64).sin())
-                    .sum();
-                noise = noise.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-                v = level * v + 1e-5 * (f64::from(noise >> 8) / f64::from(1u32 << 24) - 0.5);
-                w.write_sample(v as f32).unwrap();
-            }
-        }
-        w.finalize().unwrap();
-    }
+    write_taps(&wav, sr, &truth);
     let material = tmp("held-bar.json");
     let args = EstimateArgs {
         files: vec![wav.clone()],
@@ -221,6 +196,122 @@ fn a_captured_material_plays_each_modes_recorded_support_on_its_object() {
     mean_host.reset();
     assert_eq!(play(&mut mean_host), held_out, "the restored state plays differently");
     for p in [wav, material, mean_path] {
+        let _ = std::fs::remove_file(p);
+    }
+}
+
+/// Four taps, 2 s apart, of the damped sinusoids `modes` ((frequency Hz, decay 1/s,
+/// amplitude)), each tap a little softer, with a little white noise: a mono float WAV written
+/// here, not by Struck.
+fn write_taps(path: &std::path::Path, sr: u32, modes: &[(f64, f64, f64)]) {
+    use std::f64::consts::PI;
+    let fs = f64::from(sr);
+    let spec =
+        hound::WavSpec { channels: 1, sample_rate: sr, bits_per_sample: 32, sample_format: hound::SampleFormat::Float };
+    let mut w = hound::WavWriter::create(path, spec).unwrap();
+    let mut noise = 0x1234_5678u32;
+    let tap_len = 2 * sr as usize;
+    for tap in 0..4 {
+        let level = 0.1 * (1.0 - 0.15 * f64::from(tap));
+        for n in 0..tap_len {
+            let t = n as f64 / fs;
+            let mut v: f64 = modes
+                .iter()
+                .enumerate()
+                .map(|(k, &(f, d, a))| a * (-d * t).exp() * (2.0 * PI * f * t + 0.7 * k as f64).sin())
+                .sum();
+            noise = noise.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            v = level * v + 1e-5 * (f64::from(noise >> 8) / f64::from(1u32 << 24) - 0.5);
+            w.write_sample(v as f32).unwrap();
+        }
+    }
+    w.finalize().unwrap();
+}
+
+/// `struck bank capture` (the recording's own modes, Ren 2013 §6) and a material captured on
+/// that bank: six partials that belong to no bank of Struck's (a test's own, each with its
+/// own decay) become six modes at their frequencies (1 cent); the material estimated with
+/// `--object` on that bank, played on it by the plugin at the recorded pitch, gives each
+/// partial the decay it had in the recording (2 %). The bank is never written over the
+/// recording.
+#[test]
+fn a_bank_captured_from_a_recording_plays_its_partials_with_their_decays() {
+    use std::f64::consts::PI;
+    let sr = 48_000u32;
+    let fs = f64::from(sr);
+    // (frequency, decay, amplitude): inharmonic, decays 2.5–20 1/s in no law's order.
+    let truth = [
+        (233.0, 2.5, 1.0),
+        (611.0, 9.0, 0.7),
+        (1187.0, 4.0, 0.5),
+        (1733.0, 20.0, 0.6),
+        (2950.0, 7.5, 0.4),
+        (4410.0, 12.0, 0.3),
+    ];
+    let wav = tmp("own-modes.wav");
+    write_taps(&wav, sr, &truth);
+    let bank_path = tmp("own-modes-bank.json");
+    let args = |out: std::path::PathBuf| struck_cli::capture::BankCaptureArgs {
+        file: wav.clone(),
+        impact: 2,
+        channel: None,
+        modes: 48,
+        range_db: 40.0,
+        young: 200e9,
+        density: 7850.0,
+        poisson: 0.3,
+        size_m: 0.3,
+        id: "own-modes".into(),
+        name: "Own modes".into(),
+        out,
+    };
+    // Never over the recording.
+    let refused = struck_cli::capture::bank_from_recording(&args(wav.clone())).unwrap_err();
+    assert!(hound::WavReader::open(&wav).is_ok(), "the recording was touched: {refused}");
+    let said = struck_cli::capture::bank_from_recording(&args(bank_path.clone())).unwrap();
+    let bank = presets::Bank::load(&bank_path).unwrap();
+    assert_eq!(bank.lambdas.len(), truth.len(), "{said}: {:?}", bank.frequencies_hz());
+    for (&l, &(f, d, _)) in bank.lambdas.iter().zip(&truth) {
+        // λ = ω² + d², the undamped eigenvalue of a mode ringing at f with decay d.
+        let want = (2.0 * PI * f).powi(2) + d * d;
+        let cents = 600.0 * (l / want).log2();
+        assert!(cents.abs() < 1.0, "{f} Hz: {cents:.2} cents");
+    }
+    // A material of the same recording, on this bank.
+    let material = tmp("own-modes-material.json");
+    let est = EstimateArgs {
+        files: vec![wav.clone()],
+        model: "rayleigh".into(),
+        method: "emg".into(),
+        object: Some(bank_path.display().to_string()),
+        channel: None,
+        out: material.clone(),
+        report: None,
+        no_residual: true,
+    };
+    estimate(&est).unwrap();
+    let m = presets::Material::load(&material).unwrap();
+    assert_eq!(m.recorded_modes().map(|r| r.modes.len()), Some(truth.len()));
+    let opts = SoundOptions {
+        object: bank_path.display().to_string(),
+        material: material.display().to_string(),
+        sample_rate: sr,
+        set: ["keytune=off", "gamma=1", "size=1", "matpitch=on", "noise=0", "quality=120", "release=0", "hard=1"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect(),
+        ..SoundOptions::default()
+    };
+    let mut h = struck_cli::cli::configured_host(&opts, 4096).unwrap();
+    let x = struck_tests::render(&mut h, &[struck_tests::note(60, 100, None)], 1.5, 512);
+    for &(f, d, _) in &truth {
+        let gap = ((1.5 / d).clamp(0.05, 0.3) * fs) as usize;
+        let (got_f, got_d) = struck_tests::measure_mode(&x, fs, f, 2_400, 9_600, gap);
+        println!("{f:7.1} Hz: recorded {d:6.2}/s, played {got_d:6.2}/s at {got_f:.2} Hz");
+        assert!((1200.0 * (got_f / f).log2()).abs() < 2.0, "played at {got_f:.2} Hz, recorded at {f} Hz");
+        assert!((got_d / d - 1.0).abs() < 0.02, "{f} Hz: decays at {got_d:.3}/s, recorded {d}/s");
+    }
+    for p in [wav, bank_path, material] {
         let _ = std::fs::remove_file(p);
     }
 }

@@ -1,4 +1,4 @@
-//! `struck bank build | info | shapes`: the FEM bank builder on the command line.
+//! `struck bank build | tune | capture | info | shapes`: the bank builder on the command line.
 
 use crate::cli::{end_progress_line, outln, show_progress, warn};
 use fem::import::{build_bank_from_import, import_mesh_file, ImportOptions, SurfaceMesher};
@@ -161,6 +161,41 @@ pub enum BankCommand {
         /// Strike points and where the bank goes (--points, --id, --name, --out).
         #[command(flatten)]
         output: BankOutput,
+    },
+    /// A bank of a recorded object's own modes: the partials of one impact of a recording, at
+    /// the point it was struck (play it at any pitch with any material; `estimate --object`
+    /// with it records each mode's support as recorded).
+    Capture {
+        /// The recording (WAV).
+        file: PathBuf,
+        /// Which impact of the recording, from 1.
+        #[arg(long, default_value_t = 1)]
+        impact: usize,
+        /// Channel to analyse (from 0; default: the mix of all channels).
+        #[arg(long)]
+        channel: Option<usize>,
+        /// At most this many modes, the strongest.
+        #[arg(long, default_value_t = 48)]
+        modes: usize,
+        /// Keep partials within this many dB of the strongest.
+        #[arg(long, default_value_t = 40.0)]
+        range_db: f64,
+        /// The recorded object's material (--young, --density, --poisson; steel by default):
+        /// the mallet's contact on it, and the pitch of a material captured from it.
+        #[command(flatten)]
+        material: MaterialArgs,
+        /// The object's size in metres (what *Size* 1 means).
+        #[arg(long, default_value_t = 0.3)]
+        size: f64,
+        /// Bank id (kebab-case; default from the output file name).
+        #[arg(long)]
+        id: Option<String>,
+        /// Display name (default: the id).
+        #[arg(long)]
+        name: Option<String>,
+        /// Output bank JSON.
+        #[arg(long)]
+        out: PathBuf,
     },
     /// Summarise a bank JSON file (validates it).
     Info {
@@ -366,6 +401,27 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
             Ok(())
         }
         BankCommand::Info { bank, json } => info(&bank, json),
+        BankCommand::Capture { file, impact, channel, modes, range_db, material, size, id, name, out } => {
+            let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("bank");
+            let id = kebab(id.as_deref().unwrap_or(stem));
+            let name = name.unwrap_or_else(|| id.clone());
+            let args = crate::capture::BankCaptureArgs {
+                file,
+                impact,
+                channel,
+                modes,
+                range_db,
+                young: material.young,
+                density: material.density,
+                poisson: material.poisson,
+                size_m: size,
+                id,
+                name,
+                out,
+            };
+            outln!("{}", crate::capture::bank_from_recording(&args)?);
+            Ok(())
+        }
         BankCommand::Tune {
             shape,
             dims,

@@ -330,3 +330,132 @@ fn staged(path: &Path, bytes: &[u8]) -> Result<output::AtomicFile, String> {
     f.write_all(bytes).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     Ok(f)
 }
+
+/// What `struck bank capture` was asked.
+pub struct BankCaptureArgs {
+    /// The recording.
+    pub file: PathBuf,
+    /// Which impact, from 1.
+    pub impact: usize,
+    /// Channel to analyse (default: the mix).
+    pub channel: Option<usize>,
+    /// At most this many modes, the strongest.
+    pub modes: usize,
+    /// Keep partials within this many dB of the strongest.
+    pub range_db: f64,
+    /// Young's modulus (Pa) and density (kg/m³) of the recorded object.
+    pub young: f64,
+    /// Density, kg/m³.
+    pub density: f64,
+    /// Poisson's ratio.
+    pub poisson: f64,
+    /// The object's size, m (what *Size* 1 means).
+    pub size_m: f64,
+    /// Bank id and name.
+    pub id: String,
+    /// Display name.
+    pub name: String,
+    /// The bank JSON to write.
+    pub out: PathBuf,
+}
+
+/// Most modes `struck bank capture` keeps.
+pub const MAX_CAPTURED_MODES: usize = 256;
+
+/// `struck bank capture`: a bank of the recorded object's own modes (Ren et al. 2013 §6: the
+/// recording's modes, played with any material): the partials Struck extracts from one impact
+/// (frequency, decay → λ = ω² + d², the undamped eigenvalue), the strongest `modes` within
+/// `range_db` of the strongest, in ascending λ, at one strike point with gains = their
+/// amplitudes. Keys then tune the lowest of them; `estimate --object` with this bank records
+/// each mode's support as recorded, so the object and its material both come from the
+/// recordings. Writes through a temporary file; never over the recording.
+///
+/// # Errors
+/// An unreadable recording, no impact (or fewer than `impact`), no partial, bad options, an
+/// output that is the input or cannot be written (one line each).
+pub fn bank_from_recording(args: &BankCaptureArgs) -> Result<String, String> {
+    if !(1..=MAX_CAPTURED_MODES).contains(&args.modes) {
+        return Err(format!("--modes {}: takes 1 to {MAX_CAPTURED_MODES}", args.modes));
+    }
+    if !(args.range_db.is_finite() && args.range_db > 0.0 && args.range_db <= 120.0) {
+        return Err(format!("--range-db {}: takes a level above 0 and at most 120 dB", args.range_db));
+    }
+    if !(args.size_m.is_finite() && args.size_m > 0.0 && args.size_m <= 100.0) {
+        return Err(format!("--size {}: takes metres above 0 and at most 100", args.size_m));
+    }
+    if args.impact == 0 {
+        return Err("--impact counts from 1".into());
+    }
+    let material = fem::Material { young: args.young, density: args.density, poisson: args.poisson };
+    material.validate().map_err(|e| e.to_string())?;
+    output::check_output(&args.out, &[args.file.as_path()]).map_err(|e| e.to_string())?;
+    let opts = estimator::Options { channel: args.channel, ..estimator::Options::default() };
+    let cancel = AtomicBool::new(false);
+    let feats =
+        estimator::extract_features(std::slice::from_ref(&args.file), &opts, &progress_printer("capture"), &cancel)
+            .map_err(|e| e.to_string())?;
+    let n = feats.impacts.len();
+    let imp = feats.impacts.get(args.impact - 1).ok_or_else(|| {
+        format!("{}: --impact {}, but the recording holds {n} impact(s)", args.file.display(), args.impact)
+    })?;
+    let amax = imp.features.iter().fold(0.0f64, |m, f| m.max(f.amplitude));
+    let floor = amax * 10f64.powf(-args.range_db / 20.0);
+    let mut kept: Vec<&estimator::Feature> =
+        imp.features.iter().filter(|f| f.amplitude >= floor && f.amplitude > 0.0 && f.lambda() > 0.0).collect();
+    kept.sort_by(|a, b| b.amplitude.total_cmp(&a.amplitude));
+    kept.truncate(args.modes);
+    kept.sort_by(|a, b| a.lambda().total_cmp(&b.lambda()));
+    // Two partials at one λ would be one mode (the bank's eigenvalues ascend strictly).
+    kept.dedup_by(|b, a| b.lambda() <= a.lambda());
+    if kept.is_empty() {
+        return Err(format!("{}: impact {} holds no partial to make a mode of", args.file.display(), args.impact));
+    }
+    let file_name =
+        args.file.file_name().map_or_else(|| args.file.display().to_string(), |s| s.to_string_lossy().into());
+    let bank = presets::Bank {
+        schema_version: SCHEMA_VERSION,
+        id: args.id.clone(),
+        name: args.name.clone(),
+        description: format!(
+            "The modes of a recorded object: {} partials of the impact at {:.3} s of {file_name}, at the one point it was struck. Its size {} m and material (E {:.3e} Pa, density {} kg/m^3) are as given when captured, for the mallet's contact and the pitch of a captured material.",
+            kept.len(),
+            imp.onset_s,
+            args.size_m,
+            args.young,
+            args.density
+        ),
+        provenance: format!(
+            "struck bank capture: partials extracted from {} (impact {}, within {} dB of the strongest, at most {})",
+            args.file.display(),
+            args.impact,
+            args.range_db,
+            args.modes
+        ),
+        reference: presets::BankReference {
+            specific_modulus: args.young / args.density,
+            poisson: args.poisson,
+            density: args.density,
+            dimensions_m: vec![args.size_m],
+            size_m: args.size_m,
+        },
+        lambdas: kept.iter().map(|f| f.lambda()).collect(),
+        points: vec![presets::StrikePoint {
+            label: "as recorded".into(),
+            xy: [0.5, 0.5],
+            position_m: [0.0, 0.0, 0.0],
+        }],
+        gains: vec![kept.iter().map(|f| (f.amplitude / amax) as f32).collect()],
+        mode_labels: kept.iter().map(|f| format!("{:.2} Hz", f.freq_hz)).collect(),
+        surface: None,
+    };
+    bank.save(&args.out).map_err(|e| e.to_string())?;
+    Ok(format!(
+        "wrote {}: {} modes of {file_name}'s impact {} (at {:.3} s), {:.1} Hz to {:.1} Hz",
+        args.out.display(),
+        kept.len(),
+        args.impact,
+        imp.onset_s,
+        kept[0].freq_hz,
+        kept[kept.len() - 1].freq_hz
+    ))
+}

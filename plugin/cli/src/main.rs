@@ -111,7 +111,7 @@ enum Command {
         #[arg(long, default_value_t = 2.0)]
         seconds: f64,
     },
-    /// Build mode banks by FEM, or show a bank.
+    /// Build mode banks by FEM or from a recording, or show a bank.
     Bank {
         #[command(subcommand)]
         command: struck_cli::banks::BankCommand,
