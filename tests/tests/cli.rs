@@ -236,6 +236,10 @@ fn set_takes_options_by_name() {
     assert_eq!(value(&["support=2"], "support"), 2.0);
     assert_eq!(value(&["keytune=off"], "keytune"), 0.0);
     assert_eq!(value(&["keytune=on"], "keytune"), 1.0);
+    // The object and material by id, through their own parsers.
+    let lib = struck::library::Library::factory();
+    assert_eq!(value(&["object=fem-bar"], "object"), lib.bank_index("fem-bar").expect("fem-bar") as f32);
+    assert_eq!(value(&["material=wood-ren2013"], "material"), lib.material_index("wood-ren2013").expect("wood") as f32);
     let err = host(&["support=sideways"]).err().expect("no such option");
     assert!(err.contains("Off") && err.contains("As recorded") && err.contains("Amount"), "{err}");
     let err = host(&["size=big"]).err().expect("not a number");

@@ -764,9 +764,10 @@ pub fn render_with_stats(opts: &RenderOptions) -> Result<(String, RenderStats), 
         };
         sound.set.push(format!("texture={index}"));
     }
-    // A configured host with the render's input and user texture.
-    let configured = |sound: &SoundOptions| -> Result<OfflineHost, String> {
-        let mut host = configured_host(sound, opts.block_size)?;
+    // A configured host with the render's input and user texture (its warnings said when
+    // `say`: once per render).
+    let configured = |sound: &SoundOptions, say: bool| -> Result<OfflineHost, String> {
+        let mut host = configure(sound, opts.block_size, say)?;
         if let Some(f) = &user_texture {
             host.plugin_mut().set_user_texture(f.clone())?;
         }
@@ -824,7 +825,7 @@ pub fn render_with_stats(opts: &RenderOptions) -> Result<(String, RenderStats), 
     // so the second pass, scaled, is the same audio.
     let (gain, length) = match opts.normalize {
         Some(target) => {
-            let mut host = configured(&sound)?;
+            let mut host = configured(&sound, true)?;
             let pass = render_pass(&mut host, &events, opts.block_size, &ending, 1.0, |_, _| Ok(()))
                 .map_err(|e: hound::Error| e.to_string())?;
             if pass.peak <= 0.0 {
@@ -835,7 +836,7 @@ pub fn render_with_stats(opts: &RenderOptions) -> Result<(String, RenderStats), 
         None => (1.0, None),
     };
     let ending = Ending { auto: auto && length.is_none(), total: length.unwrap_or(total), ..ending };
-    let mut host = configured(&sound)?;
+    let mut host = configured(&sound, opts.normalize.is_none())?;
     let mut file = presets::output::AtomicFile::create(&opts.out).map_err(|e| e.to_string())?;
     let spec = hound::WavSpec {
         channels: 2,
@@ -1078,9 +1079,10 @@ pub fn print_params(json: bool) -> Result<(), String> {
                 ptr.step_count(),
             )
         };
-        // A choice's options by name (`--set support=off` takes them; switches: on/off).
+        // A short choice's options and a switch's by name (`--set support=off` takes them;
+        // the objects and materials are listed by `struck objects` and `struck materials`).
         let options: Vec<String> = match steps {
-            Some(n) if (2..=8).contains(&n) => (0..=n)
+            Some(n) if (1..=8).contains(&n) => (0..=n)
                 // SAFETY: as above.
                 .map(|i| unsafe { ptr.normalized_value_to_string(i as f32 / n as f32, false) })
                 .collect(),

@@ -362,8 +362,18 @@ impl<V: Variant> OfflineHost<V> {
         let wanted = key(text);
         // SAFETY: see the Send impl.
         let (steps, name) = unsafe { (ptr.step_count(), ptr.name().to_string()) };
+        // A choice's own parser first (the object and material take ids and prefixes); not a
+        // switch's, which takes any unknown text for off.
+        if steps.is_some_and(|n| n > 1) {
+            // SAFETY: see the Send impl.
+            if let Some(normalized) = unsafe { ptr.string_to_normalized_value(text) } {
+                // SAFETY: see the Send impl.
+                let plain = unsafe { ptr.preview_plain(normalized) };
+                return self.set_param_checked(id, plain);
+            }
+        }
         let mut names = Vec::new();
-        if let Some(steps) = steps.filter(|&n| n > 0 && n <= 64) {
+        if let Some(steps) = steps.filter(|&n| n > 0 && n <= 4096) {
             for i in 0..=steps {
                 let normalized = i as f32 / steps as f32;
                 // SAFETY: see the Send impl.
@@ -383,7 +393,9 @@ impl<V: Variant> OfflineHost<V> {
         Err(HostError::Config(if names.is_empty() {
             format!("{id} ({name}) takes a number, not '{text}' (see `struck params`)")
         } else {
-            format!("{id} ({name}) takes a number or one of: {}; not '{text}'", names.join(", "))
+            let more = if names.len() > 12 { format!(", … ({} in all)", names.len()) } else { String::new() };
+            names.truncate(12);
+            format!("{id} ({name}) takes a number or one of: {}{more}; not '{text}'", names.join(", "))
         }))
     }
 
