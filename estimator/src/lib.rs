@@ -199,6 +199,11 @@ pub struct EstimateReport {
     /// What Ren's optimiser found (`method` "ren" only; issue 15 part 1).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ren_fit: Option<ren_fit::RenFitSummary>,
+    /// The known object's modes the strong partials matched, each with its own support
+    /// excess over the chosen law ([`EstimateReport::support_by_mode`]; what a material of
+    /// this capture records as `support.recorded_modes`). Empty without an object.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub recorded_modes: Vec<ModeSupport>,
 }
 
 /// Largest support damping a capture stores (mean extra c, s⁻¹; the plugin's range).
@@ -519,8 +524,12 @@ pub fn estimate(
         warnings,
         ren_match: None,
         ren_fit,
+        recorded_modes: Vec::new(),
     };
     report.ren_match = ren::ren_match(&report, opts);
+    if let Some(lambdas) = opts.object_lambdas.as_deref() {
+        report.recorded_modes = report.support_by_mode(&report.chosen, lambdas, opts.object_gains.as_deref());
+    }
     Ok(report)
 }
 

@@ -120,6 +120,7 @@ fn a_captured_material_plays_each_modes_recorded_support_on_its_object() {
     let wav = tmp("held-bar.wav");
     write_taps(&wav, sr, &truth);
     let material = tmp("held-bar.json");
+    let report = tmp("held-bar-report.json");
     let args = EstimateArgs {
         files: vec![wav.clone()],
         model: "rayleigh".into(),
@@ -127,13 +128,18 @@ fn a_captured_material_plays_each_modes_recorded_support_on_its_object() {
         object: Some("bar".into()),
         channel: None,
         out: material.clone(),
-        report: None,
+        report: Some(report.clone()),
         no_residual: true,
     };
     let said = estimate(&args).unwrap();
     let m = presets::Material::load(&material).unwrap();
     let recorded = m.recorded_modes().unwrap_or_else(|| panic!("no per-mode support: {said}")).clone();
     assert_eq!(recorded.object, "bar");
+    // The report lists the same matches.
+    let rep: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let listed: Vec<u64> =
+        rep["recorded_modes"].as_array().expect("recorded_modes").iter().map(|m| m["mode"].as_u64().unwrap()).collect();
+    assert_eq!(listed, recorded.modes.iter().map(|m| m.mode as u64).collect::<Vec<_>>());
     for &k in &modes {
         assert!(recorded.modes.iter().any(|r| r.mode == k), "mode {k} not recorded: {recorded:?}");
     }
@@ -195,7 +201,7 @@ fn a_captured_material_plays_each_modes_recorded_support_on_its_object() {
     mean_host.plugin().struck_params().deserialize_fields(&state);
     mean_host.reset();
     assert_eq!(play(&mut mean_host), held_out, "the restored state plays differently");
-    for p in [wav, material, mean_path] {
+    for p in [wav, material, mean_path, report] {
         let _ = std::fs::remove_file(p);
     }
 }
