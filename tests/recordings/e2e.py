@@ -77,6 +77,23 @@ def median(v):
     return v[n // 2] if n % 2 else math.sqrt(v[n // 2 - 1] * v[n // 2])
 
 
+def render_partials(struck, obj, mat_path, tmp, sets):
+    """Key 60 struck once on `obj` with the material, 3 s at 48 kHz, keys not tuning, γ and
+    size 1, no noise, every mode rung, plus `sets` (`--set id=value`); the render's partials
+    (subspace.py) and None, or None and the error's last line."""
+    out = os.path.join(tmp, "render.wav")
+    cmd = [struck, "render", "--object", obj, "--material", mat_path, "--notes", "60:100",
+           "--seconds", "3", "--sample-rate", "48000", "--out", out]
+    for kv in ["keytune=0", "gamma=1", "size=1", "noise=0", "quality=120", "pressdamp=0", "release=0",
+               "hard=1", *sets]:
+        cmd += ["--set", kv]
+    p = subprocess.run(cmd, capture_output=True, text=True)
+    if p.returncode != 0:
+        return None, (p.stderr.strip().splitlines() or ["?"])[-1]
+    x, fs = subspace.read_wav(out)
+    return subspace.analyse(x, fs), None
+
+
 def render_check(struck, mat_path, clip, ref, tmp):
     """Render the clip's own partials with the material; T60 ratios render/recording."""
     parts = ref["partials"]
@@ -96,17 +113,9 @@ def render_check(struck, mat_path, clip, ref, tmp):
     bpath = os.path.join(tmp, "bank.json")
     with open(bpath, "w") as f:
         json.dump(bank, f)
-    out = os.path.join(tmp, "render.wav")
-    cmd = [struck, "render", "--object", bpath, "--material", mat_path, "--notes", "60:100",
-           "--seconds", "3", "--sample-rate", "48000", "--out", out]
-    for kv in ("keytune=0", "gamma=1", "size=1", "matpitch=0", "noise=0", "quality=120",
-               "pressdamp=0", "release=0", "hard=1"):
-        cmd += ["--set", kv]
-    p = subprocess.run(cmd, capture_output=True, text=True)
-    if p.returncode != 0:
-        return {"error": (p.stderr.strip().splitlines() or ["?"])[-1]}
-    x, fs = subspace.read_wav(out)
-    got = subspace.analyse(x, fs)
+    got, error = render_partials(struck, bpath, mat_path, tmp, ["matpitch=0"])
+    if error:
+        return {"error": error}
     rows = []
     for q in parts:
         m = [g for g in got if abs(g["freq_hz"] - q["freq_hz"]) <= 0.005 * q["freq_hz"]]
@@ -167,17 +176,9 @@ def object_check(struck, clip, obj, ref, cache, tmp):
         json.dump(mean_only, f)
     out = {"object": obj, "recorded_modes": len(recorded)}
     for label, path, extra in (("recorded", mat, []), ("mean", mean_path, []), ("free", mat, ["support=0"])):
-        wav = os.path.join(tmp, "obj-render.wav")
-        cmd = [struck, "render", "--object", obj, "--material", path, "--notes", "60:100", "--seconds", "3",
-               "--sample-rate", "48000", "--out", wav]
-        for kv in ["keytune=0", "gamma=1", "size=1", "matpitch=1", "noise=0", "quality=120", "pressdamp=0",
-                   "release=0", "hard=1", *extra]:
-            cmd += ["--set", kv]
-        r = subprocess.run(cmd, capture_output=True, text=True)
-        if r.returncode != 0:
-            return {"error": (r.stderr.strip().splitlines() or ["?"])[-1]}
-        x, fs = subspace.read_wav(wav)
-        got = subspace.analyse(x, fs)
+        got, error = render_partials(struck, obj, path, tmp, ["matpitch=1", *extra])
+        if error:
+            return {"error": error}
         ratios = []
         for q in ref["partials"]:
             m = [g for g in got if abs(g["freq_hz"] - q["freq_hz"]) <= 0.005 * q["freq_hz"]]
