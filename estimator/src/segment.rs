@@ -313,7 +313,16 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
         if ringing {
             impact_peak = impact_peak.max(e[j]);
         }
-        if j >= next_allowed && e[j] > onset_thr && !same {
+        // Within the minimum gap only a strike that makes the last onset its precursor is
+        // looked at (10 dB over anything since, within its first 10 ms): the gap would
+        // otherwise hold its onset back until its rise is over (issue 10: music boxes).
+        let over_precursor = j < next_allowed
+            && onsets.last().is_some_and(|&(_, j0)| {
+                let since = e[j0..j].iter().fold(0.0f64, |m, &v| m.max(v));
+                let e_on = e[j..(j + 4).min(nfr)].iter().fold(0.0f64, |m, &v| m.max(v));
+                e_on >= PRECURSOR_DB_RATIO * since
+            });
+        if (j >= next_allowed || over_precursor) && e[j] > onset_thr && !same {
             let total_rise = e[j] > rise * prev_e.max(noise);
             let (mut new_e, mut wide) = (0.0, 0);
             let prev_tot: f64 = if nprev == 0 { 0.0 } else { prev_sum.iter().sum::<f64>() / nprev as f64 };
