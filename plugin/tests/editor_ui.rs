@@ -236,6 +236,34 @@ fn choosing_a_material_from_the_list_sets_the_material_parameter() {
     assert!(h.state().ctx.gestures_well_formed());
 }
 
+/// A user material with a field Struck does not read loads into *Custom* and the panel says
+/// which field was ignored (issue 10: a misspelt field played its default silently).
+#[test]
+fn a_user_material_with_a_misspelt_field_loads_and_says_so() {
+    let dir = tmp("user-materials-typo");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("user folder");
+    let mut m = presets::factory_material("wood-ren2013").expect("wood");
+    m.name = "My wood".into();
+    let text = m.to_json().replacen("\"name\"", "\"gama\": 1.2, \"name\"", 1);
+    std::fs::write(dir.join("my-wood.json"), text).expect("write");
+    let plugin = Struck::default();
+    let mut h = harness(&plugin);
+    h.state_mut().ui.user_material_dir = Some(dir.clone());
+    h.run_steps(1);
+    // (The first frame listed the default folder.)
+    h.get_by_label("Rescan").click();
+    h.run_steps(2);
+    h.get_by_role_and_label(egui::accesskit::Role::ComboBox, "Material").click();
+    h.run_steps(2);
+    h.get_by_label("My wood").click_accesskit();
+    h.run_steps(2);
+    let custom = plugin.library().custom_material_index() as i32;
+    assert_eq!(plugin.struck_params().material.value(), custom);
+    let _ = h.get_by_label_contains("my-wood.json: ignored 1 unknown field `gama`");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 fn render_taps(name: &str) -> PathBuf {
     let wav = tmp(name);
     let opts = struck_cli::cli::RenderOptions {

@@ -245,7 +245,18 @@ impl Bank {
     /// [`PresetError::SchemaVersion`] for another format version, and
     /// [`PresetError::Invalid`] for values [`Bank::validate`] rejects.
     pub fn from_json(s: &str) -> Result<Bank, PresetError> {
-        json::parse_valid(s, "bank")
+        json::parse_valid(s, "bank", &mut Vec::new())
+    }
+
+    /// [`Bank::from_json`], and the fields the text has that this version does not read (JSON
+    /// paths such as `damping.parms`: a misspelt name, or a field of a newer Struck), which
+    /// `from_json` ignores ([`crate::unknown_fields_note`] words them for a warning).
+    ///
+    /// # Errors
+    /// As [`Bank::from_json`].
+    pub fn from_json_listing_unknown(s: &str) -> Result<(Bank, Vec<String>), PresetError> {
+        let mut unknown = Vec::new();
+        json::parse_valid(s, "bank", &mut unknown).map(|v| (v, unknown))
     }
 
     /// Pretty-printed JSON (with a trailing newline). Does not validate.
@@ -259,7 +270,17 @@ impl Bank {
     /// [`PresetError::Io`] naming `path` if it cannot be read; otherwise as
     /// [`Bank::from_json`], with the path in [`PresetError::Json`]'s `what`.
     pub fn load(path: &Path) -> Result<Bank, PresetError> {
-        json::load(path)
+        json::load(path, &mut Vec::new())
+    }
+
+    /// [`Bank::load`], and the fields the file has that this version does not read
+    /// ([`Bank::from_json_listing_unknown`]).
+    ///
+    /// # Errors
+    /// As [`Bank::load`].
+    pub fn load_listing_unknown(path: &Path) -> Result<(Bank, Vec<String>), PresetError> {
+        let mut unknown = Vec::new();
+        json::load(path, &mut unknown).map(|v| (v, unknown))
     }
 
     /// Validates, then writes pretty JSON to `path` (through a temporary file and a rename).

@@ -9,7 +9,9 @@ use crate::{PresetError, SCHEMA_VERSION};
 
 /// Parses `s` as a `T`, checking `schema_version` first so that a file from another
 /// format version reports [`PresetError::SchemaVersion`] rather than a confusing field error.
-pub(crate) fn parse<T: DeserializeOwned>(s: &str, what: &str) -> Result<T, PresetError> {
+/// The fields `T` does not read are appended to `unknown` as JSON paths (`damping.parms`,
+/// `support.recorded_modes.modes.2.extra`).
+pub(crate) fn parse<T: DeserializeOwned>(s: &str, what: &str, unknown: &mut Vec<String>) -> Result<T, PresetError> {
     let value: serde_json::Value = serde_json::from_str(s).map_err(|e| PresetError::json(what, &e))?;
     let Some(object) = value.as_object() else {
         return Err(PresetError::Json {
@@ -43,7 +45,50 @@ pub(crate) fn parse<T: DeserializeOwned>(s: &str, what: &str) -> Result<T, Prese
         },
     }
     // Parse again from the text (not from `value`) so that errors keep their line and column.
-    serde_json::from_str(s).map_err(|e| PresetError::json(what, &e))
+    let mut de = serde_json::Deserializer::from_str(s);
+    let value = serde_ignored::deserialize(&mut de, |path| unknown.push(json_path(&path)))
+        .map_err(|e| PresetError::json(what, &e))?;
+    de.end().map_err(|e| PresetError::json(what, &e))?;
+    Ok(value)
+}
+
+/// `path` as dotted JSON keys and indices (`support.recorded_modes.modes.0.extra`): the
+/// `Option`s and newtypes it passes through are not written.
+fn json_path(path: &serde_ignored::Path) -> String {
+    use serde_ignored::Path;
+    let (parent, own) = match path {
+        Path::Root => return String::new(),
+        Path::Seq { parent, index } => (parent, index.to_string()),
+        Path::Map { parent, key } => (parent, key.clone()),
+        Path::Some { parent } | Path::NewtypeStruct { parent } | Path::NewtypeVariant { parent } => {
+            return json_path(parent)
+        }
+    };
+    let head = json_path(parent);
+    if head.is_empty() {
+        own
+    } else {
+        format!("{head}.{own}")
+    }
+}
+
+/// One line on the fields a preset file has that this version does not read (None if none):
+/// the first few paths and how many more.
+pub fn unknown_fields_note(unknown: &[String]) -> Option<String> {
+    const SHOWN: usize = 4;
+    let (first, rest) = unknown.split_at(unknown.len().min(SHOWN));
+    let mut list: Vec<String> = first.iter().map(|p| format!("`{p}`")).collect();
+    if !rest.is_empty() {
+        list.push(format!("and {} more", rest.len()));
+    }
+    (!unknown.is_empty()).then(|| {
+        format!(
+            "ignored {} unknown field{} {} (a misspelt name, or a field of a newer Struck)",
+            unknown.len(),
+            if unknown.len() == 1 { "" } else { "s" },
+            list.join(", ")
+        )
+    })
 }
 
 /// A preset type stored as one JSON file ([`crate::Bank`], [`crate::Material`]): parsed,
@@ -54,16 +99,18 @@ pub(crate) trait PresetFile: Serialize + DeserializeOwned {
 }
 
 /// Parses `s` as a `T` ([`parse`]) and validates it; `what` names the source in errors.
-pub(crate) fn parse_valid<T: PresetFile>(s: &str, what: &str) -> Result<T, PresetError> {
-    let value: T = parse(s, what)?;
+/// Unknown fields are appended to `unknown` ([`parse`]).
+pub(crate) fn parse_valid<T: PresetFile>(s: &str, what: &str, unknown: &mut Vec<String>) -> Result<T, PresetError> {
+    let value: T = parse(s, what, unknown)?;
     value.validate()?;
     Ok(value)
 }
 
-/// Reads, parses and validates a preset file; errors name `path`.
-pub(crate) fn load<T: PresetFile>(path: &Path) -> Result<T, PresetError> {
+/// Reads, parses and validates a preset file; errors name `path`; unknown fields are
+/// appended to `unknown` ([`parse`]).
+pub(crate) fn load<T: PresetFile>(path: &Path, unknown: &mut Vec<String>) -> Result<T, PresetError> {
     let text = read(path)?;
-    parse_valid(&text, &path.display().to_string())
+    parse_valid(&text, &path.display().to_string(), unknown)
 }
 
 /// Validates `value`, then writes it as pretty JSON to `path` ([`write`]).

@@ -112,7 +112,18 @@ impl Material {
     /// [`PresetError::SchemaVersion`] for another format version, and
     /// [`PresetError::Invalid`] for values [`Material::validate`] rejects.
     pub fn from_json(s: &str) -> Result<Material, PresetError> {
-        json::parse_valid(s, "material")
+        json::parse_valid(s, "material", &mut Vec::new())
+    }
+
+    /// [`Material::from_json`], and the fields the text has that this version does not read (JSON
+    /// paths such as `damping.parms`: a misspelt name, or a field of a newer Struck), which
+    /// `from_json` ignores ([`crate::unknown_fields_note`] words them for a warning).
+    ///
+    /// # Errors
+    /// As [`Material::from_json`].
+    pub fn from_json_listing_unknown(s: &str) -> Result<(Material, Vec<String>), PresetError> {
+        let mut unknown = Vec::new();
+        json::parse_valid(s, "material", &mut unknown).map(|v| (v, unknown))
     }
 
     /// Pretty-printed JSON (with a trailing newline). Does not validate.
@@ -126,7 +137,17 @@ impl Material {
     /// [`PresetError::Io`] naming `path` if it cannot be read; otherwise as
     /// [`Material::from_json`], with the path in [`PresetError::Json`]'s `what`.
     pub fn load(path: &Path) -> Result<Material, PresetError> {
-        json::load(path)
+        json::load(path, &mut Vec::new())
+    }
+
+    /// [`Material::load`], and the fields the file has that this version does not read
+    /// ([`Material::from_json_listing_unknown`]).
+    ///
+    /// # Errors
+    /// As [`Material::load`].
+    pub fn load_listing_unknown(path: &Path) -> Result<(Material, Vec<String>), PresetError> {
+        let mut unknown = Vec::new();
+        json::load(path, &mut unknown).map(|v| (v, unknown))
     }
 
     /// Validates, then writes pretty JSON to `path` (through a temporary file and a rename).

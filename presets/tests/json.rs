@@ -242,3 +242,63 @@ fn invalid_banks_name_the_field() {
     b.lambdas.swap(0, 1);
     assert_eq!(invalid_field(Bank::from_json(&b.to_json())), "lambdas[1]");
 }
+
+/// Fields a file has that this version does not read (a misspelt name, or a field of a
+/// newer Struck) load as before, and are listed by path so the CLI and the editor can warn
+/// (issue 10: a typo inside a recorded mode was accepted silently). Every factory material
+/// and bank, written and read back, has none: reading and writing name the same fields.
+#[test]
+fn unknown_fields_are_listed_by_path() {
+    use presets::{unknown_fields_note, RecordedMode, RecordedModes, SupportDamping};
+    let mut m = factory_material("glass-ren2013").unwrap();
+    m.support = Some(SupportDamping {
+        mean_c_per_s: 2.0,
+        recorded_modes: Some(RecordedModes {
+            object: "bar".into(),
+            modes: vec![RecordedMode { mode: 0, lambda: 1.0e6, extra_c_per_s: 3.0, partials: 2 }],
+        }),
+    });
+    let clean = m.to_json();
+    let (back, unknown) = Material::from_json_listing_unknown(&clean).unwrap();
+    assert_eq!(back, m);
+    assert!(unknown.is_empty(), "{unknown:?}");
+    assert_eq!(unknown_fields_note(&unknown), None);
+
+    let typo = |text: &str, at: &str, insert: &str| {
+        assert_eq!(text.matches(at).count(), 1, "{at}");
+        text.replacen(at, &format!("{insert}{at}"), 1)
+    };
+    let mut bad = typo(&clean, "\"name\"", "\"gama\": 1.2, ");
+    bad = typo(&bad, "\"model\"", "\"parms\": [1, 2], ");
+    bad = typo(&bad, "\"partials\"", "\"extra_c\": 9, ");
+    let (read, unknown) = Material::from_json_listing_unknown(&bad).unwrap();
+    assert_eq!(read, m, "unknown fields change nothing");
+    assert_eq!(Material::from_json(&bad).unwrap(), m);
+    assert_eq!(unknown, ["gama", "damping.parms", "support.recorded_modes.modes.0.extra_c"]);
+    let note = unknown_fields_note(&unknown).unwrap();
+    assert!(note.starts_with("ignored 3 unknown fields `gama`, `damping.parms`,"), "{note}");
+    let many: Vec<String> = (0..7).map(|i| format!("f{i}")).collect();
+    assert!(unknown_fields_note(&many).unwrap().contains("`f3`, and 3 more"));
+
+    let path = scratch("unknown-fields.json");
+    std::fs::write(&path, &bad).unwrap();
+    let (_, unknown) = Material::load_listing_unknown(&path).unwrap();
+    assert_eq!(unknown.len(), 3);
+
+    for b in presets::factory_banks() {
+        let (back, unknown) = Bank::from_json_listing_unknown(&b.to_json()).unwrap();
+        assert!(unknown.is_empty() && back == b, "{}: {unknown:?}", b.id);
+    }
+    for &(id, text) in presets::factory::FACTORY_FEM_BANKS {
+        let (_, unknown) = Bank::from_json_listing_unknown(text).unwrap();
+        assert!(unknown.is_empty(), "{id}: {unknown:?}");
+    }
+    for m in presets::factory_materials() {
+        let (_, unknown) = Material::from_json_listing_unknown(&m.to_json()).unwrap();
+        assert!(unknown.is_empty(), "{}: {unknown:?}", m.id);
+    }
+    let bank = small_bank();
+    let bad = typo(&bank.to_json(), "\"points\"", "\"mode_label\": [], ");
+    let (_, unknown) = Bank::from_json_listing_unknown(&bad).unwrap();
+    assert_eq!(unknown, ["mode_label"]);
+}

@@ -3,7 +3,6 @@
 use crate::cli::{end_progress_line, outln, show_progress, warn};
 use fem::import::{build_bank_from_import, import_mesh_file, ImportOptions, SurfaceMesher};
 use fem::{BuildOptions, Shape};
-use presets::Bank;
 use std::path::{Path, PathBuf};
 
 /// The material of a bank build.
@@ -599,7 +598,7 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
 }
 
 fn info(path: &Path, json: bool) -> Result<(), String> {
-    let bank = Bank::load(path).map_err(|e| e.to_string())?;
+    let bank = crate::cli::load_bank(path, true)?;
     let f = bank.frequencies_hz();
     if json {
         let v = serde_json::json!({

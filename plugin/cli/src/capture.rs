@@ -96,7 +96,7 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
     let method: estimator::Method = parse_name("method", &args.method, "emg, lsq, lb, ren")?;
     let lib = Library::factory();
     let bank = match &args.object {
-        Some(o) => match crate::cli::bank_file(&lib, o)? {
+        Some(o) => match crate::cli::bank_file(&lib, o, true)? {
             Some(b) => Some(b),
             None => Some(lib.banks[crate::cli::resolve_object(&lib, o)?].clone()),
         },
@@ -273,7 +273,7 @@ pub fn residual(args: &ResidualArgs) -> Result<String, String> {
     }
     let inputs = [args.file.as_path(), args.material.as_path()];
     output::check_output(&args.out, &inputs).map_err(|e| e.to_string())?;
-    let material = Material::load(&args.material).map_err(|e| e.to_string())?;
+    let material = crate::cli::load_material(&args.material, true)?;
     let law = material.damping.to_damping().map_err(|e| format!("{}: {e}", args.material.display()))?;
     let support = material.support_c();
     let cancel = AtomicBool::new(false);

@@ -216,15 +216,44 @@ pub fn resolve_object(lib: &Library, query: &str) -> Result<usize, String> {
 }
 
 /// The bank in `query` if it names a bank file (a `.json` path, or an existing file that is
-/// not a listed object's id, name or index), else `None`.
+/// not a listed object's id, name or index), else `None`. Warns (when `say`) about the
+/// fields the file has that Struck does not read.
 ///
 /// # Errors
 /// The file cannot be read or is not a valid bank.
-pub fn bank_file(lib: &Library, query: &str) -> Result<Option<presets::Bank>, String> {
+pub fn bank_file(lib: &Library, query: &str, say: bool) -> Result<Option<presets::Bank>, String> {
     if resolve_object(lib, query).is_ok() || !(query.ends_with(".json") || Path::new(query).is_file()) {
         return Ok(None);
     }
-    presets::Bank::load(Path::new(query)).map(Some).map_err(|e| e.to_string())
+    load_bank(Path::new(query), say).map(Some)
+}
+
+/// Reads a bank file, warning (when `say`) about the fields it has that Struck does not read.
+///
+/// # Errors
+/// The file cannot be read or is not a valid bank.
+pub fn load_bank(path: &Path, say: bool) -> Result<presets::Bank, String> {
+    let (bank, unknown) = presets::Bank::load_listing_unknown(path).map_err(|e| e.to_string())?;
+    warn_unknown(path, &unknown, say);
+    Ok(bank)
+}
+
+/// Reads a material file, warning (when `say`) about the fields it has that Struck does not
+/// read.
+///
+/// # Errors
+/// The file cannot be read or is not a valid material.
+pub fn load_material(path: &Path, say: bool) -> Result<Material, String> {
+    let (material, unknown) = Material::load_listing_unknown(path).map_err(|e| e.to_string())?;
+    warn_unknown(path, &unknown, say);
+    Ok(material)
+}
+
+/// `warning: FILE: ignored N unknown fields …` when `say` and there are any.
+fn warn_unknown(path: &Path, unknown: &[String], say: bool) {
+    if let (true, Some(note)) = (say, presets::unknown_fields_note(unknown)) {
+        warn(&format!("{}: {note}", path.display()));
+    }
 }
 
 /// A factory material index, or a material read from a file.
@@ -235,17 +264,18 @@ pub enum MaterialChoice {
     File(Box<Material>),
 }
 
-/// Resolves a material given by id, name, index or JSON file path.
+/// Resolves a material given by id, name, index or JSON file path (a file's unknown fields
+/// are warned about when `say`).
 ///
 /// # Errors
 /// If nothing matches, or the file cannot be read or is not a valid material.
-pub fn resolve_material(lib: &Library, query: &str) -> Result<MaterialChoice, String> {
+pub fn resolve_material(lib: &Library, query: &str, say: bool) -> Result<MaterialChoice, String> {
     let names: Vec<(&str, &str)> = lib.materials.iter().map(|m| (m.id.as_str(), m.name.as_str())).collect();
     match find(&names, "material", query) {
         Ok(i) => Ok(MaterialChoice::Factory(i)),
         Err(e) if query.ends_with(".json") || Path::new(query).exists() => {
             let _ = e;
-            Material::load(Path::new(query)).map(|m| MaterialChoice::File(Box::new(m))).map_err(|e| e.to_string())
+            load_material(Path::new(query), say).map(|m| MaterialChoice::File(Box::new(m)))
         }
         Err(e) => Err(e),
     }
@@ -282,7 +312,7 @@ fn configure(opts: &SoundOptions, max_block: usize, say: bool) -> Result<Offline
     let factory = Library::factory();
     // An object given as a bank file (`struck bank build` output) plays through a library with
     // that bank added.
-    let file_bank = bank_file(&factory, &opts.object)?;
+    let file_bank = bank_file(&factory, &opts.object, say)?;
     let file_bank_id = file_bank.as_ref().map(|b| b.id.clone());
     let plugin = match file_bank {
         Some(bank) => struck::Struck::with_library(std::sync::Arc::new(factory.with_bank(bank))),
@@ -300,7 +330,7 @@ fn configure(opts: &SoundOptions, max_block: usize, say: bool) -> Result<Offline
     let mut file_modulus = None;
     // A material file's support recorded mode by mode: its object, modes and their mapping.
     let mut held = None;
-    match resolve_material(&lib, &opts.material)? {
+    match resolve_material(&lib, &opts.material, say)? {
         MaterialChoice::Factory(i) => host.set_param("material", i as f32).map_err(|e| e.to_string())?,
         MaterialChoice::File(m) => {
             let d = m.damping.to_damping().map_err(|e| e.to_string())?;
@@ -994,7 +1024,7 @@ fn render_pass<E>(
 pub fn print_objects(json: bool) -> Result<(), String> {
     let lib = Library::factory();
     for e in &lib.load_errors {
-        warn(&format!("user bank skipped: {e}"));
+        warn(&format!("user bank {e}"));
     }
     if json {
         let v: Vec<_> = lib

@@ -1085,3 +1085,44 @@ fn estimate_with_rens_method() {
     let e = error_line(&struck(&dir, &["estimate", rec_s, "--method", "nelder", "--out", m.to_str().unwrap()]));
     assert!(e.contains("unknown method 'nelder'") && e.contains("ren"), "{e}");
 }
+
+/// A material or bank file with fields Struck does not read (a misspelt name, or a field of a
+/// newer Struck) still plays, and says so once on stderr, naming the file and the fields; a
+/// clean file says nothing (issue 10: a typo inside a recorded mode was accepted silently).
+#[test]
+fn misspelt_fields_of_material_and_bank_files_are_warned_about_once() {
+    let dir = scratch("unknown-fields");
+    let m = presets::factory_material("glass-ren2013").unwrap();
+    let clean = dir.join("glass.json");
+    std::fs::write(&clean, m.to_json()).unwrap();
+    let typo = dir.join("glass-typo.json");
+    std::fs::write(&typo, m.to_json().replacen("\"name\"", "\"gama\": 1.2, \"name\"", 1)).unwrap();
+    let mut bank = presets::factory_bank("bar").unwrap();
+    bank.id = "my-bar".into();
+    let bank_typo = dir.join("bar-typo.json");
+    std::fs::write(&bank_typo, bank.to_json().replacen("\"points\"", "\"pionts\": [], \"points\"", 1)).unwrap();
+    let render = |material: &Path, object: &str, name: &str| {
+        let wav = dir.join(format!("{name}.wav"));
+        let args = ["render", "--material", material.to_str().unwrap(), "--object", object, "--notes", "60:100@0"];
+        let mut a: Vec<&str> = args.to_vec();
+        a.extend(["--seconds", "0.2", "--normalize", "-3", "--out", wav.to_str().unwrap()]);
+        let o = struck(&dir, &a);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        assert!(wav.is_file());
+        stderr(&o)
+    };
+    let err = render(&clean, "bar", "clean");
+    assert!(!err.contains("unknown field"), "{err}");
+    let err = render(&typo, "bar", "typo");
+    let lines: Vec<&str> = err.lines().filter(|l| l.contains("unknown field")).collect();
+    assert_eq!(lines.len(), 1, "{err}");
+    assert!(lines[0].starts_with("warning: ") && lines[0].contains("glass-typo.json") && lines[0].contains("`gama`"));
+    let err = render(&clean, bank_typo.to_str().unwrap(), "bank-typo");
+    let lines: Vec<&str> = err.lines().filter(|l| l.contains("unknown field")).collect();
+    assert_eq!(lines.len(), 1, "{err}");
+    assert!(lines[0].contains("bar-typo.json") && lines[0].contains("`pionts`"), "{err}");
+    let o = struck(&dir, &["bank", "info", bank_typo.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(stderr(&o).contains("`pionts`"), "{}", stderr(&o));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -14,7 +14,8 @@ pub struct Library {
     pub materials: Vec<Material>,
     /// Each material's damping law (validated).
     pub dampings: Vec<Damping>,
-    /// Problems met loading user banks (each names the file); such banks are left out.
+    /// Problems met loading user banks (each names the file); such banks are left out. A
+    /// bank with fields Struck does not read is listed, and the fields are noted here.
     pub load_errors: Vec<String>,
 }
 
@@ -53,14 +54,21 @@ impl Library {
                     .collect();
                 files.sort();
                 for f in files {
-                    match Bank::load(&f) {
-                        Ok(b) if banks.iter().any(|x| x.id == b.id) => load_errors.push(format!(
-                            "{}: a bank with id '{}' is already listed; rename its id",
+                    match Bank::load_listing_unknown(&f) {
+                        Ok((b, _)) if banks.iter().any(|x| x.id == b.id) => load_errors.push(format!(
+                            "{}: skipped: a bank with id '{}' is already listed; rename its id",
                             f.display(),
                             b.id
                         )),
-                        Ok(b) => banks.push(b),
-                        Err(e) => load_errors.push(format!("{}: {e}", f.display())),
+                        Ok((b, unknown)) => {
+                            // Listed, and the fields Struck does not read said (a misspelt
+                            // field plays its default).
+                            if let Some(note) = presets::unknown_fields_note(&unknown) {
+                                load_errors.push(format!("{}: {note}", f.display()));
+                            }
+                            banks.push(b);
+                        }
+                        Err(e) => load_errors.push(format!("{}: skipped: {e}", f.display())),
                     }
                 }
             }
@@ -166,13 +174,19 @@ mod tests {
         std::fs::write(dir.join("b-broken.json"), "{ not a bank").unwrap();
         let dup = presets::factory_bank("rect-plate").unwrap();
         std::fs::write(dir.join("c-dup.json"), dup.to_json()).unwrap();
+        // A misspelt field: listed, and said.
+        good.id = "my-other-bar".into();
+        let text = good.to_json().replacen("\"points\"", "\"pionts\": [], \"points\"", 1);
+        std::fs::write(dir.join("d-typo.json"), text).unwrap();
         let lib = Library::load(Some(&dir));
         let factory = presets::factory_banks().len();
-        assert_eq!(lib.banks.len(), factory + 1);
+        assert_eq!(lib.banks.len(), factory + 2);
         assert_eq!(lib.banks[factory].id, "my-bar");
-        assert_eq!(lib.load_errors.len(), 2, "{:?}", lib.load_errors);
+        assert_eq!(lib.banks[factory + 1].id, "my-other-bar");
+        assert_eq!(lib.load_errors.len(), 3, "{:?}", lib.load_errors);
         assert!(lib.load_errors[0].contains("b-broken.json"));
         assert!(lib.load_errors[1].contains("already listed"));
+        assert!(lib.load_errors[2].contains("d-typo.json") && lib.load_errors[2].contains("`pionts`"));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

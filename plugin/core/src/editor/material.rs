@@ -12,6 +12,8 @@ use std::path::PathBuf;
 pub(super) struct UserMaterial {
     pub path: PathBuf,
     pub material: Result<Material, String>,
+    /// The fields the file has that Struck does not read, in words (none: `None`).
+    pub unknown: Option<String>,
 }
 
 /// Material panel state.
@@ -37,7 +39,12 @@ pub(super) fn scan_user_materials(dir: &std::path::Path) -> Vec<UserMaterial> {
             rd.filter_map(Result::ok)
                 .map(|e| e.path())
                 .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")))
-                .map(|path| UserMaterial { material: Material::load(&path).map_err(|e| e.to_string()), path })
+                .map(|path| match Material::load_listing_unknown(&path) {
+                    Ok((m, unknown)) => {
+                        UserMaterial { material: Ok(m), unknown: presets::unknown_fields_note(&unknown), path }
+                    }
+                    Err(e) => UserMaterial { material: Err(e.to_string()), unknown: None, path },
+                })
                 .collect()
         })
         .unwrap_or_default();
@@ -112,7 +119,7 @@ impl MaterialPanel {
             (None, None) => "Custom (knobs)".into(),
         };
         // A user material chosen: its name, law, and the material itself.
-        let mut chosen_user: Option<(String, dsp::Damping, presets::Material)> = None;
+        let mut chosen_user: Option<(String, dsp::Damping, presets::Material, Option<String>)> = None;
         ui.horizontal(|ui| {
             egui::ComboBox::from_label("Material").selected_text(shown).width(220.0).show_ui(ui, |ui| {
                 ui.label(egui::RichText::new("Factory").weak());
@@ -139,8 +146,9 @@ impl MaterialPanel {
                                 .on_hover_text(format!("{}\n\n{}", m.provenance, u.path.display()))
                                 .clicked()
                             {
+                                let note = u.unknown.as_ref().map(|n| format!("{name}: {n}"));
                                 match m.to_damping() {
-                                    Ok(d) => chosen_user = Some((m.name.clone(), d, m.clone())),
+                                    Ok(d) => chosen_user = Some((m.name.clone(), d, m.clone(), note)),
                                     Err(e) => self.message = Some(e.to_string()),
                                 }
                             }
@@ -156,7 +164,7 @@ impl MaterialPanel {
                 self.user = None;
             }
         });
-        if let Some((name, d, m)) = chosen_user {
+        if let Some((name, d, m, note)) = chosen_user {
             let (support, residual, recorded) = (m.support_c(), m.residual.clone(), m.recorded_modes().cloned());
             // The material's residual and per-mode support go with its law into Custom (none:
             // none plays).
@@ -164,7 +172,11 @@ impl MaterialPanel {
                 .and_then(|()| p.user_residual.set_source(residual))
                 .and_then(|()| p.user_support.set_source(recorded).map(|_| ()))
             {
-                Ok(()) => self.loaded_user = Some(name),
+                Ok(()) => {
+                    self.loaded_user = Some(name);
+                    // Loaded, but say what was left out (a misspelt field plays its default).
+                    self.message = note;
+                }
                 Err(e) => {
                     // Never an earlier material's residual or support with this law.
                     let _ = p.user_residual.set_source(None);
