@@ -243,12 +243,27 @@ fn banks() -> Result<(), String> {
 /// in `target/bundled` that `cargo xtask demo` makes for users.
 const TEST_BUNDLES: &str = "target/test-bundled";
 
-/// Bundles the debug plugin with allocation assertions into [`TEST_BUNDLES`], leaving
-/// `target/bundled` as it was (nice-plug-xtask always writes there, so a release bundle found
-/// there is moved aside and back).
-fn bundle_for_tests() -> Result<(), String> {
+/// The features the tests' build and its bundles have: the plugins' allocation assertions.
+const TEST_FEATURES: &str = "struck/assert_process_allocs,struck-resonator/assert_process_allocs";
+
+/// The test build's cargo arguments after the subcommand: every library, binary and test
+/// target of the workspace with [`TEST_FEATURES`]. `cargo build` and `cargo test` given these
+/// resolve the same features, so the test run reuses every artifact of the build.
+const TEST_BUILD_ARGS: [&str; 7] = ["--workspace", "--lib", "--bins", "--tests", "--features", TEST_FEATURES, "-q"];
+
+/// Builds the workspace as the tests do (libraries and binaries too) and bundles its debug
+/// plugins, allocation assertions on, into [`TEST_BUNDLES`], leaving `target/bundled` as it
+/// was (nice-plug-xtask always writes there, so a release bundle found there is moved aside
+/// and back). Bundling from the tests' own build (not nice-plug-xtask's `bundle -p struck`,
+/// whose features unify apart from the whole workspace's) compiles every crate once.
+fn bundle_for_tests(cargo: &str) -> Result<(), String> {
     use std::fs;
     use std::path::Path;
+    let mut build = Command::new(cargo);
+    build.arg("build").args(TEST_BUILD_ARGS);
+    if !step("cargo build (the tests' build, bundled for the hosts)", &mut build) {
+        return Err("the test build failed".into());
+    }
     let (bundled, kept, test) =
         (Path::new("target/bundled"), Path::new("target/bundled.kept"), Path::new(TEST_BUNDLES));
     // An earlier run stopped between the two renames: put the user's bundles back first.
@@ -262,20 +277,11 @@ fn bundle_for_tests() -> Result<(), String> {
         }
         fs::rename(bundled, kept).map_err(|e| format!("cannot move target/bundled aside: {e}"))?;
     }
-    let built = nice_plug_xtask::main_with_args(
-        "cargo xtask",
-        [
-            "bundle",
-            "-p",
-            "struck",
-            "-p",
-            "struck-resonator",
-            "--features",
-            "struck/assert_process_allocs,struck-resonator/assert_process_allocs",
-        ]
-        .map(String::from),
-    )
-    .map_err(|e| format!("bundling the test plugin failed: {e:#}"));
+    let target = std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| Path::new("target").to_path_buf(), Into::into);
+    let built = ["struck", "struck-resonator"]
+        .into_iter()
+        .try_for_each(|p| nice_plug_xtask::bundle(&target, p, &[], false))
+        .map_err(|e| format!("bundling the test plugin failed: {e:#}"));
     let moved = built.and_then(|()| {
         if test.exists() {
             fs::remove_dir_all(test).map_err(|e| format!("cannot clear {TEST_BUNDLES}: {e}"))?;
@@ -322,7 +328,8 @@ fn test(extra: &[String]) -> Result<(), String> {
     if !step("tests/setup.sh", Command::new("bash").arg("tests/setup.sh")) {
         return Err("tests/setup.sh could not install what the tests need".into());
     }
-    bundle_for_tests()?;
+    let cargo_bin = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    bundle_for_tests(&cargo_bin)?;
     let root = std::env::current_dir().map_err(|e| e.to_string())?;
     let clap = root.join(TEST_BUNDLES).join("Struck.clap");
     let vst3 = root.join(TEST_BUNDLES).join("Struck.vst3");
@@ -330,16 +337,17 @@ fn test(extra: &[String]) -> Result<(), String> {
     let fx_vst3 = root.join(TEST_BUNDLES).join("StruckResonator.vst3");
     let mut failed = Vec::new();
 
-    let cargo_bin = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let mut cargo_test = Command::new(&cargo_bin);
     cargo_test
-        // Libraries, binaries and test targets: the examples and the (empty) doc-tests are
-        // left to clippy's `--all-targets` check, which compiles them without linking.
-        .args(["test", "--workspace", "--no-fail-fast", "--lib", "--bins", "--tests"])
+        // Libraries, binaries and test targets (built above): the examples and the (empty)
+        // doc-tests are left to clippy's `--all-targets` check, which compiles them without
+        // linking.
+        .args(["test", "--no-fail-fast"])
+        .args(TEST_BUILD_ARGS.iter().filter(|a| **a != "-q"))
         .args(extra)
         .env("STRUCK_CLAP", &clap)
         .env("STRUCK_RESONATOR_CLAP", &fx_clap);
-    if !step("cargo test --workspace --no-fail-fast --lib --bins --tests", &mut cargo_test) {
+    if !step("cargo test --workspace --no-fail-fast --lib --bins --tests --features (test features)", &mut cargo_test) {
         failed.push("cargo test");
     }
 
