@@ -38,7 +38,9 @@
 //!   apart rise together but are not broad).
 //! - The other way round, an onset followed within `SAME_STRIKE_S` by one 10 dB louder than
 //!   anything since was that strike's precursor (a music box's pin lifting the tooth, a
-//!   mallet grazing first): it is reported as skipped and the strike starts at the loud onset.
+//!   mallet grazing first): it is reported as skipped and the strike starts at the loud onset,
+//!   even within `min_gap_s` of the precursor (from its first 10 ms on: a strike that loud
+//!   within them is the precursor's own attack).
 
 use realfft::num_complex::Complex64 as C64;
 use realfft::RealFftPlanner;
@@ -59,7 +61,8 @@ pub struct SegmentOptions {
     pub min_impact_s: f64,
     /// Impacts are cut at this length, s.
     pub max_impact_s: f64,
-    /// No new onset within this time after the previous one, s.
+    /// No new onset within this time after the previous one, s, except a strike 10 dB over
+    /// everything since that makes the previous onset its precursor (module docs).
     pub min_gap_s: f64,
 }
 
@@ -106,6 +109,10 @@ const RINGING_RESTRIKE_DB: f64 = 20.0;
 /// An onset this many times (10 dB) louder than the impact before it, within
 /// `SAME_STRIKE_S` of that impact's onset, makes it a precursor (module docs).
 const PRECURSOR_DB_RATIO: f64 = 10.0;
+
+/// Frames (2.5 ms hops) of a possible precursor's own start, its first 10 ms, that a strike
+/// making it a precursor must come after and be compared with.
+const PRECURSOR_MIN_FRAMES: usize = 4;
 /// New bins of an onset during a ring must add up to at least this, Hz.
 const MIN_NEW_SPAN_HZ: f64 = 1500.0;
 /// Share of the following 10 ms's energy in spectral peaks that makes a candidate tonal.
@@ -314,13 +321,15 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
             impact_peak = impact_peak.max(e[j]);
         }
         // Within the minimum gap only a strike that makes the last onset its precursor is
-        // looked at (10 dB over anything since, within its first 10 ms): the gap would
-        // otherwise hold its onset back until its rise is over (issue 10: music boxes).
+        // looked at (10 dB over anything since, within its first 10 ms), and only once that
+        // onset's own first 10 ms are in (a first frame may hold only a strike's first few
+        // samples): the gap would otherwise hold its onset back until its rise is over
+        // (issue 10: music boxes).
         let over_precursor = j < next_allowed
             && onsets.last().is_some_and(|&(_, j0)| {
                 let since = e[j0..j].iter().fold(0.0f64, |m, &v| m.max(v));
                 let e_on = e[j..(j + 4).min(nfr)].iter().fold(0.0f64, |m, &v| m.max(v));
-                e_on >= PRECURSOR_DB_RATIO * since
+                j >= j0 + PRECURSOR_MIN_FRAMES && e_on >= PRECURSOR_DB_RATIO * since
             });
         if (j >= next_allowed || over_precursor) && e[j] > onset_thr && !same {
             let total_rise = e[j] > rise * prev_e.max(noise);
@@ -381,8 +390,9 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
                         if let Some(&(o, j0)) = onsets.last() {
                             // Its level before this onset's rise (the last 20 ms, which the
                             // minimum gap may have let pass before the onset was taken).
-                            let pre_peak =
-                                e[j0..j.saturating_sub(back).max(j0 + 1)].iter().fold(0.0f64, |m, &v| m.max(v));
+                            // (At least its own first 10 ms.)
+                            let upto = j.saturating_sub(back).max(j0 + PRECURSOR_MIN_FRAMES).min(j);
+                            let pre_peak = e[j0..upto.max(j0 + 1)].iter().fold(0.0f64, |m, &v| m.max(v));
                             if j < j0 + same_strike && e_on >= PRECURSOR_DB_RATIO * pre_peak {
                                 precursors.push((o, 10.0 * (e_on / pre_peak).log10()));
                                 onsets.pop();
@@ -402,10 +412,10 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
                         quiet = 0;
                         impact_peak = e[j];
                     }
-                    next_allowed = j + gap;
-                } else {
+                    next_allowed = next_allowed.max(j + gap);
+                } else if !over_precursor {
                     noise_steps.push(j * hop);
-                    next_allowed = j + back;
+                    next_allowed = next_allowed.max(j + back);
                 }
             }
         }

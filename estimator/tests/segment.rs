@@ -413,3 +413,51 @@ fn a_strike_right_after_its_precursor_starts_where_it_rises() {
     }
     assert!(late.iter().all(|&(_, dt)| dt.abs() < 3e-4), "onset minus strike, s: {late:?}");
 }
+
+/// The other side of a strike right after its precursor: a clean strike (three modes, no
+/// click, no precursor) whose first sample lands anywhere in a frame of the scan (its first
+/// onset frame may hold only its last few samples) is one impact from its first sample, never
+/// a "precursor" of itself a few milliseconds later.
+#[test]
+fn a_clean_strike_is_never_its_own_precursor() {
+    let fs = 44_100.0;
+    let mut bad = Vec::new();
+    for k in 0..336 {
+        // Every offset within a hop (110 samples): with a click, without, and with a soft
+        // mallet's attack (a raised cosine over 3 ms).
+        let (click, soft) = (k / 112 == 1, k / 112 == 2);
+        let t0 = 0.2 + (k % 112) as f64 / fs;
+        let mut g = Gen(900 + k as u64);
+        let mut x = vec![0.0; (0.8 * fs) as usize];
+        let i0 = (t0 * fs).round() as usize;
+        if click {
+            for i in 0..(0.001 * fs) as usize {
+                x[i0 + i] += 0.4 * (-(i as f64) / (0.0003 * fs)).exp() * g.normal();
+            }
+        }
+        for (f, d, a) in [(523.0, 4.0, 0.3), (1410.0, 7.0, 0.2), (2790.0, 12.0, 0.1)] {
+            add_mode(&mut x, fs, t0, f, d, a);
+        }
+        // Started at its peak (a cosine): the sharpest attack a mode can have.
+        for (i, v) in x.iter_mut().enumerate().skip(i0) {
+            let t = (i - i0) as f64 / fs;
+            *v += 0.2 * (-3.0 * t).exp() * (std::f64::consts::TAU * 880.0 * t).cos();
+            if soft && t < 0.003 {
+                *v *= 0.5 - 0.5 * (std::f64::consts::PI * t / 0.003).cos();
+            }
+        }
+        for v in x.iter_mut() {
+            *v += 1e-5 * g.normal();
+        }
+        let x32: Vec<f32> = x.iter().map(|&v| v as f32).collect();
+        let seg = estimator::segment::segment(&x32, fs, &estimator::SegmentOptions::default());
+        let onsets: Vec<f64> = seg.impacts.iter().map(|i| i.start as f64 / fs).collect();
+        let precursor = seg.skipped.iter().any(|s| estimator::segment::is_precursor(&s.1));
+        // (A soft attack's onset is where it reaches 30 % of its rise: within its 3 ms.)
+        let tol = if soft { 3e-3 } else { 3e-4 };
+        if onsets.len() != 1 || (onsets[0] - t0).abs() > tol || onsets[0] < t0 - 3e-4 || precursor {
+            bad.push((k, onsets, seg.skipped.len()));
+        }
+    }
+    assert!(bad.is_empty(), "(offset in samples, onsets, skipped): {bad:?}");
+}
