@@ -12,7 +12,7 @@
 use struck_cli::cli::{configured_host, note_events, NoteSpec, SoundOptions};
 
 const SR: f64 = 48_000.0;
-const SECONDS: f64 = 300.0;
+const SECONDS: f64 = 6.0;
 const BLOCK: usize = 512;
 
 fn main() {
