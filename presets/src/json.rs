@@ -46,8 +46,14 @@ pub(crate) fn parse<T: DeserializeOwned>(s: &str, what: &str, unknown: &mut Vec<
     }
     // Parse again from the text (not from `value`) so that errors keep their line and column.
     let mut de = serde_json::Deserializer::from_str(s);
-    let value = serde_ignored::deserialize(&mut de, |path| unknown.push(json_path(&path)))
-        .map_err(|e| PresetError::json(what, &e))?;
+    let value = serde_ignored::deserialize(&mut de, |path| unknown.push(json_path(&path))).map_err(|e| {
+        // A misspelt required field is missing *and* unknown: say both.
+        let mut err = PresetError::json(what, &e);
+        if let (PresetError::Json { message, .. }, Some(note)) = (&mut err, unknown_fields_note(unknown)) {
+            message.push_str(&format!(" ({note})"));
+        }
+        err
+    })?;
     de.end().map_err(|e| PresetError::json(what, &e))?;
     Ok(value)
 }
@@ -59,7 +65,8 @@ fn json_path(path: &serde_ignored::Path) -> String {
     let (parent, own) = match path {
         Path::Root => return String::new(),
         Path::Seq { parent, index } => (parent, index.to_string()),
-        Path::Map { parent, key } => (parent, key.clone()),
+        // (A key with a quote, a backslash or a control character is escaped: one line.)
+        Path::Map { parent, key } => (parent, key.escape_debug().to_string()),
         Path::Some { parent } | Path::NewtypeStruct { parent } | Path::NewtypeVariant { parent } => {
             return json_path(parent)
         }

@@ -297,6 +297,17 @@ fn unknown_fields_are_listed_by_path() {
         let (_, unknown) = Material::from_json_listing_unknown(&m.to_json()).unwrap();
         assert!(unknown.is_empty(), "{}: {unknown:?}", m.id);
     }
+    // A misspelt required field: the error says it is missing and names the unknown one.
+    let missing = clean.replacen("\"damping\"", "\"dampign\"", 1);
+    match Material::from_json(&missing) {
+        Err(PresetError::Json { message, .. }) => {
+            assert!(message.contains("`damping`") && message.contains("`dampign`"), "{message}");
+        }
+        other => panic!("expected a JSON error, got {other:?}"),
+    }
+    let odd = typo(&clean, "\"name\"", "\"a\\nb\": 1, ");
+    let (_, unknown) = Material::from_json_listing_unknown(&odd).unwrap();
+    assert_eq!(unknown, ["a\\nb"], "one line");
     let bank = small_bank();
     let bad = typo(&bank.to_json(), "\"points\"", "\"mode_label\": [], ");
     let (_, unknown) = Bank::from_json_listing_unknown(&bad).unwrap();

@@ -325,6 +325,10 @@ fn configure(opts: &SoundOptions, max_block: usize, say: bool) -> Result<Offline
         None => resolve_object(&lib, &opts.object)?,
     };
     host.set_param("object", object as f32).map_err(|e| e.to_string())?;
+    // A user bank (listed by id) with fields Struck does not read: say so, as for a file.
+    if let Some((_, note)) = lib.unknown_fields.iter().find(|(id, _)| say && *id == lib.banks[object].id) {
+        warn(&format!("user bank {note}"));
+    }
     // A material file's own specific modulus (γ/γ₀ of this object), played when *Material
     // sets pitch* is on, as the plugin plays a library material's.
     let mut file_modulus = None;

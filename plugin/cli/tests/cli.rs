@@ -1124,5 +1124,12 @@ fn misspelt_fields_of_material_and_bank_files_are_warned_about_once() {
     let o = struck(&dir, &["bank", "info", bank_typo.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(stderr(&o).contains("`pionts`"), "{}", stderr(&o));
+    // The same bank in the user folder, played by its id.
+    std::fs::create_dir_all(dir.join("banks")).unwrap();
+    std::fs::copy(&bank_typo, dir.join("banks/bar-typo.json")).unwrap();
+    let err = render(&clean, "my-bar", "user-bank-typo");
+    let lines: Vec<&str> = err.lines().filter(|l| l.contains("unknown field")).collect();
+    assert_eq!(lines.len(), 1, "{err}");
+    assert!(lines[0].starts_with("warning: user bank ") && lines[0].contains("`pionts`"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -17,6 +17,9 @@ pub struct Library {
     /// Problems met loading user banks (each names the file); such banks are left out. A
     /// bank with fields Struck does not read is listed, and the fields are noted here.
     pub load_errors: Vec<String>,
+    /// The user banks listed with fields Struck does not read: (bank id, the note of
+    /// [`load_errors`](Self::load_errors)), so playing one can say so.
+    pub unknown_fields: Vec<(String, String)>,
 }
 
 /// The folder user banks are listed from: `$STRUCK_BANK_DIR`, else `banks` beside the user
@@ -42,10 +45,13 @@ impl Library {
 
     /// Factory banks and materials, then every `*.json` bank in `user_banks` (sorted by file
     /// name). A user bank that fails to load, or repeats an id already listed, is left out
-    /// and reported in [`load_errors`](Self::load_errors); it never stops the others.
+    /// and reported in [`load_errors`](Self::load_errors); it never stops the others. A user
+    /// bank with fields Struck does not read is listed, and noted there and in
+    /// [`unknown_fields`](Self::unknown_fields).
     pub fn load(user_banks: Option<&Path>) -> Library {
         let mut banks = presets::factory_banks();
         let mut load_errors = Vec::new();
+        let mut unknown_fields = Vec::new();
         if let Some(dir) = user_banks {
             if let Ok(entries) = std::fs::read_dir(dir) {
                 let mut files: Vec<PathBuf> = entries
@@ -64,7 +70,9 @@ impl Library {
                             // Listed, and the fields Struck does not read said (a misspelt
                             // field plays its default).
                             if let Some(note) = presets::unknown_fields_note(&unknown) {
-                                load_errors.push(format!("{}: {note}", f.display()));
+                                let note = format!("{}: {note}", f.display());
+                                load_errors.push(note.clone());
+                                unknown_fields.push((b.id.clone(), note));
                             }
                             banks.push(b);
                         }
@@ -83,7 +91,7 @@ impl Library {
                 dampings.push(d);
             }
         }
-        Library { banks, materials, dampings, load_errors }
+        Library { banks, materials, dampings, load_errors, unknown_fields }
     }
 
     /// This library with `bank` (read from a file) added after the others; a bank whose id is
@@ -99,6 +107,7 @@ impl Library {
             materials: self.materials.clone(),
             dampings: self.dampings.clone(),
             load_errors: self.load_errors.clone(),
+            unknown_fields: self.unknown_fields.clone(),
         }
     }
 
@@ -187,6 +196,7 @@ mod tests {
         assert!(lib.load_errors[0].contains("b-broken.json"));
         assert!(lib.load_errors[1].contains("already listed"));
         assert!(lib.load_errors[2].contains("d-typo.json") && lib.load_errors[2].contains("`pionts`"));
+        assert_eq!(lib.unknown_fields, [("my-other-bar".to_string(), lib.load_errors[2].clone())]);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }
