@@ -512,17 +512,12 @@ fn the_resonator_binary_rings_the_object_from_its_input() {
     assert!(quiet.iter().all(|ch| ch.iter().all(|&y| y == 0.0)), "silence in, sound out");
 }
 
-/// An X server for the GUI test: `$DISPLAY` if set, else a private Xvfb (killed on drop).
-struct XServer(Option<std::process::Child>);
-
-impl Drop for XServer {
-    fn drop(&mut self) {
-        if let Some(c) = self.0.as_mut() {
-            let _ = c.kill();
-            let _ = c.wait();
-        }
-    }
-}
+/// An X server for the GUI test: `$DISPLAY` if set, else a private Xvfb that ends itself when
+/// its last client disconnects (`-terminate`), not killed by the test: a connection the
+/// plugin's editor stack still holds after the editor closed (Xlib's, whose I/O error handler
+/// exits the process when the server goes away) would otherwise end this test binary while
+/// another test runs. At the latest it ends when this process exits.
+struct XServer(#[allow(dead_code)] Option<std::process::Child>);
 
 fn x_server() -> XServer {
     if std::env::var_os("DISPLAY").is_some_and(|d| !d.is_empty()) {
@@ -530,7 +525,7 @@ fn x_server() -> XServer {
     }
     // `-displayfd 1`: Xvfb picks a free display number and writes it to stdout when ready.
     let mut child = std::process::Command::new("Xvfb")
-        .args(["-displayfd", "1", "-screen", "0", "2400x1600x24", "-nolisten", "tcp"])
+        .args(["-displayfd", "1", "-screen", "0", "2400x1600x24", "-nolisten", "tcp", "-terminate"])
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::null())
         .spawn()
