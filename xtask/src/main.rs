@@ -256,13 +256,23 @@ const TEST_BUILD_ARGS: [&str; 7] = ["--workspace", "--lib", "--bins", "--tests",
 /// was (nice-plug-xtask always writes there, so a release bundle found there is moved aside
 /// and back). Bundling from the tests' own build (not nice-plug-xtask's `bundle -p struck`,
 /// whose features unify apart from the whole workspace's) compiles every crate once.
-fn bundle_for_tests(cargo: &str) -> Result<(), String> {
+///
+/// Returns whether the workspace build succeeded: if it failed, the plugins alone are built
+/// and bundled, so the validators and hosts still run (the test step then reports the
+/// failure).
+fn bundle_for_tests(cargo: &str) -> Result<bool, String> {
     use std::fs;
     use std::path::Path;
+    check_target_dir(cargo)?;
     let mut build = Command::new(cargo);
     build.arg("build").args(TEST_BUILD_ARGS);
-    if !step("cargo build (the tests' build, bundled for the hosts)", &mut build) {
-        return Err("the test build failed".into());
+    let whole = step("cargo build (the tests' build, bundled for the hosts)", &mut build);
+    if !whole {
+        let mut plugins = Command::new(cargo);
+        plugins.args(["build", "-p", "struck", "-p", "struck-resonator", "--features", TEST_FEATURES]);
+        if !step("cargo build -p struck -p struck-resonator (bundled for the hosts)", &mut plugins) {
+            return Err("the plugins do not build".into());
+        }
     }
     let (bundled, kept, test) =
         (Path::new("target/bundled"), Path::new("target/bundled.kept"), Path::new(TEST_BUNDLES));
@@ -277,10 +287,9 @@ fn bundle_for_tests(cargo: &str) -> Result<(), String> {
         }
         fs::rename(bundled, kept).map_err(|e| format!("cannot move target/bundled aside: {e}"))?;
     }
-    let target = std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| Path::new("target").to_path_buf(), Into::into);
     let built = ["struck", "struck-resonator"]
         .into_iter()
-        .try_for_each(|p| nice_plug_xtask::bundle(&target, p, &[], false))
+        .try_for_each(|p| nice_plug_xtask::bundle(Path::new("target"), p, &[], false))
         .map_err(|e| format!("bundling the test plugin failed: {e:#}"));
     let moved = built.and_then(|()| {
         if test.exists() {
@@ -294,7 +303,29 @@ fn bundle_for_tests(cargo: &str) -> Result<(), String> {
         }
         fs::rename(kept, bundled).map_err(|e| format!("cannot restore target/bundled: {e}"))?;
     }
-    moved
+    moved.map(|()| whole)
+}
+
+/// Checks that cargo builds into `./target`, where the bundles, the test venv and the hosts'
+/// binaries are looked for (`CARGO_TARGET_DIR` or `build.target-dir` elsewhere would bundle
+/// stale libraries or none).
+fn check_target_dir(cargo: &str) -> Result<(), String> {
+    let out = Command::new(cargo)
+        .args(["metadata", "--no-deps", "--format-version", "1"])
+        .output()
+        .map_err(|e| format!("cannot run cargo metadata: {e}"))?;
+    let text = String::from_utf8_lossy(&out.stdout);
+    let key = "\"target_directory\":\"";
+    let dir = text.find(key).map(|i| &text[i + key.len()..]).and_then(|t| t.split('"').next());
+    let want = std::env::current_dir().map_err(|e| e.to_string())?.join("target");
+    match dir {
+        Some(d) if std::path::Path::new(d) == want => Ok(()),
+        Some(d) => Err(format!(
+            "cargo builds into {d}, but `cargo xtask test` bundles and runs from {}: unset CARGO_TARGET_DIR (or build.target-dir)",
+            want.display()
+        )),
+        None => Err("cargo metadata did not give the target directory".into()),
+    }
 }
 
 /// Runs a command, reporting whether it succeeded (a failure to start is a failure).
@@ -322,20 +353,24 @@ fn step(name: &str, cmd: &mut Command) -> bool {
 /// them, even when one fails), then the third-party validators (clap-validator and Steinberg's
 /// VST3 validator, `--extensive`), the pedalboard and Ardour VST3 host tests on those bundles, and the
 /// check of the FEM tests' axisymmetric references. Fails if any of these failed, after
-/// running them all.
+/// running them all. `extra` goes to `cargo test` only (test names, `--` and the harness's
+/// options; a feature or profile flag there would rebuild apart from the bundled build).
 fn test(extra: &[String]) -> Result<(), String> {
     nice_plug_xtask::chdir_workspace_root().map_err(|e| e.to_string())?;
     if !step("tests/setup.sh", Command::new("bash").arg("tests/setup.sh")) {
         return Err("tests/setup.sh could not install what the tests need".into());
     }
     let cargo_bin = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    bundle_for_tests(&cargo_bin)?;
+    let built = bundle_for_tests(&cargo_bin)?;
     let root = std::env::current_dir().map_err(|e| e.to_string())?;
     let clap = root.join(TEST_BUNDLES).join("Struck.clap");
     let vst3 = root.join(TEST_BUNDLES).join("Struck.vst3");
     let fx_clap = root.join(TEST_BUNDLES).join("StruckResonator.clap");
     let fx_vst3 = root.join(TEST_BUNDLES).join("StruckResonator.vst3");
     let mut failed = Vec::new();
+    if !built {
+        failed.push("cargo build");
+    }
 
     let mut cargo_test = Command::new(&cargo_bin);
     cargo_test
