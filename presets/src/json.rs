@@ -84,7 +84,12 @@ fn json_path(path: &serde_ignored::Path) -> String {
 pub fn unknown_fields_note(unknown: &[String]) -> Option<String> {
     const SHOWN: usize = 4;
     let (first, rest) = unknown.split_at(unknown.len().min(SHOWN));
-    let mut list: Vec<String> = first.iter().map(|p| format!("`{p}`")).collect();
+    // (A path longer than 80 characters is cut: the line stays readable.)
+    let cut = |p: &String| match p.char_indices().nth(80) {
+        Some((i, _)) => format!("`{}…`", &p[..i]),
+        None => format!("`{p}`"),
+    };
+    let mut list: Vec<String> = first.iter().map(cut).collect();
     if !rest.is_empty() {
         list.push(format!("and {} more", rest.len()));
     }

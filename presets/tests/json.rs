@@ -279,6 +279,8 @@ fn unknown_fields_are_listed_by_path() {
     assert!(note.starts_with("ignored 3 unknown fields `gama`, `damping.parms`,"), "{note}");
     let many: Vec<String> = (0..7).map(|i| format!("f{i}")).collect();
     assert!(unknown_fields_note(&many).unwrap().contains("`f3`, and 3 more"));
+    let long = unknown_fields_note(&["é".repeat(5000)]).unwrap();
+    assert!(long.contains(&format!("`{}…`", "é".repeat(80))) && long.len() < 400, "{long}");
 
     let path = scratch("unknown-fields.json");
     std::fs::write(&path, &bad).unwrap();

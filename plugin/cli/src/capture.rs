@@ -98,7 +98,11 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
     let bank = match &args.object {
         Some(o) => match crate::cli::bank_file(&lib, o, true)? {
             Some(b) => Some(b),
-            None => Some(lib.banks[crate::cli::resolve_object(&lib, o)?].clone()),
+            None => {
+                let i = crate::cli::resolve_object(&lib, o)?;
+                crate::cli::warn_user_bank(&lib, i, true);
+                Some(lib.banks[i].clone())
+            }
         },
         None => None,
     };

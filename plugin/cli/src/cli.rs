@@ -233,7 +233,7 @@ pub fn bank_file(lib: &Library, query: &str, say: bool) -> Result<Option<presets
 /// # Errors
 /// The file cannot be read or is not a valid bank.
 pub fn load_bank(path: &Path, say: bool) -> Result<presets::Bank, String> {
-    let (bank, unknown) = presets::Bank::load_listing_unknown(path).map_err(|e| e.to_string())?;
+    let (bank, unknown) = presets::Bank::load_listing_unknown(path).map_err(|e| file_error(path, &e))?;
     warn_unknown(path, &unknown, say);
     Ok(bank)
 }
@@ -244,9 +244,25 @@ pub fn load_bank(path: &Path, say: bool) -> Result<presets::Bank, String> {
 /// # Errors
 /// The file cannot be read or is not a valid material.
 pub fn load_material(path: &Path, say: bool) -> Result<Material, String> {
-    let (material, unknown) = Material::load_listing_unknown(path).map_err(|e| e.to_string())?;
+    let (material, unknown) = Material::load_listing_unknown(path).map_err(|e| file_error(path, &e))?;
     warn_unknown(path, &unknown, say);
     Ok(material)
+}
+
+/// A user bank (listed by id) with fields Struck does not read: says so (when `say`), as for
+/// a bank file.
+pub fn warn_user_bank(lib: &Library, object: usize, say: bool) {
+    if let Some((_, note)) = lib.unknown_fields.iter().find(|(id, _)| say && *id == lib.banks[object].id) {
+        warn(&format!("user bank {note}"));
+    }
+}
+
+/// A preset file's error with the file's name (the JSON and I/O errors name it already).
+fn file_error(path: &Path, e: &presets::PresetError) -> String {
+    match e {
+        presets::PresetError::Json { .. } | presets::PresetError::Io { .. } => e.to_string(),
+        _ => format!("{}: {e}", path.display()),
+    }
 }
 
 /// `warning: FILE: ignored N unknown fields …` when `say` and there are any.
@@ -325,10 +341,7 @@ fn configure(opts: &SoundOptions, max_block: usize, say: bool) -> Result<Offline
         None => resolve_object(&lib, &opts.object)?,
     };
     host.set_param("object", object as f32).map_err(|e| e.to_string())?;
-    // A user bank (listed by id) with fields Struck does not read: say so, as for a file.
-    if let Some((_, note)) = lib.unknown_fields.iter().find(|(id, _)| say && *id == lib.banks[object].id) {
-        warn(&format!("user bank {note}"));
-    }
+    warn_user_bank(&lib, object, say);
     // A material file's own specific modulus (γ/γ₀ of this object), played when *Material
     // sets pitch* is on, as the plugin plays a library material's.
     let mut file_modulus = None;

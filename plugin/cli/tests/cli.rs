@@ -1131,5 +1131,31 @@ fn misspelt_fields_of_material_and_bank_files_are_warned_about_once() {
     let lines: Vec<&str> = err.lines().filter(|l| l.contains("unknown field")).collect();
     assert_eq!(lines.len(), 1, "{err}");
     assert!(lines[0].starts_with("warning: user bank ") && lines[0].contains("`pionts`"), "{err}");
+    // `estimate` on the user bank by id says it too.
+    let taps = dir.join("taps.wav");
+    let o = struck(
+        &dir,
+        &[
+            "render",
+            "--object",
+            "bar",
+            "--notes",
+            "60:100@0.1,60:110@0.8",
+            "--seconds",
+            "1.5",
+            "--out",
+            taps.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let mat = dir.join("captured.json");
+    let o = struck(&dir, &["estimate", taps.to_str().unwrap(), "--object", "my-bar", "--out", mat.to_str().unwrap()]);
+    let err = stderr(&o);
+    assert_eq!(err.lines().filter(|l| l.contains("`pionts`")).count(), 1, "{err}");
+    // A schema_version error names the file.
+    let nover = dir.join("no-version.json");
+    std::fs::write(&nover, m.to_json().replacen("\"schema_version\"", "\"schema_verison\"", 1)).unwrap();
+    let e = error_line(&struck(&dir, &["modes", "--material", nover.to_str().unwrap()]));
+    assert!(e.contains("no-version.json") && e.contains("schema_version"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
