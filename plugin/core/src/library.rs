@@ -97,6 +97,8 @@ impl Library {
     /// This library with `bank` (read from a file) added after the others; a bank whose id is
     /// already listed replaces that one, so a rebuilt factory or user bank plays as built.
     pub fn with_bank(&self, bank: Bank) -> Library {
+        // (The bank read from a file replaces a listed one with its id, and that one's note.)
+        let unknown_fields = self.unknown_fields.iter().filter(|(id, _)| *id != bank.id).cloned().collect();
         let mut banks = self.banks.clone();
         match banks.iter().position(|b| b.id == bank.id) {
             Some(i) => banks[i] = bank,
@@ -107,7 +109,7 @@ impl Library {
             materials: self.materials.clone(),
             dampings: self.dampings.clone(),
             load_errors: self.load_errors.clone(),
-            unknown_fields: self.unknown_fields.clone(),
+            unknown_fields,
         }
     }
 
@@ -197,6 +199,9 @@ mod tests {
         assert!(lib.load_errors[1].contains("already listed"));
         assert!(lib.load_errors[2].contains("d-typo.json") && lib.load_errors[2].contains("`pionts`"));
         assert_eq!(lib.unknown_fields, [("my-other-bar".to_string(), lib.load_errors[2].clone())]);
+        // A clean bank file with that id replaces it, note and all.
+        assert!(lib.with_bank(good.clone()).unknown_fields.is_empty());
+        assert_eq!(lib.with_bank(dup).unknown_fields.len(), 1);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }
