@@ -10,8 +10,10 @@ use crate::{PresetError, SCHEMA_VERSION};
 /// Parses `s` as a `T`, checking `schema_version` first so that a file from another
 /// format version reports [`PresetError::SchemaVersion`] rather than a confusing field error.
 /// The fields `T` does not read are appended to `unknown` as JSON paths (`damping.parms`,
-/// `support.recorded_modes.modes.2.extra`).
+/// `support.recorded_modes.modes.2.extra`), each once. A UTF-8 byte-order mark at the start
+/// (Windows editors write one) is skipped.
 pub(crate) fn parse<T: DeserializeOwned>(s: &str, what: &str, unknown: &mut Vec<String>) -> Result<T, PresetError> {
+    let s = s.strip_prefix('\u{feff}').unwrap_or(s);
     let value: serde_json::Value = serde_json::from_str(s).map_err(|e| PresetError::json(what, &e))?;
     let Some(object) = value.as_object() else {
         return Err(PresetError::Json {
@@ -46,7 +48,16 @@ pub(crate) fn parse<T: DeserializeOwned>(s: &str, what: &str, unknown: &mut Vec<
     }
     // Parse again from the text (not from `value`) so that errors keep their line and column.
     let mut de = serde_json::Deserializer::from_str(s);
-    let value = serde_ignored::deserialize(&mut de, |path| unknown.push(json_path(&path))).map_err(|e| {
+    // (A key given twice is listed once.)
+    let mut seen = std::collections::HashSet::new();
+    let mut note = |path: &serde_ignored::Path| {
+        let p = json_path(path);
+        if seen.insert(p.clone()) {
+            unknown.push(p);
+        }
+    };
+    let value = serde_ignored::deserialize(&mut de, |path| note(&path));
+    let value = value.map_err(|e| {
         // A misspelt required field is missing *and* unknown: say both.
         let mut err = PresetError::json(what, &e);
         if let (PresetError::Json { message, .. }, Some(note)) = (&mut err, unknown_fields_note(unknown)) {
@@ -65,7 +76,11 @@ fn json_path(path: &serde_ignored::Path) -> String {
     let (parent, own) = match path {
         Path::Root => return String::new(),
         Path::Seq { parent, index } => (parent, index.to_string()),
-        // (A key with a quote, a backslash or a control character is escaped: one line.)
+        // (A key with a quote, a backslash or a control character is escaped: one line; one
+        // that is empty or holds a dot is quoted, so it does not read as a nested path.)
+        Path::Map { parent, key } if key.is_empty() || key.contains('.') => {
+            (parent, format!("\"{}\"", key.escape_debug()))
+        }
         Path::Map { parent, key } => (parent, key.escape_debug().to_string()),
         Path::Some { parent } | Path::NewtypeStruct { parent } | Path::NewtypeVariant { parent } => {
             return json_path(parent)

@@ -314,4 +314,21 @@ fn unknown_fields_are_listed_by_path() {
     let bad = typo(&bank.to_json(), "\"points\"", "\"mode_label\": [], ");
     let (_, unknown) = Bank::from_json_listing_unknown(&bad).unwrap();
     assert_eq!(unknown, ["mode_label"]);
+    // A key given twice is listed once; a key with a dot is quoted (not a nested path).
+    let twice = typo(&clean, "\"name\"", "\"gama\": 1, \"gama\": 2, \"a.b\": 3, ");
+    let (_, unknown) = Material::from_json_listing_unknown(&twice).unwrap();
+    assert_eq!(unknown, ["gama", "\"a.b\""]);
+}
+
+/// Windows editors (Notepad) start a UTF-8 file with a byte-order mark: it loads.
+#[test]
+fn a_preset_file_with_a_byte_order_mark_loads() {
+    let m = factory_material("glass-ren2013").unwrap();
+    let text = format!("\u{feff}{}", m.to_json());
+    assert_eq!(Material::from_json(&text).unwrap(), m);
+    let path = scratch("bom-material.json");
+    std::fs::write(&path, text.as_bytes()).unwrap();
+    assert_eq!(Material::load(&path).unwrap(), m);
+    let b = small_bank();
+    assert_eq!(Bank::from_json(&format!("\u{feff}{}", b.to_json())).unwrap(), b);
 }
