@@ -352,6 +352,14 @@ pub fn extract_features(
                 if seg.noise_steps.len() > 5 { ", …" } else { "" }
             ));
         }
+        for &(at, onset) in &seg.restrikes {
+            report.warnings.push(format!(
+                "{name}: a second strike {:.0} ms after the one at {:.3} s, inside the {:.0} ms minimum gap between taps, is analysed with it (a bounce or a flam: the two strikes' decays mix); leave more time between taps",
+                1e3 * at.saturating_sub(onset) as f64 / fs,
+                onset as f64 / fs,
+                1e3 * opts.segment.min_gap_s
+            ));
+        }
         if seg.impacts.is_empty() {
             report.warnings.push(format!("{name}: no impacts found; taps must rise well above the background noise"));
         }

@@ -41,6 +41,11 @@
 //!   mallet grazing first): it is reported as skipped and the strike starts at the loud onset,
 //!   even within `min_gap_s` of the precursor (from its first 10 ms on: a strike that loud
 //!   within them is the precursor's own attack).
+//! - Any other strike within `min_gap_s` of an onset stays part of that impact, but one that
+//!   would be an onset were it not for the gap (from 15 ms after the onset on: the rules
+//!   above, or `rise_db` over the 10 ms before; broadband while it rings) is reported in
+//!   [`Segmentation::restrikes`] (a mallet's bounce, a flam): the impact's decays then mix
+//!   two strikes.
 
 use realfft::num_complex::Complex64 as C64;
 use realfft::RealFftPlanner;
@@ -97,6 +102,10 @@ pub struct Segmentation {
     /// Sample positions where the level rose like an onset but what followed was steady,
     /// untonal noise (a noise floor that starts or changes): not impacts.
     pub noise_steps: Vec<usize>,
+    /// Second strikes inside the minimum gap: `(its sample, the onset sample of the impact
+    /// it falls in)`. Not impacts of their own (the gap holds), but said: the impact's
+    /// analysis mixes two strikes' decays (module docs).
+    pub restrikes: Vec<(usize, usize)>,
 }
 
 /// Within this time of an onset, a new onset during the ring must be within `onset_db` of
@@ -223,6 +232,18 @@ fn long_tonal_share(x: &[f32], a: usize, len: usize, fft: &mut std::sync::Arc<dy
     tonal_share(&p)
 }
 
+/// Sample-accurate start of an onset found at frame `j`: the first sample that exceeds the
+/// level before (the ring of an earlier tap, or the noise) by 30 % of the rise to the local
+/// peak.
+fn sample_onset(x: &[f32], j: usize, hop: usize, frame: usize) -> usize {
+    let a = j.saturating_sub(1) * hop;
+    let b = ((j + 3) * hop + frame).min(x.len());
+    let pk = x[a..b].iter().fold(0.0f32, |m, v| m.max(v.abs()));
+    let before = x[a.saturating_sub(frame)..a].iter().fold(0.0f32, |m, v| m.max(v.abs()));
+    let thr = before.min(pk) + 0.3 * (pk - before.min(pk));
+    a + x[a..b].iter().position(|v| v.abs() >= thr).unwrap_or(0)
+}
+
 /// Finds the impacts in a mono signal `x` sampled at `fs` Hz.
 pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
     let hop = ((fs * 0.0025).round() as usize).max(8);
@@ -288,6 +309,7 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
     let mut gated_end = false;
     // Onsets dropped as the precursor of a louder strike right after: (sample, dB louder).
     let mut precursors: Vec<(usize, f64)> = Vec::new();
+    let mut restrikes: Vec<(usize, usize)> = Vec::new();
     for j in 0..nfr {
         spec.power(j, &mut p);
         nu[j] = flat_level(&p, &mut scratch);
@@ -331,7 +353,22 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
                 let e_on = e[j..(j + 4).min(nfr)].iter().fold(0.0f64, |m, &v| m.max(v));
                 j >= j0 + PRECURSOR_MIN_FRAMES && e_on >= PRECURSOR_DB_RATIO * since
             });
-        if (j >= next_allowed || over_precursor) && e[j] > onset_thr && !same {
+        // A second strike inside the minimum gap (module docs): from 15 ms after the onset
+        // on, what would be an onset were it not for the gap, or `rise_db` over the 10 ms
+        // before (none of them in the impact's first 10 ms: the 20 ms mean of the onset rule
+        // still holds the first strike's attack); one per impact.
+        let mut jump = false;
+        let in_gap = j < next_allowed
+            && !over_precursor
+            && onsets.last().is_some_and(|&(o, j0)| {
+                let soon_enough = j >= j0 + PRECURSOR_MIN_FRAMES + 2;
+                if soon_enough {
+                    let before = e[(j0 + PRECURSOR_MIN_FRAMES).max(j - 4)..j].iter().fold(0.0f64, |m, &v| m.max(v));
+                    jump = e[j..(j + 4).min(nfr)].iter().fold(0.0f64, |m, &v| m.max(v)) >= rise * before;
+                }
+                soon_enough && restrikes.last().is_none_or(|&(_, at)| at != o)
+            });
+        if (j >= next_allowed || over_precursor || in_gap) && e[j] > onset_thr && !same {
             let total_rise = e[j] > rise * prev_e.max(noise);
             let (mut new_e, mut wide) = (0.0, 0);
             let prev_tot: f64 = if nprev == 0 { 0.0 } else { prev_sum.iter().sum::<f64>() / nprev as f64 };
@@ -352,7 +389,13 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
             // Broadband: the risen bins add up to `MIN_NEW_SPAN_HZ` (the span from the lowest
             // to the highest was fooled by two beating partials far apart).
             let broadband = wide >= min_span;
-            if (total_rise || bin_rise) && (!ringing || broadband) {
+            if in_gap {
+                if (jump || total_rise || bin_rise) && (!ringing || broadband) {
+                    if let Some(&(o, _)) = onsets.last() {
+                        restrikes.push((sample_onset(x, j, hop, frame).max(o + 1), o));
+                    }
+                }
+            } else if (total_rise || bin_rise) && (!ringing || broadband) {
                 // Tonal or transient, else a noise floor step.
                 // The loudest frame of the first 100 ms.
                 let jp = (j..(j + late_b).min(nfr)).max_by(|&a, &b| e[a].total_cmp(&e[b])).unwrap_or(j);
@@ -372,16 +415,7 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
                 let file_start =
                     j == 0 && e[..file_head.min(nfr)].iter().fold(0.0f64, |m, &v| m.max(v)) * 10f64.powf(0.6) >= peak_e;
                 if tonal || transient || file_start {
-                    // Sample-accurate start: first sample reaching 30 % of the local peak.
-                    let a = j.saturating_sub(1) * hop;
-                    let b = ((j + 3) * hop + frame).min(x.len());
-                    // Sample-accurate start: the first sample that exceeds the level before
-                    // (the ring of an earlier tap, or the noise) by 30 % of the rise to the
-                    // local peak.
-                    let pk = x[a..b].iter().fold(0.0f32, |m, v| m.max(v.abs()));
-                    let before = x[a.saturating_sub(frame)..a].iter().fold(0.0f32, |m, v| m.max(v.abs()));
-                    let thr = before.min(pk) + 0.3 * (pk - before.min(pk));
-                    let s = a + x[a..b].iter().position(|v| v.abs() >= thr).unwrap_or(0);
+                    let s = sample_onset(x, j, hop, frame);
                     if onsets.last().is_none_or(|&(o, _)| s > o) {
                         // A quiet onset followed within `SAME_STRIKE_S` by one whose first
                         // 10 ms peak 10 dB over anything since was its precursor (a music box's pin lifting
@@ -427,7 +461,10 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
         ring[slot].copy_from_slice(&p);
     }
 
-    let mut out = Segmentation { noise_var: noise, noise_steps, ..Default::default() };
+    // (A restrike in the gap of an onset that a later strike made its precursor is that
+    // strike's business: only the impacts' own are kept.)
+    restrikes.retain(|&(_, o)| onsets.iter().any(|&(s, _)| s == o));
+    let mut out = Segmentation { noise_var: noise, noise_steps, restrikes, ..Default::default() };
     for &(o, db) in &precursors {
         // The reason starts with `PRECURSOR` ([`is_precursor`]).
         let next = onsets.iter().find(|p| p.0 > o).map_or(o + 1, |p| p.0);

@@ -414,6 +414,53 @@ fn a_strike_right_after_its_precursor_starts_where_it_rises() {
     assert!(late.iter().all(|&(_, dt)| dt.abs() < 3e-4), "onset minus strike, s: {late:?}");
 }
 
+/// A mallet's bounce or a flam on a wood block: a second strike 25–45 ms after the first,
+/// inside the 50 ms minimum gap, 6 dB or more over the first one's ring by then. It stays part of the impact (the gap holds) but is reported, with its time;
+/// the report says so in a warning.
+#[test]
+fn a_second_strike_inside_the_minimum_gap_is_reported() {
+    let fs = 44_100.0;
+    for (k, lag) in [0.025, 0.03, 0.045].into_iter().enumerate() {
+        let mut g = Gen(500 + k as u64);
+        let mut x = vec![0.0; (1.0 * fs) as usize];
+        let t0: f64 = 0.25;
+        for (t, a) in [(t0, 1.0), (t0 + lag, 0.9)] {
+            let i0 = (t * fs).round() as usize;
+            for i in 0..(0.001 * fs) as usize {
+                x[i0 + i] += 0.3 * a * (-(i as f64) / (0.0003 * fs)).exp() * g.normal();
+            }
+            // A wood block's fast modes.
+            for (f, d, b) in [(610.0, 80.0, 0.3), (1690.0, 120.0, 0.2), (3300.0, 200.0, 0.1)] {
+                add_mode(&mut x, fs, t, f, d, a * b);
+            }
+        }
+        for v in x.iter_mut() {
+            *v += 1e-5 * g.normal();
+        }
+        let x32: Vec<f32> = x.iter().map(|&v| v as f32).collect();
+        let seg = estimator::segment::segment(&x32, fs, &estimator::SegmentOptions::default());
+        let onsets: Vec<f64> = seg.impacts.iter().map(|i| i.start as f64 / fs).collect();
+        let again: Vec<f64> = seg.restrikes.iter().map(|r| r.0 as f64 / fs).collect();
+        eprintln!("bounce {lag} s after: onsets {onsets:?}, restrikes {again:?}");
+        assert_eq!(onsets.len(), 1, "bounce {lag} s after: {onsets:?}");
+        assert!((onsets[0] - t0).abs() < 3e-4, "{onsets:?}");
+        assert_eq!(again.len(), 1, "bounce {lag} s after: {again:?}");
+        assert!((again[0] - (t0 + lag)).abs() < 1e-3, "bounce at {} s, reported at {again:?}", t0 + lag);
+        assert_eq!(seg.restrikes[0].1, seg.impacts[0].start);
+        if k == 1 {
+            let p = write("bounce", &x, fs as u32);
+            let r = features(&p).unwrap();
+            assert!(
+                r.warnings
+                    .iter()
+                    .any(|w| w.contains("a second strike 30 ms after the one at 0.250 s") && w.contains("minimum gap")),
+                "{:?}",
+                r.warnings
+            );
+        }
+    }
+}
+
 /// The other side of a strike right after its precursor: a clean strike (three modes, no
 /// click, no precursor) whose first sample lands anywhere in a frame of the scan (its first
 /// onset frame may hold only its last few samples) is one impact from its first sample, never
@@ -455,7 +502,9 @@ fn a_clean_strike_is_never_its_own_precursor() {
         let precursor = seg.skipped.iter().any(|s| estimator::segment::is_precursor(&s.1));
         // (A soft attack's onset is where it reaches 30 % of its rise: within its 3 ms.)
         let tol = if soft { 3e-3 } else { 3e-4 };
-        if onsets.len() != 1 || (onsets[0] - t0).abs() > tol || onsets[0] < t0 - 3e-4 || precursor {
+        // ... and never a second strike of its own (`restrikes`).
+        let again = !seg.restrikes.is_empty();
+        if onsets.len() != 1 || (onsets[0] - t0).abs() > tol || onsets[0] < t0 - 3e-4 || precursor || again {
             bad.push((k, onsets, seg.skipped.len()));
         }
     }
