@@ -42,10 +42,10 @@
 //!   even within `min_gap_s` of the precursor (from its first 10 ms on: a strike that loud
 //!   within them is the precursor's own attack).
 //! - Any other strike within `min_gap_s` of an onset stays part of that impact, but one that
-//!   would be an onset were it not for the gap (from 15 ms after the onset on: the rules
-//!   above, or `rise_db` over the 10 ms before; broadband while it rings) is reported in
-//!   [`Segmentation::restrikes`] (a mallet's bounce, a flam): the impact's decays then mix
-//!   two strikes.
+//!   rises like an onset while the impact rings (from 15 ms after the onset on: the rise
+//!   rules above, or `rise_db` over the 10 ms before; broadband) is reported in
+//!   [`Segmentation::restrikes`] (a mallet's bounce, a flam) when it falls inside an
+//!   analysed impact: its decays then mix two strikes.
 
 use realfft::num_complex::Complex64 as C64;
 use realfft::RealFftPlanner;
@@ -360,6 +360,7 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
         let mut jump = false;
         let in_gap = j < next_allowed
             && !over_precursor
+            && ringing
             && onsets.last().is_some_and(|&(o, j0)| {
                 let soon_enough = j >= j0 + PRECURSOR_MIN_FRAMES + 2;
                 if soon_enough {
@@ -390,7 +391,7 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
             // to the highest was fooled by two beating partials far apart).
             let broadband = wide >= min_span;
             if in_gap {
-                if (jump || total_rise || bin_rise) && (!ringing || broadband) {
+                if (jump || total_rise || bin_rise) && broadband {
                     if let Some(&(o, _)) = onsets.last() {
                         restrikes.push((sample_onset(x, j, hop, frame).max(o + 1), o));
                     }
@@ -461,10 +462,7 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
         ring[slot].copy_from_slice(&p);
     }
 
-    // (A restrike in the gap of an onset that a later strike made its precursor is that
-    // strike's business: only the impacts' own are kept.)
-    restrikes.retain(|&(_, o)| onsets.iter().any(|&(s, _)| s == o));
-    let mut out = Segmentation { noise_var: noise, noise_steps, restrikes, ..Default::default() };
+    let mut out = Segmentation { noise_var: noise, noise_steps, ..Default::default() };
     for &(o, db) in &precursors {
         // The reason starts with `PRECURSOR` ([`is_precursor`]).
         let next = onsets.iter().find(|p| p.0 > o).map_or(o + 1, |p| p.0);
@@ -538,5 +536,10 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
             out.impacts.push(seg);
         }
     }
+    // Only restrikes inside an analysed impact, before its end (so never a strike that became
+    // an onset of its own right after the gap, nor one in a skipped segment or in the
+    // precursor of a later strike).
+    restrikes.retain(|&(r, o)| out.impacts.iter().any(|i| i.start == o && r < i.end));
+    out.restrikes = restrikes;
     out
 }

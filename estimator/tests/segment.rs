@@ -420,7 +420,9 @@ fn a_strike_right_after_its_precursor_starts_where_it_rises() {
 #[test]
 fn a_second_strike_inside_the_minimum_gap_is_reported() {
     let fs = 44_100.0;
-    for (k, lag) in [0.025, 0.03, 0.045].into_iter().enumerate() {
+    // (Past 45 ms, near the gap's end: a strike is either its own impact or reported, never
+    // both.)
+    for (k, lag) in [0.025, 0.03, 0.045, 0.048, 0.05, 0.052, 0.055].into_iter().enumerate() {
         let mut g = Gen(500 + k as u64);
         let mut x = vec![0.0; (1.0 * fs) as usize];
         let t0: f64 = 0.25;
@@ -442,6 +444,11 @@ fn a_second_strike_inside_the_minimum_gap_is_reported() {
         let onsets: Vec<f64> = seg.impacts.iter().map(|i| i.start as f64 / fs).collect();
         let again: Vec<f64> = seg.restrikes.iter().map(|r| r.0 as f64 / fs).collect();
         eprintln!("bounce {lag} s after: onsets {onsets:?}, restrikes {again:?}");
+        if k >= 3 {
+            let own = onsets.len() == 2 && again.is_empty() && (onsets[1] - (t0 + lag)).abs() < 1e-3;
+            assert!(own || (onsets.len() == 1 && again.len() == 1), "{lag}: {onsets:?} {again:?}");
+            continue;
+        }
         assert_eq!(onsets.len(), 1, "bounce {lag} s after: {onsets:?}");
         assert!((onsets[0] - t0).abs() < 3e-4, "{onsets:?}");
         assert_eq!(again.len(), 1, "bounce {lag} s after: {again:?}");
