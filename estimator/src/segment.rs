@@ -42,8 +42,9 @@
 //!   even within `min_gap_s` of the precursor (from its first 10 ms on: a strike that loud
 //!   within them is the precursor's own attack).
 //! - Any other strike within `min_gap_s` of an onset stays part of that impact, but one that
-//!   rises like an onset while the impact rings (from 15 ms after the onset on: the rise
-//!   rules above, or `rise_db` over the 10 ms before; broadband) is reported in
+//!   rises like an onset while the impact rings, after it fell `rise_db` from its peak (from
+//!   15 ms after the onset on: the rise rules above, or `rise_db` over the 10 ms before;
+//!   broadband) is reported in
 //!   [`Segmentation::restrikes`] (a mallet's bounce, a flam) when it falls inside an
 //!   analysed impact: its decays then mix two strikes.
 
@@ -362,7 +363,12 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
             && !over_precursor
             && ringing
             && onsets.last().is_some_and(|&(o, j0)| {
-                let soon_enough = j >= j0 + PRECURSOR_MIN_FRAMES + 2;
+                // ... and only after the impact fell from its peak: a frame after the peak so
+                // far is `rise_db` under it (a slow attack or a swell still rising has none).
+                let soon_enough = j >= j0 + PRECURSOR_MIN_FRAMES + 2 && {
+                    let jp = (j0..j).max_by(|&a, &b| e[a].total_cmp(&e[b])).unwrap_or(j0);
+                    e[jp + 1..j].iter().any(|&v| v * rise <= e[jp])
+                };
                 if soon_enough {
                     let before = e[(j0 + PRECURSOR_MIN_FRAMES).max(j - 4)..j].iter().fold(0.0f64, |m, &v| m.max(v));
                     jump = e[j..(j + 4).min(nfr)].iter().fold(0.0f64, |m, &v| m.max(v)) >= rise * before;

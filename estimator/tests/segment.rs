@@ -468,6 +468,44 @@ fn a_second_strike_inside_the_minimum_gap_is_reported() {
     }
 }
 
+/// A single strike with a slow attack (a soft mallet, a swell: raised-cosine and linear
+/// rises of 10–50 ms, found by the black-box tester) is never reported as a second strike.
+#[test]
+fn a_slow_attack_is_not_a_second_strike() {
+    let fs = 44_100.0;
+    let mut bad = Vec::new();
+    for (k, (rise_s, linear)) in
+        [(0.01, false), (0.02, false), (0.03, false), (0.05, false), (0.02, true), (0.035, true), (0.05, true)]
+            .into_iter()
+            .enumerate()
+    {
+        let mut g = Gen(700 + k as u64);
+        let mut x = vec![0.0; fs as usize];
+        let t0 = 0.1;
+        for (f, d, a) in
+            [(523.0, 8.0, 1.0), (1443.0, 20.0, 0.5), (2827.0, 40.0, 0.3), (4673.0, 70.0, 0.2), (6980.0, 110.0, 0.1)]
+        {
+            add_mode(&mut x, fs, t0, f, d, 0.3 * a);
+        }
+        let i0 = (t0 * fs).round() as usize;
+        for (i, v) in x.iter_mut().enumerate().skip(i0) {
+            let t = (i - i0) as f64 / fs;
+            if t < rise_s {
+                *v *= if linear { t / rise_s } else { 0.5 - 0.5 * (std::f64::consts::PI * t / rise_s).cos() };
+            }
+        }
+        for v in x.iter_mut() {
+            *v += 1e-4 * g.normal();
+        }
+        let x32: Vec<f32> = x.iter().map(|&v| v as f32).collect();
+        let seg = estimator::segment::segment(&x32, fs, &estimator::SegmentOptions::default());
+        if !seg.restrikes.is_empty() {
+            bad.push((rise_s, linear, seg.restrikes.clone()));
+        }
+    }
+    assert!(bad.is_empty(), "(rise s, linear, restrikes): {bad:?}");
+}
+
 /// The other side of a strike right after its precursor: a clean strike (three modes, no
 /// click, no precursor) whose first sample lands anywhere in a frame of the scan (its first
 /// onset frame may hold only its last few samples) is one impact from its first sample, never
