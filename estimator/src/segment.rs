@@ -358,23 +358,21 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
         // on, what would be an onset were it not for the gap, or `rise_db` over the 10 ms
         // before (none of them in the impact's first 10 ms: the 20 ms mean of the onset rule
         // still holds the first strike's attack); one per impact.
-        let mut jump = false;
-        let in_gap = j < next_allowed
-            && !over_precursor
-            && ringing
-            && onsets.last().is_some_and(|&(o, j0)| {
-                // ... and only after the impact fell from its peak: a frame after the peak so
-                // far is `rise_db` under it (a slow attack or a swell still rising has none).
-                let soon_enough = j >= j0 + PRECURSOR_MIN_FRAMES + 2 && {
+        // The impact a second strike at `j` would fall in: only after it fell from its peak (a
+        // frame after the peak so far `rise_db` under it: a slow attack or a swell still rising
+        // has none).
+        let gap_onset = onsets.last().copied().filter(|&(o, j0)| {
+            j < next_allowed
+                && !over_precursor
+                && ringing
+                && j >= j0 + PRECURSOR_MIN_FRAMES + 2
+                && restrikes.last().is_none_or(|&(_, at)| at != o)
+                && {
                     let jp = (j0..j).max_by(|&a, &b| e[a].total_cmp(&e[b])).unwrap_or(j0);
                     e[jp + 1..j].iter().any(|&v| v * rise <= e[jp])
-                };
-                if soon_enough {
-                    let before = e[(j0 + PRECURSOR_MIN_FRAMES).max(j - 4)..j].iter().fold(0.0f64, |m, &v| m.max(v));
-                    jump = e[j..(j + 4).min(nfr)].iter().fold(0.0f64, |m, &v| m.max(v)) >= rise * before;
                 }
-                soon_enough && restrikes.last().is_none_or(|&(_, at)| at != o)
-            });
+        });
+        let in_gap = gap_onset.is_some();
         if (j >= next_allowed || over_precursor || in_gap) && e[j] > onset_thr && !same {
             let total_rise = e[j] > rise * prev_e.max(noise);
             let (mut new_e, mut wide) = (0.0, 0);
@@ -396,11 +394,11 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
             // Broadband: the risen bins add up to `MIN_NEW_SPAN_HZ` (the span from the lowest
             // to the highest was fooled by two beating partials far apart).
             let broadband = wide >= min_span;
-            if in_gap {
+            if let Some((o, j0)) = gap_onset {
+                let before = e[(j0 + PRECURSOR_MIN_FRAMES).max(j - 4)..j].iter().fold(0.0f64, |m, &v| m.max(v));
+                let jump = e[j..(j + 4).min(nfr)].iter().fold(0.0f64, |m, &v| m.max(v)) >= rise * before;
                 if (jump || total_rise || bin_rise) && broadband {
-                    if let Some(&(o, _)) = onsets.last() {
-                        restrikes.push((sample_onset(x, j, hop, frame).max(o + 1), o));
-                    }
+                    restrikes.push((sample_onset(x, j, hop, frame), o));
                 }
             } else if (total_rise || bin_rise) && (!ringing || broadband) {
                 // Tonal or transient, else a noise floor step.

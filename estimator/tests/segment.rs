@@ -24,6 +24,12 @@ fn add_mode(x: &mut [f64], fs: f64, t0: f64, f: f64, d: f64, a: f64) {
     }
 }
 
+/// Segments `x` (as the f32 samples a file would hold) with the default options.
+fn segment(x: &[f64], fs: f64) -> estimator::segment::Segmentation {
+    let x32: Vec<f32> = x.iter().map(|&v| v as f32).collect();
+    estimator::segment::segment(&x32, fs, &estimator::SegmentOptions::default())
+}
+
 fn write(name: &str, x: &[f64], fs: u32) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("struck-seg-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
@@ -182,8 +188,7 @@ fn tap_at_the_very_end_of_a_file() {
     let mut x = vec![0.0f64; (0.5 * fs) as usize];
     let t0 = 0.5 - 0.003;
     add_mode(&mut x, fs, t0, 1000.0, 20.0, 0.5);
-    let x32: Vec<f32> = x.iter().map(|&v| v as f32).collect();
-    let seg = estimator::segment::segment(&x32, fs, &estimator::SegmentOptions::default());
+    let seg = segment(&x, fs);
     assert!(seg.impacts.is_empty(), "{:?}", seg.impacts);
     assert_eq!(seg.skipped.len(), 1, "{:?}", seg.skipped);
     assert!(seg.skipped[0].1.contains("too short"), "{:?}", seg.skipped);
@@ -335,8 +340,7 @@ fn pieces_of_one_strike_are_one_impact() {
         add_mode(&mut beats, fs, 0.05, f, 1.0, a);
     }
     for (name, x, t0) in [("precursor", pre, 0.25), ("gated-tail", gated, 0.05), ("beating-doublets", beats, 0.05)] {
-        let x32: Vec<f32> = x.iter().map(|&v| v as f32).collect();
-        let seg = estimator::segment::segment(&x32, fs, &estimator::SegmentOptions::default());
+        let seg = segment(&x, fs);
         let onsets: Vec<f64> = seg.impacts.iter().map(|i| i.start as f64 / fs).collect();
         eprintln!("{name}: onsets {onsets:?}, skipped {:?}", seg.skipped);
         assert_eq!(onsets.len(), 1, "{name}: {onsets:?}");
@@ -366,8 +370,7 @@ fn a_soft_tap_after_a_decayed_ring_is_a_strike() {
     for v in x.iter_mut() {
         *v += 3e-5 * g.normal();
     }
-    let x32: Vec<f32> = x.iter().map(|&v| v as f32).collect();
-    let seg = estimator::segment::segment(&x32, fs, &estimator::SegmentOptions::default());
+    let seg = segment(&x, fs);
     let onsets: Vec<f64> = seg.impacts.iter().map(|i| i.start as f64 / fs).collect();
     eprintln!("onsets {onsets:?}, skipped {:?}", seg.skipped);
     assert_eq!(onsets.len(), 2, "{onsets:?}");
@@ -403,8 +406,7 @@ fn a_strike_right_after_its_precursor_starts_where_it_rises() {
         for v in x.iter_mut() {
             *v += 1e-5 * g.normal();
         }
-        let x32: Vec<f32> = x.iter().map(|&v| v as f32).collect();
-        let seg = estimator::segment::segment(&x32, fs, &estimator::SegmentOptions::default());
+        let seg = segment(&x, fs);
         let onsets: Vec<f64> = seg.impacts.iter().map(|i| i.start as f64 / fs).collect();
         eprintln!("precursor {lead} s before: onsets {onsets:?}, skipped {:?}", seg.skipped);
         assert_eq!(onsets.len(), 1, "precursor {lead} s before: {onsets:?}");
@@ -439,8 +441,7 @@ fn a_second_strike_inside_the_minimum_gap_is_reported() {
         for v in x.iter_mut() {
             *v += 1e-5 * g.normal();
         }
-        let x32: Vec<f32> = x.iter().map(|&v| v as f32).collect();
-        let seg = estimator::segment::segment(&x32, fs, &estimator::SegmentOptions::default());
+        let seg = segment(&x, fs);
         let onsets: Vec<f64> = seg.impacts.iter().map(|i| i.start as f64 / fs).collect();
         let again: Vec<f64> = seg.restrikes.iter().map(|r| r.0 as f64 / fs).collect();
         eprintln!("bounce {lag} s after: onsets {onsets:?}, restrikes {again:?}");
@@ -497,8 +498,7 @@ fn a_slow_attack_is_not_a_second_strike() {
         for v in x.iter_mut() {
             *v += 1e-4 * g.normal();
         }
-        let x32: Vec<f32> = x.iter().map(|&v| v as f32).collect();
-        let seg = estimator::segment::segment(&x32, fs, &estimator::SegmentOptions::default());
+        let seg = segment(&x, fs);
         if !seg.restrikes.is_empty() {
             bad.push((rise_s, linear, seg.restrikes.clone()));
         }
@@ -541,8 +541,7 @@ fn a_clean_strike_is_never_its_own_precursor() {
         for v in x.iter_mut() {
             *v += 1e-5 * g.normal();
         }
-        let x32: Vec<f32> = x.iter().map(|&v| v as f32).collect();
-        let seg = estimator::segment::segment(&x32, fs, &estimator::SegmentOptions::default());
+        let seg = segment(&x, fs);
         let onsets: Vec<f64> = seg.impacts.iter().map(|i| i.start as f64 / fs).collect();
         let precursor = seg.skipped.iter().any(|s| estimator::segment::is_precursor(&s.1));
         // (A soft attack's onset is where it reaches 30 % of its rise: within its 3 ms.)
