@@ -41,6 +41,10 @@
 //!   mallet grazing first): it is reported as skipped and the strike starts at the loud onset,
 //!   even within `min_gap_s` of the precursor (from its first 10 ms on: a strike that loud
 //!   within them is the precursor's own attack).
+//! - The minimum gap (`min_gap_s`) counts from the onset's frame, so it ends 45–50 ms after
+//!   the onset sample, and holds only while the impact rings: a tick that decayed into the
+//!   floor or 40 dB under its peak (`RANG_OUT_DB`) within it is over, and what rises next is a strike of its own (the tick is then
+//!   analysed up to it, or skipped as too short, which the report says).
 //! - Any other strike within `min_gap_s` of an onset stays part of that impact, but one that
 //!   rises like an onset while the impact rings, after it fell `rise_db` from its peak (from
 //!   15 ms after the onset on: the rise rules above, or `rise_db` over the 10 ms before;
@@ -123,6 +127,9 @@ const PRECURSOR_DB_RATIO: f64 = 10.0;
 /// Frames (2.5 ms hops) of a possible precursor's own start, its first 10 ms, that a strike
 /// making it a precursor must come after and be compared with.
 const PRECURSOR_MIN_FRAMES: usize = 4;
+/// An impact that fell this far under its peak (or into the floor) no longer holds the
+/// minimum gap: what is left of its ring is negligible, a strike then is one of its own, dB.
+const RANG_OUT_DB: f64 = 40.0;
 /// New bins of an onset during a ring must add up to at least this, Hz.
 const MIN_NEW_SPAN_HZ: f64 = 1500.0;
 /// Share of the following 10 ms's energy in spectral peaks that makes a candidate tonal.
@@ -301,7 +308,8 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
     let mut nu = vec![0.0; nfr];
     let mut onsets: Vec<(usize, usize)> = Vec::new(); // (sample, frame)
     let mut noise_steps = Vec::new();
-    let mut next_allowed = 0;
+    // The minimum gap after the last onset, and the hold after a noise step, in frames.
+    let (mut gap_until, mut hold_until) = (0, 0);
     let mut ringing = false;
     let mut quiet = 0;
     let mut end_thr = 2.0 * noise;
@@ -316,6 +324,10 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
         nu[j] = flat_level(&p, &mut scratch);
         let nprev = j.min(back);
         let prev_e = if nprev == 0 { 0.0 } else { e[j - nprev..j].iter().sum::<f64>() / nprev as f64 };
+        // The ring was in the floor, or `RANG_OUT_DB` under its peak, for the last two frames
+        // (7.5 ms of samples): what is left of it is negligible.
+        let was_quiet = ringing
+            && (quiet >= 2 || (j >= 2 && e[j - 2].max(e[j - 1]) * 10f64.powf(RANG_OUT_DB / 10.0) < impact_peak));
         if ringing {
             // Decayed into the local floor: four frames under twice the floor before the onset.
             quiet = if e[j] < end_thr { quiet + 1 } else { 0 };
@@ -348,7 +360,13 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
         // onset's own first 10 ms are in (a first frame may hold only a strike's first few
         // samples): the gap would otherwise hold its onset back until its rise is over
         // (issue 10: music boxes).
-        let over_precursor = j < next_allowed
+        // The gap holds only while the impact rings (or was cut to digital silence and may
+        // come back): once a tick has decayed into the floor or 40 dB (the last two frames), what
+        // rises next is a new strike, not part of it (issue 10: a fast tick and a louder
+        // strike 30–40 ms later were one 30 ms impact, the strike dropped unsaid).
+        let in_ring = if ringing { !was_quiet } else { gated_end };
+        let blocked = (j < gap_until && in_ring) || j < hold_until;
+        let over_precursor = blocked
             && onsets.last().is_some_and(|&(_, j0)| {
                 let since = e[j0..j].iter().fold(0.0f64, |m, &v| m.max(v));
                 let e_on = e[j..(j + 4).min(nfr)].iter().fold(0.0f64, |m, &v| m.max(v));
@@ -362,7 +380,7 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
         // frame after the peak so far `rise_db` under it: a slow attack or a swell still rising
         // has none).
         let gap_onset = onsets.last().copied().filter(|&(o, j0)| {
-            j < next_allowed
+            blocked
                 && !over_precursor
                 && ringing
                 && j >= j0 + PRECURSOR_MIN_FRAMES + 2
@@ -373,7 +391,7 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
                 }
         });
         let in_gap = gap_onset.is_some();
-        if (j >= next_allowed || over_precursor || in_gap) && e[j] > onset_thr && !same {
+        if (!blocked || over_precursor || in_gap) && e[j] > onset_thr && !same {
             let total_rise = e[j] > rise * prev_e.max(noise);
             let (mut new_e, mut wide) = (0.0, 0);
             let prev_tot: f64 = if nprev == 0 { 0.0 } else { prev_sum.iter().sum::<f64>() / nprev as f64 };
@@ -451,10 +469,10 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
                         quiet = 0;
                         impact_peak = e[j];
                     }
-                    next_allowed = next_allowed.max(j + gap);
+                    gap_until = gap_until.max(j + gap);
                 } else if !over_precursor {
                     noise_steps.push(j * hop);
-                    next_allowed = next_allowed.max(j + back);
+                    hold_until = hold_until.max(j + back);
                 }
             }
         }
