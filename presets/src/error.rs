@@ -17,6 +17,16 @@ pub enum PresetError {
         source: std::io::Error,
     },
 
+    /// The file was read but is not UTF-8 text (a UTF-16 file from a Windows editor, a
+    /// Latin-1 one).
+    #[error("preset file `{}` is not UTF-8 text ({found}). Save it as UTF-8 in your editor, or re-export the preset from Struck", path.display())]
+    Encoding {
+        /// The file that was read.
+        path: PathBuf,
+        /// What it looks like instead, and where the first byte that is not UTF-8 is.
+        found: String,
+    },
+
     /// Writing a file failed (nothing was replaced).
     #[error(transparent)]
     Output(#[from] crate::output::OutputError),

@@ -155,9 +155,28 @@ pub(crate) fn to_pretty<T: Serialize>(value: &T) -> String {
     s
 }
 
-/// Reads a whole file, mapping failure to [`PresetError::Io`] with the path.
+/// Reads a whole file, mapping failure to [`PresetError::Io`] with the path, and text that is
+/// not UTF-8 to [`PresetError::Encoding`] saying what it looks like.
 pub(crate) fn read(path: &Path) -> Result<String, PresetError> {
-    std::fs::read_to_string(path).map_err(|source| PresetError::Io { path: path.to_path_buf(), source })
+    let bytes = std::fs::read(path).map_err(|source| PresetError::Io { path: path.to_path_buf(), source })?;
+    // UTF-16 or UTF-32 of ASCII text without a byte-order mark is valid UTF-8 (NUL bytes
+    // between the characters): a NUL in the first two bytes is never JSON.
+    if bytes.len() >= 2 && (bytes[0] == 0 || bytes[1] == 0) {
+        let found = "it looks like UTF-16 or UTF-32: NUL bytes between the characters".to_string();
+        return Err(PresetError::Encoding { path: path.to_path_buf(), found });
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        let b = e.as_bytes();
+        let at = e.utf8_error().valid_up_to();
+        let found = if b.starts_with(&[0, 0, 0xfe, 0xff]) || b.starts_with(&[0xff, 0xfe, 0, 0]) {
+            "it is UTF-32".to_string()
+        } else if b.starts_with(&[0xfe, 0xff]) || b.starts_with(&[0xff, 0xfe]) {
+            "it is UTF-16".to_string()
+        } else {
+            format!("byte 0x{:02x} at offset {at} is not UTF-8; Latin-1 or another 8-bit encoding?", b[at])
+        };
+        PresetError::Encoding { path: path.to_path_buf(), found }
+    })
 }
 
 /// Writes `text` to `path` through a temporary file in the same folder and a rename

@@ -332,3 +332,26 @@ fn a_preset_file_with_a_byte_order_mark_loads() {
     let b = small_bank();
     assert_eq!(Bank::from_json(&format!("\u{feff}{}", b.to_json())).unwrap(), b);
 }
+
+/// A preset saved in another encoding (UTF-16 from a Windows editor, with or without its
+/// byte-order mark; Latin-1) is refused with an error that names the encoding and the file,
+/// not a "could not access" one (the black-box tester's finding).
+#[test]
+fn a_preset_file_in_another_encoding_says_so() {
+    let text = factory_material("glass-ren2013").unwrap().to_json();
+    let utf16: Vec<u8> = text.encode_utf16().flat_map(|u| u.to_le_bytes()).collect();
+    let with_bom: Vec<u8> = [0xff, 0xfe].into_iter().chain(utf16.iter().copied()).collect();
+    let latin1: Vec<u8> = text.replacen("\"name\": \"", "\"name\": \"caf\u{e9} ", 1).chars().map(|c| c as u8).collect();
+    for (name, bytes, says) in
+        [("utf16-bom.json", with_bom, "UTF-16"), ("utf16.json", utf16, "UTF-16"), ("latin1.json", latin1, "byte 0xe9")]
+    {
+        let path = scratch(name);
+        std::fs::write(&path, &bytes).unwrap();
+        for err in [Material::load(&path).unwrap_err(), Bank::load(&path).unwrap_err()] {
+            let msg = err.to_string();
+            assert!(matches!(err, PresetError::Encoding { .. }), "{name}: {msg}");
+            assert!(msg.contains(name) && msg.contains("not UTF-8") && msg.contains(says), "{name}: {msg}");
+            assert!(!msg.contains('\n'), "{msg}");
+        }
+    }
+}
