@@ -8,7 +8,7 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum PresetError {
     /// Reading a file failed.
-    #[error("could not access preset file `{}`: {source}. Check that the path exists and that Struck may read and write it", path.display())]
+    #[error("could not access preset file `{}`: {source}. Check that the path exists and that Struck may access it", path.display())]
     Io {
         /// The file that was being read or written.
         path: PathBuf,
