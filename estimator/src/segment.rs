@@ -43,8 +43,9 @@
 //!   within them is the precursor's own attack).
 //! - The minimum gap (`min_gap_s`) counts from the onset's frame, so it ends 45–50 ms after
 //!   the onset sample, and holds only while the impact rings: a tick that decayed into the
-//!   floor or 40 dB under its peak (`RANG_OUT_DB`) within it is over, and what rises next is a strike of its own (the tick is then
-//!   analysed up to it, or skipped as too short, which the report says).
+//!   floor or 40 dB under its peak (`RANG_OUT_DB`) within it is over, and what rises next is
+//!   a strike of its own (the tick is then analysed up to it, or skipped as too short, which
+//!   the report says).
 //! - Any other strike within `min_gap_s` of an onset stays part of that impact, but one that
 //!   rises like an onset while the impact rings, after it fell `rise_db` from its peak (from
 //!   15 ms after the onset on: the rise rules above, or `rise_db` over the 10 ms before;
@@ -361,9 +362,9 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
         // samples): the gap would otherwise hold its onset back until its rise is over
         // (issue 10: music boxes).
         // The gap holds only while the impact rings (or was cut to digital silence and may
-        // come back): once a tick has decayed into the floor or 40 dB (the last two frames), what
-        // rises next is a new strike, not part of it (issue 10: a fast tick and a louder
-        // strike 30–40 ms later were one 30 ms impact, the strike dropped unsaid).
+        // come back): once a tick has decayed into the floor or 40 dB under its peak (the last
+        // two frames), what rises next is a new strike, not part of it (issue 10: a fast tick
+        // and a louder strike 30–40 ms later were one 30 ms impact, the strike dropped unsaid).
         let in_ring = if ringing { !was_quiet } else { gated_end };
         let blocked = (j < gap_until && in_ring) || j < hold_until;
         let over_precursor = blocked
