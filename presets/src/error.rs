@@ -18,7 +18,7 @@ pub enum PresetError {
     },
 
     /// The file was read but is not UTF-8 text (a UTF-16 file from a Windows editor, a
-    /// Latin-1 one).
+    /// Latin-1 one, a damaged one with NUL bytes).
     #[error("preset file `{}` is not UTF-8 text ({found}). Save it as UTF-8 in your editor, or re-export the preset from Struck", path.display())]
     Encoding {
         /// The file that was read.

@@ -156,7 +156,8 @@ pub(crate) fn to_pretty<T: Serialize>(value: &T) -> String {
 }
 
 /// Reads a whole file, mapping failure to [`PresetError::Io`] with the path, and text that is
-/// not UTF-8 to [`PresetError::Encoding`] saying what it looks like.
+/// not UTF-8 (or holds a NUL byte: damaged) to [`PresetError::Encoding`] saying what it
+/// looks like.
 pub(crate) fn read(path: &Path) -> Result<String, PresetError> {
     let bytes = std::fs::read(path).map_err(|source| PresetError::Io { path: path.to_path_buf(), source })?;
     // UTF-16 or UTF-32 of ASCII text without a byte-order mark is valid UTF-8 (NUL bytes
@@ -165,7 +166,7 @@ pub(crate) fn read(path: &Path) -> Result<String, PresetError> {
         let found = "it looks like UTF-16 or UTF-32: NUL bytes between the characters".to_string();
         return Err(PresetError::Encoding { path: path.to_path_buf(), found });
     }
-    String::from_utf8(bytes).map_err(|e| {
+    let text = String::from_utf8(bytes).map_err(|e| {
         let b = e.as_bytes();
         let at = e.utf8_error().valid_up_to();
         let found = if b.starts_with(&[0, 0, 0xfe, 0xff]) || b.starts_with(&[0xff, 0xfe, 0, 0]) {
@@ -176,7 +177,16 @@ pub(crate) fn read(path: &Path) -> Result<String, PresetError> {
             format!("byte 0x{:02x} at offset {at} is not UTF-8; Latin-1 or another 8-bit encoding?", b[at])
         };
         PresetError::Encoding { path: path.to_path_buf(), found }
-    })
+    })?;
+    // A NUL byte is never JSON (in a string it must be escaped): a damaged file (a crash
+    // mid-write by another program, a disk error) or a binary one, which serde would report
+    // as a "control character" somewhere.
+    if let Some(at) = text.bytes().position(|b| b == 0) {
+        let line = 1 + text.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count();
+        let found = format!("a NUL byte at offset {at} (line {line}): the file is damaged or not text");
+        return Err(PresetError::Encoding { path: path.to_path_buf(), found });
+    }
+    Ok(text)
 }
 
 /// Writes `text` to `path` through a temporary file in the same folder and a rename

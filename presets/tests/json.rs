@@ -342,15 +342,23 @@ fn a_preset_file_in_another_encoding_says_so() {
     let utf16: Vec<u8> = text.encode_utf16().flat_map(|u| u.to_le_bytes()).collect();
     let with_bom: Vec<u8> = [0xff, 0xfe].into_iter().chain(utf16.iter().copied()).collect();
     let latin1: Vec<u8> = text.replacen("\"name\": \"", "\"name\": \"caf\u{e9} ", 1).chars().map(|c| c as u8).collect();
-    for (name, bytes, says) in
-        [("utf16-bom.json", with_bom, "UTF-16"), ("utf16.json", utf16, "UTF-16"), ("latin1.json", latin1, "byte 0xe9")]
-    {
+    // A NUL in the middle of UTF-8 text (a damaged file): named, with its line.
+    let mut damaged = text.clone().into_bytes();
+    let at = damaged.iter().enumerate().filter(|(_, &b)| b == b'\n').nth(7).unwrap().0 + 3;
+    damaged[at] = 0;
+    for (name, bytes, says) in [
+        ("utf16-bom.json", with_bom, "UTF-16"),
+        ("utf16.json", utf16, "UTF-16"),
+        ("latin1.json", latin1, "byte 0xe9"),
+        ("nul.json", damaged, "NUL byte at offset"),
+    ] {
         let path = scratch(name);
         std::fs::write(&path, &bytes).unwrap();
         for err in [Material::load(&path).unwrap_err(), Bank::load(&path).unwrap_err()] {
             let msg = err.to_string();
             assert!(matches!(err, PresetError::Encoding { .. }), "{name}: {msg}");
             assert!(msg.contains(name) && msg.contains("not UTF-8") && msg.contains(says), "{name}: {msg}");
+            assert!(name != "nul.json" || msg.contains("(line 9)"), "{msg}");
             assert!(!msg.contains('\n'), "{msg}");
         }
     }
