@@ -36,6 +36,18 @@
 //! - While an impact rings, its new bins must be broad: the bins that rose and lie within
 //!   30 dB of the frame's strongest add up to `MIN_NEW_SPAN_HZ` (two beating partials far
 //!   apart rise together but are not broad).
+//! - ... or the strike must break the ring's prediction: a strike that re-excites only the
+//!   partials already ringing (a soft mallet: no click, no new band, and a rise of each
+//!   partial that depends on its phase against the ring) is seen by a linear predictor of
+//!   order 24 fitted to the 40 ms of ring that end a hop before the frame (covariance
+//!   method, [`RingPredictor`]). Decaying partials are predicted to the noise whatever their
+//!   amplitudes and beating; a strike's force is not. The frame's prediction error must jump
+//!   `LP_JUMP_DB` (12 dB) over the largest of the 20 ms before, the energy rise 1.5 dB, and
+//!   the ring have fallen 3 dB from its peak (a sample library's glitch does not raise the
+//!   energy, an attack still building has not fallen); the onset is the first sample whose
+//!   error is 15 dB over the ring's. This is the excitation a modal model leaves in its
+//!   residual (the force convolved with the modes' zeros), the same idea as Ren et al.
+//!   2013's residual (§6.1), here run forward in time.
 //! - The other way round, an onset followed within `SAME_STRIKE_S` by one 10 dB louder than
 //!   anything since was that strike's precursor (a music box's pin lifting the tooth, a
 //!   mallet grazing first): it is reported as skipped and the strike starts at the loud onset,
@@ -241,6 +253,156 @@ fn long_tonal_share(x: &[f32], a: usize, len: usize, fft: &mut std::sync::Arc<dy
     tonal_share(&p)
 }
 
+/// Order of the linear predictor that follows a ring (12 partials).
+const LP_ORDER: usize = 24;
+/// Its training window, s: the 40 ms that end a hop before the frame it predicts.
+const LP_TRAIN_S: f64 = 0.04;
+/// A strike on a ringing object that re-excites only the partials already ringing: the
+/// prediction error of the frame (and the next) rose this far over the largest of the 20 ms
+/// before (module docs), dB.
+const LP_JUMP_DB: f64 = 12.0;
+/// ... while the frame energy rose by this much over the 12.5 ms before, dB ...
+const LP_ENERGY_RISE_DB: f64 = 1.5;
+/// ... after the ring had fallen this far from its peak (not still in its attack), dB.
+const LP_FALLEN_DB: f64 = 3.0;
+
+/// Prediction error of frames by a linear predictor fitted to the ring just before them
+/// (covariance method: least squares over the training window, no window function, so a
+/// sum of decaying sinusoids is predicted to the noise). A ring is predictable whatever
+/// its partials' amplitudes or beating; a strike's force is not, so the error jumps where
+/// a strike lands even when it re-excites only the partials already ringing, in any phase
+/// (issue 10: a soft mallet's second strike on a ringing bell).
+struct RingPredictor<'a> {
+    x: &'a [f32],
+    hop: usize,
+    frame: usize,
+    train: usize,
+    /// Mean squared error per frame, NaN until computed.
+    err: Vec<f64>,
+    /// Covariance Φ[k][l] = Σ x[n−k] x[n−l] over the training window, k, l ∈ 0..=LP_ORDER.
+    phi: Vec<f64>,
+    coef: Vec<f64>,
+}
+
+impl<'a> RingPredictor<'a> {
+    fn new(x: &'a [f32], fs: f64, hop: usize, frame: usize, nfr: usize) -> Self {
+        let n = LP_ORDER + 1;
+        Self {
+            x,
+            hop,
+            frame,
+            train: (LP_TRAIN_S * fs) as usize,
+            err: vec![f64::NAN; nfr],
+            phi: vec![0.0; n * n],
+            coef: vec![0.0; LP_ORDER],
+        }
+    }
+
+    /// First sample of the training window of frame `j` (None when the file starts later).
+    fn train_start(&self, j: usize) -> Option<usize> {
+        (j * self.hop).checked_sub(self.hop + self.train).filter(|&t0| t0 > LP_ORDER)
+    }
+
+    /// Fits the predictor of frame `j` into `coef`; false when the window is silent.
+    fn fit(&mut self, j: usize) -> bool {
+        let Some(t0) = self.train_start(j) else { return false };
+        let t1 = t0 + self.train;
+        let n = LP_ORDER + 1;
+        let x = |i: usize| f64::from(self.x[i]);
+        // First row directly, the rest by the shift recursion
+        // Φ[k+1][l+1] = Φ[k][l] + x[t0−1−k] x[t0−1−l] − x[t1−1−k] x[t1−1−l].
+        for l in 0..n {
+            self.phi[l] = (t0..t1).map(|i| x(i) * x(i - l)).sum();
+        }
+        for k in 0..LP_ORDER {
+            for l in k..LP_ORDER {
+                let v = self.phi[k * n + l] + x(t0 - 1 - k) * x(t0 - 1 - l) - x(t1 - 1 - k) * x(t1 - 1 - l);
+                self.phi[(k + 1) * n + l + 1] = v;
+            }
+        }
+        for k in 1..n {
+            for l in 0..k {
+                self.phi[k * n + l] = self.phi[l * n + k];
+            }
+        }
+        // Normal equations Σ_l Φ[k][l] c_l = Φ[k][0], k, l ∈ 1..=p, by Cholesky, with a
+        // diagonal loading of 1e-9 of the mean power (a ring of few partials in little noise
+        // leaves Φ nearly singular).
+        let load = 1e-9 * (1..n).map(|k| self.phi[k * n + k]).sum::<f64>() / LP_ORDER as f64;
+        if load <= 0.0 || !load.is_finite() {
+            return false;
+        }
+        let p = LP_ORDER;
+        let mut l_mat = [[0.0f64; LP_ORDER]; LP_ORDER];
+        for i in 0..p {
+            for jj in 0..=i {
+                let mut s = self.phi[(i + 1) * n + jj + 1] + if i == jj { load } else { 0.0 };
+                for k in 0..jj {
+                    s -= l_mat[i][k] * l_mat[jj][k];
+                }
+                if i == jj {
+                    if s <= 0.0 {
+                        return false;
+                    }
+                    l_mat[i][i] = s.sqrt();
+                } else {
+                    l_mat[i][jj] = s / l_mat[jj][jj];
+                }
+            }
+        }
+        // L y = b, Lᵀ c = y.
+        for i in 0..p {
+            let mut s = self.phi[(i + 1) * n];
+            for k in 0..i {
+                s -= l_mat[i][k] * self.coef[k];
+            }
+            self.coef[i] = s / l_mat[i][i];
+        }
+        for i in (0..p).rev() {
+            let mut s = self.coef[i];
+            for k in i + 1..p {
+                s -= l_mat[k][i] * self.coef[k];
+            }
+            self.coef[i] = s / l_mat[i][i];
+        }
+        true
+    }
+
+    /// Prediction error at sample `i` with the fitted coefficients.
+    fn error_at(&self, i: usize) -> f64 {
+        let pred: f64 = self.coef.iter().enumerate().map(|(k, c)| c * f64::from(self.x[i - 1 - k])).sum();
+        f64::from(self.x[i]) - pred
+    }
+
+    /// Mean squared prediction error of frame `j` (None before the first training window
+    /// or on digital silence).
+    fn error(&mut self, j: usize) -> Option<f64> {
+        if j >= self.err.len() {
+            return None;
+        }
+        if self.err[j].is_nan() {
+            let a = j * self.hop;
+            self.err[j] = if self.fit(j) {
+                (a..a + self.frame).map(|i| self.error_at(i).powi(2)).sum::<f64>() / self.frame as f64
+            } else {
+                f64::INFINITY
+            };
+        }
+        Some(self.err[j]).filter(|v| v.is_finite())
+    }
+
+    /// First sample from frame `j − 1` on, to the end of frame `j`, whose squared prediction
+    /// error (with the predictor of frame `j − 1`) exceeds `level`, if any.
+    fn first_over(&mut self, j: usize, level: f64) -> Option<usize> {
+        let jf = j.checked_sub(1)?;
+        if !self.fit(jf) {
+            return None;
+        }
+        let a = jf * self.hop;
+        (a..(a + self.hop + self.frame).min(self.x.len())).find(|&i| self.error_at(i).powi(2) > level)
+    }
+}
+
 /// Sample-accurate start of an onset found at frame `j`: the first sample that exceeds the
 /// level before (the ring of an earlier tap, or the noise) by 30 % of the rise to the local
 /// peak.
@@ -251,6 +413,35 @@ fn sample_onset(x: &[f32], j: usize, hop: usize, frame: usize) -> usize {
     let before = x[a.saturating_sub(frame)..a].iter().fold(0.0f32, |m, v| m.max(v.abs()));
     let thr = before.min(pk) + 0.3 * (pk - before.min(pk));
     a + x[a..b].iter().position(|v| v.abs() >= thr).unwrap_or(0)
+}
+
+/// A strike at frame `j` on an object still ringing from the onset at sample `onset`, seen by
+/// its prediction error ([`RingPredictor`]): the error of frame `j` or `j + 1` `LP_JUMP_DB`
+/// over the largest of frames `j − 8 ..= j − 2` (all predicted from the ring after the
+/// onset's first 5 ms), the energy risen `LP_ENERGY_RISE_DB` over frames `j − 6 ..= j − 2`,
+/// and those frames `LP_FALLEN_DB` under the impact's peak `peak`. Returns the strike's first
+/// sample (where the error first exceeds 30 times (15 dB) the earlier frames' mean), else
+/// `None`; a sample-library glitch (no rise of the energy) and an attack still building (not
+/// yet fallen from its peak) are not strikes.
+fn rings_again(pred: &mut RingPredictor, e: &[f64], j: usize, onset: Option<usize>, peak: f64) -> Option<usize> {
+    let onset = onset?;
+    if j < 8 || j + 4 > e.len() || pred.train_start(j - 8).is_none_or(|t0| t0 < onset + pred.frame) {
+        return None;
+    }
+    let before = e[j - 6..j - 1].iter().fold(0.0f64, |m, &v| m.max(v));
+    let after = e[j..j + 4].iter().fold(0.0f64, |m, &v| m.max(v));
+    if before * 10f64.powf(LP_FALLEN_DB / 10.0) > peak || after < before * 10f64.powf(LP_ENERGY_RISE_DB / 10.0) {
+        return None;
+    }
+    let mut reference = 0.0f64;
+    for jj in j - 8..j - 1 {
+        reference = reference.max(pred.error(jj)?);
+    }
+    let now = pred.error(j)?.max(pred.error(j + 1).unwrap_or(0.0));
+    if reference <= 0.0 || now < reference * 10f64.powf(LP_JUMP_DB / 10.0) {
+        return None;
+    }
+    Some(pred.first_over(j, 30.0 * reference).unwrap_or_else(|| sample_onset(pred.x, j, pred.hop, pred.frame)))
 }
 
 /// Finds the impacts in a mono signal `x` sampled at `fs` Hz.
@@ -270,6 +461,7 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
         })
         .collect();
     let mut spec = FrameSpectra::new(x, hop, frame);
+    let mut predictor = RingPredictor::new(x, fs, hop, frame, nfr);
     let nb = spec.bins();
     let mut p = vec![0.0; nb];
     let mut scratch = Vec::with_capacity(nb);
@@ -419,7 +611,13 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
                 if (jump || total_rise || bin_rise) && broadband {
                     restrikes.push((sample_onset(x, j, hop, frame), o));
                 }
-            } else if (total_rise || bin_rise) && (!ringing || broadband) {
+            } else if let Some(s_hint) = if (total_rise || bin_rise) && (!ringing || broadband) {
+                Some(None)
+            } else if ringing {
+                rings_again(&mut predictor, &e, j, onsets.last().map(|o| o.0), impact_peak).map(Some)
+            } else {
+                None
+            } {
                 // Tonal or transient, else a noise floor step.
                 // The loudest frame of the first 100 ms.
                 let jp = (j..(j + late_b).min(nfr)).max_by(|&a, &b| e[a].total_cmp(&e[b])).unwrap_or(j);
@@ -439,7 +637,7 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
                 let file_start =
                     j == 0 && e[..file_head.min(nfr)].iter().fold(0.0f64, |m, &v| m.max(v)) * 10f64.powf(0.6) >= peak_e;
                 if tonal || transient || file_start {
-                    let s = sample_onset(x, j, hop, frame);
+                    let s = s_hint.unwrap_or_else(|| sample_onset(x, j, hop, frame));
                     if onsets.last().is_none_or(|&(o, _)| s > o) {
                         // A quiet onset followed within `SAME_STRIKE_S` by one whose first
                         // 10 ms peak 10 dB over anything since was its precursor (a music box's pin lifting
