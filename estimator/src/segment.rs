@@ -23,9 +23,10 @@
 //!   after a quiet contact —, lies in spectral peaks ≥ 12 dB over their neighbourhood's
 //!   median) or transient (the energy 75–100 ms later is `onset_db` below the onset's), or
 //!   it is the start of a file whose loudest moment comes within its first 250 ms (a sample
-//!   library's trimmed strike: drums are neither sharply tonal nor that fast). A step of the
-//!   noise floor (digital silence → room noise) is none of these, and is reported, not
-//!   analysed.
+//!   library's trimmed strike: drums are neither sharply tonal nor that fast), or it comes
+//!   while an impact rings (it then passed the rules below, within 20 dB of that impact's
+//!   peak: a tom or a timpani struck again). A step of the noise floor (digital silence →
+//!   room noise) is none of these, and is reported, not analysed.
 //! - Within `SAME_STRIKE_S` of an onset, while that impact rings, a new onset must also come
 //!   within `onset_db` of the impact's peak: the beating and cavity swells of one strike
 //!   (woodblocks, music boxes, temple blocks) rise by 6 dB at −30 dB, a second strike that
@@ -39,13 +40,13 @@
 //! - ... or the strike must break the ring's prediction: a strike that re-excites only the
 //!   partials already ringing (a soft mallet: no click, no new band, and a rise of each
 //!   partial that depends on its phase against the ring) is seen by a linear predictor of
-//!   order 24 fitted to the 40 ms of ring that end a hop before the frame (covariance
-//!   method, [`RingPredictor`]). Decaying partials are predicted to the noise whatever their
+//!   order 24, 1.25 ms ahead, fitted to the 40 ms of ring that end a hop before the frame
+//!   (covariance method, [`RingPredictor`]). Decaying partials are predicted to the noise whatever their
 //!   amplitudes and beating; a strike's force is not. The frame's prediction error must jump
-//!   `LP_JUMP_DB` (12 dB) over the largest of the 20 ms before, the energy rise 1.5 dB, and
-//!   the ring have fallen 3 dB from its peak (a sample library's glitch does not raise the
-//!   energy, an attack still building has not fallen); the onset is the first sample whose
-//!   error is 15 dB over the ring's. This is the excitation a modal model leaves in its
+//!   `LP_JUMP_DB` (9 dB) over the largest of the 20 ms before, the energy rise 0.5 dB, and
+//!   the ring's loudest frame lie 10 ms before those 20 ms (a sample library's glitch does
+//!   not raise the energy, an attack still building is not past its peak); the onset is the
+//!   first sample whose error is 15 dB over the ring's. This is the excitation a modal model leaves in its
 //!   residual (the force convolved with the modes' zeros), the same idea as Ren et al.
 //!   2013's residual (§6.1), here run forward in time.
 //! - The other way round, an onset followed within `SAME_STRIKE_S` by one 10 dB louder than
@@ -259,24 +260,30 @@ const LP_ORDER: usize = 24;
 const LP_TRAIN_S: f64 = 0.04;
 /// A strike on a ringing object that re-excites only the partials already ringing: the
 /// prediction error of the frame (and the next) rose this far over the largest of the 20 ms
-/// before (module docs), dB.
-const LP_JUMP_DB: f64 = 12.0;
-/// ... while the frame energy rose by this much over the 12.5 ms before, dB ...
-const LP_ENERGY_RISE_DB: f64 = 1.5;
-/// ... after the ring had fallen this far from its peak (not still in its attack), dB.
-const LP_FALLEN_DB: f64 = 3.0;
+/// before (module docs), dB ...
+const LP_JUMP_DB: f64 = 9.0;
+/// ... while the frame energy rose by this much over the 12.5 ms before (a strike in phase
+/// against the ring may lower it; one on a slowly decaying ring soon after the first may
+/// raise it by less than a dB), dB.
+const LP_ENERGY_RISE_DB: f64 = 0.5;
 
 /// Prediction error of frames by a linear predictor fitted to the ring just before them
 /// (covariance method: least squares over the training window, no window function, so a
-/// sum of decaying sinusoids is predicted to the noise). A ring is predictable whatever
-/// its partials' amplitudes or beating; a strike's force is not, so the error jumps where
-/// a strike lands even when it re-excites only the partials already ringing, in any phase
-/// (issue 10: a soft mallet's second strike on a ringing bell).
+/// sum of decaying sinusoids is predicted to the noise). It predicts each sample from the
+/// `LP_ORDER` samples that end half a hop (1.25 ms) before it: a ring is predictable that
+/// far ahead whatever its partials' amplitudes or beating, but a strike changes them, so the
+/// error jumps where a strike lands even when it re-excites only the partials already
+/// ringing, in any phase (issue 10: a soft mallet's second strike on a ringing bell). (A
+/// one-step predictor sees only the strike's broadband part: a smooth force pulse on
+/// partials that start in sine phase left it 7 dB over the ring's, against 24–27 dB half a
+/// hop ahead.)
 struct RingPredictor<'a> {
     x: &'a [f32],
     hop: usize,
     frame: usize,
     train: usize,
+    /// How far ahead it predicts, samples (half a hop).
+    ahead: usize,
     /// Mean squared error per frame, NaN until computed.
     err: Vec<f64>,
     /// Covariance Φ[k][l] = Σ x[n−k] x[n−l] over the training window, k, l ∈ 0..=LP_ORDER.
@@ -292,6 +299,7 @@ impl<'a> RingPredictor<'a> {
             hop,
             frame,
             train: (LP_TRAIN_S * fs) as usize,
+            ahead: hop / 2,
             err: vec![f64::NAN; nfr],
             phi: vec![0.0; n * n],
             coef: vec![0.0; LP_ORDER],
@@ -300,7 +308,7 @@ impl<'a> RingPredictor<'a> {
 
     /// First sample of the training window of frame `j` (None when the file starts later).
     fn train_start(&self, j: usize) -> Option<usize> {
-        (j * self.hop).checked_sub(self.hop + self.train).filter(|&t0| t0 > LP_ORDER)
+        (j * self.hop).checked_sub(self.hop + self.train).filter(|&t0| t0 > LP_ORDER + self.ahead)
     }
 
     /// Fits the predictor of frame `j` into `coef`; false when the window is silent.
@@ -308,15 +316,19 @@ impl<'a> RingPredictor<'a> {
         let Some(t0) = self.train_start(j) else { return false };
         let t1 = t0 + self.train;
         let n = LP_ORDER + 1;
+        let a = self.ahead;
         let x = |i: usize| f64::from(self.x[i]);
-        // First row directly, the rest by the shift recursion
-        // Φ[k+1][l+1] = Φ[k][l] + x[t0−1−k] x[t0−1−l] − x[t1−1−k] x[t1−1−l].
-        for l in 0..n {
-            self.phi[l] = (t0..t1).map(|i| x(i) * x(i - l)).sum();
+        // Regressors x[i − a − k], k ∈ 1..=p, of the target x[i]: the cross terms and the first
+        // row of the regressors' block directly, the rest of the block by the shift recursion
+        // Φ[k+1][l+1] = Φ[k][l] + x[t0−1−a−k] x[t0−1−a−l] − x[t1−1−a−k] x[t1−1−a−l].
+        for l in 1..n {
+            self.phi[l] = (t0..t1).map(|i| x(i) * x(i - a - l)).sum();
+            self.phi[n + l] = (t0..t1).map(|i| x(i - a - 1) * x(i - a - l)).sum();
         }
-        for k in 0..LP_ORDER {
+        for k in 1..LP_ORDER {
             for l in k..LP_ORDER {
-                let v = self.phi[k * n + l] + x(t0 - 1 - k) * x(t0 - 1 - l) - x(t1 - 1 - k) * x(t1 - 1 - l);
+                let v =
+                    self.phi[k * n + l] + x(t0 - 1 - a - k) * x(t0 - 1 - a - l) - x(t1 - 1 - a - k) * x(t1 - 1 - a - l);
                 self.phi[(k + 1) * n + l + 1] = v;
             }
         }
@@ -370,7 +382,7 @@ impl<'a> RingPredictor<'a> {
 
     /// Prediction error at sample `i` with the fitted coefficients.
     fn error_at(&self, i: usize) -> f64 {
-        let pred: f64 = self.coef.iter().enumerate().map(|(k, c)| c * f64::from(self.x[i - 1 - k])).sum();
+        let pred: f64 = self.coef.iter().enumerate().map(|(k, c)| c * f64::from(self.x[i - self.ahead - 1 - k])).sum();
         f64::from(self.x[i]) - pred
     }
 
@@ -419,18 +431,24 @@ fn sample_onset(x: &[f32], j: usize, hop: usize, frame: usize) -> usize {
 /// its prediction error ([`RingPredictor`]): the error of frame `j` or `j + 1` `LP_JUMP_DB`
 /// over the largest of frames `j − 8 ..= j − 2` (all predicted from the ring after the
 /// onset's first 5 ms), the energy risen `LP_ENERGY_RISE_DB` over frames `j − 6 ..= j − 2`,
-/// and those frames `LP_FALLEN_DB` under the impact's peak `peak`. Returns the strike's first
-/// sample (where the error first exceeds 30 times (15 dB) the earlier frames' mean), else
-/// `None`; a sample-library glitch (no rise of the energy) and an attack still building (not
-/// yet fallen from its peak) are not strikes.
-fn rings_again(pred: &mut RingPredictor, e: &[f64], j: usize, onset: Option<usize>, peak: f64) -> Option<usize> {
+/// and the impact's loudest frame `peak_frame` 10 ms before those (its attack is over).
+/// Returns the strike's first sample (where the error first exceeds 30 times (15 dB) the
+/// earlier frames' largest), else `None`; a sample library's glitch (the energy does not
+/// rise) and an attack still building are not strikes.
+fn rings_again(
+    pred: &mut RingPredictor,
+    e: &[f64],
+    j: usize,
+    onset: Option<usize>,
+    peak_frame: usize,
+) -> Option<usize> {
     let onset = onset?;
-    if j < 8 || j + 4 > e.len() || pred.train_start(j - 8).is_none_or(|t0| t0 < onset + pred.frame) {
+    if j < 12 + peak_frame || j + 4 > e.len() || pred.train_start(j - 8).is_none_or(|t0| t0 < onset + pred.frame) {
         return None;
     }
     let before = e[j - 6..j - 1].iter().fold(0.0f64, |m, &v| m.max(v));
     let after = e[j..j + 4].iter().fold(0.0f64, |m, &v| m.max(v));
-    if before * 10f64.powf(LP_FALLEN_DB / 10.0) > peak || after < before * 10f64.powf(LP_ENERGY_RISE_DB / 10.0) {
+    if after < before * 10f64.powf(LP_ENERGY_RISE_DB / 10.0) {
         return None;
     }
     let mut reference = 0.0f64;
@@ -494,6 +512,8 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
     let same_strike = (SAME_STRIKE_S * fs) as usize / hop;
     // Peak frame energy of the current impact so far.
     let mut impact_peak = 0.0f64;
+    // ... and its frame.
+    let mut peak_frame = 0;
 
     // Scan: spectra of the previous `back` frames in a ring, flat level of every frame.
     let mut ring: Vec<Vec<f64>> = vec![vec![0.0; nb]; back];
@@ -545,8 +565,12 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
             ringing = true;
             quiet = 0;
         }
-        if ringing {
-            impact_peak = impact_peak.max(e[j]);
+        // The ring's loudest frame before this one (a strike louder than the ring's peak
+        // moves it to itself just below).
+        let ring_peak_frame = peak_frame;
+        if ringing && e[j] > impact_peak {
+            impact_peak = e[j];
+            peak_frame = j;
         }
         // Within the minimum gap only a strike that makes the last onset its precursor is
         // looked at (10 dB over anything since, within its first 10 ms), and only once that
@@ -572,8 +596,10 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
         // The impact a second strike at `j` would fall in: only after it fell from its peak (a
         // frame after the peak so far `rise_db` under it: a slow attack or a swell still rising
         // has none).
+        // (Inside the minimum gap only: the hold after a noise step is no gap.)
         let gap_onset = onsets.last().copied().filter(|&(o, j0)| {
-            blocked
+            j < gap_until
+                && in_ring
                 && !over_precursor
                 && ringing
                 && j >= j0 + PRECURSOR_MIN_FRAMES + 2
@@ -614,7 +640,7 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
             } else if let Some(s_hint) = if (total_rise || bin_rise) && (!ringing || broadband) {
                 Some(None)
             } else if ringing {
-                rings_again(&mut predictor, &e, j, onsets.last().map(|o| o.0), impact_peak).map(Some)
+                rings_again(&mut predictor, &e, j, onsets.last().map(|o| o.0), ring_peak_frame).map(Some)
             } else {
                 None
             } {
@@ -636,7 +662,11 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
                 // first 250 ms.
                 let file_start =
                     j == 0 && e[..file_head.min(nfr)].iter().fold(0.0f64, |m, &v| m.max(v)) * 10f64.powf(0.6) >= peak_e;
-                if tonal || transient || file_start {
+                // While an impact rings, a rise that passed the rules above (broad, or one
+                // that breaks the ring's prediction, within 20 dB of its peak) is a strike
+                // even when it is neither sharply tonal nor fast: a tom or a timpani struck
+                // again (a noise floor that starts or changes is not that loud).
+                if tonal || transient || file_start || ringing {
                     let s = s_hint.unwrap_or_else(|| sample_onset(x, j, hop, frame));
                     if onsets.last().is_none_or(|&(o, _)| s > o) {
                         // A quiet onset followed within `SAME_STRIKE_S` by one whose first
@@ -667,6 +697,7 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
                         ringing = true;
                         quiet = 0;
                         impact_peak = e[j];
+                        peak_frame = j;
                     }
                     gap_until = gap_until.max(j + gap);
                 } else if !over_precursor {
