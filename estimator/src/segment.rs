@@ -41,14 +41,15 @@
 //!   partials already ringing (a soft mallet: no click, no new band, and a rise of each
 //!   partial that depends on its phase against the ring) is seen by a linear predictor of
 //!   order 24, 1.25 ms ahead, fitted to the 40 ms of ring that end a hop before the frame
-//!   (covariance method, [`RingPredictor`]). Decaying partials are predicted to the noise whatever their
-//!   amplitudes and beating; a strike's force is not. The frame's prediction error must jump
-//!   `LP_JUMP_DB` (9 dB) over the largest of the 20 ms before, the energy rise 0.5 dB, and
-//!   the ring's loudest frame lie 10 ms before those 20 ms (a sample library's glitch does
-//!   not raise the energy, an attack still building is not past its peak); the onset is the
-//!   first sample whose error is 15 dB over the ring's. This is the excitation a modal model leaves in its
-//!   residual (the force convolved with the modes' zeros), the same idea as Ren et al.
-//!   2013's residual (§6.1), here run forward in time.
+//!   (covariance method, [`RingPredictor`]). Decaying partials are predicted to the noise
+//!   whatever their amplitudes and beating; a strike that changes them is not. The frame's
+//!   prediction error must jump `LP_JUMP_DB` (9 dB) over the largest of the 20 ms before,
+//!   the energy rise 0.5 dB, and the ring's loudest frame lie 10 ms before those 20 ms (a
+//!   sample library's glitch does not raise the energy, an attack still building is not
+//!   past its peak); the onset is the first sample whose error is 15 dB over the ring's.
+//!   What the predictor cannot follow is what a modal model leaves in its residual (the
+//!   contact, a new excitation), as in Ren et al. 2013's residual (§6.1), here run forward in
+//!   time.
 //! - The other way round, an onset followed within `SAME_STRIKE_S` by one 10 dB louder than
 //!   anything since was that strike's precursor (a music box's pin lifting the tooth, a
 //!   mallet grazing first): it is reported as skipped and the strike starts at the loud onset,
@@ -286,7 +287,8 @@ struct RingPredictor<'a> {
     ahead: usize,
     /// Mean squared error per frame, NaN until computed.
     err: Vec<f64>,
-    /// Covariance Φ[k][l] = Σ x[n−k] x[n−l] over the training window, k, l ∈ 0..=LP_ORDER.
+    /// Covariance over the training window of the target x[n] (index 0) and the regressors
+    /// x[n − ahead − k] (index k ∈ 1..=LP_ORDER), row-major.
     phi: Vec<f64>,
     coef: Vec<f64>,
 }
