@@ -41,7 +41,7 @@
 //!   partials already ringing (a soft mallet: no click, no new band, and a rise of each
 //!   partial that depends on its phase against the ring) is seen by a linear predictor of
 //!   order 24, 1.25 ms ahead, fitted to the 40 ms of ring that end a hop before the frame
-//!   (covariance method, [`RingPredictor`]). Decaying partials are predicted to the noise
+//!   (covariance method, `RingPredictor`). Decaying partials are predicted to the noise
 //!   whatever their amplitudes and beating; a strike that changes them is not. The frame's
 //!   prediction error must jump `LP_JUMP_DB` (9 dB) over the largest of the 20 ms before,
 //!   the energy rise 0.5 dB, and the ring's loudest frame lie 10 ms before those 20 ms (a
