@@ -275,9 +275,10 @@ const LP_ENERGY_RISE_DB: f64 = 0.5;
 /// far ahead whatever its partials' amplitudes or beating, but a strike changes them, so the
 /// error jumps where a strike lands even when it re-excites only the partials already
 /// ringing, in any phase (issue 10: a soft mallet's second strike on a ringing bell). (A
-/// one-step predictor sees only the strike's broadband part: a smooth force pulse on
-/// partials that start in sine phase left it 7 dB over the ring's, against 24–27 dB half a
-/// hop ahead.)
+/// one-step predictor sees only the strike's broadband part: on two of the black-box
+/// tester's files, a 1 ms force pulse on partials that start in sine phase, it rose 7 dB over
+/// the ring's, against 24–27 dB half a hop ahead; the 1 ms cases of
+/// `a_second_soft_strike_on_a_ringing_bell_is_found` are of that kind.)
 struct RingPredictor<'a> {
     x: &'a [f32],
     hop: usize,

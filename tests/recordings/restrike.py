@@ -22,7 +22,6 @@ X is a share (0.6) or a percentage (60); with it the exit code is 1 below it.
 import argparse
 import json
 import os
-import subprocess
 import sys
 import tempfile
 import time
@@ -31,7 +30,7 @@ import numpy as np
 import soundfile as sf
 from scipy.signal import butter, sosfilt
 
-from validate import default_struck
+from validate import default_struck, load_manifest, struck_features
 
 
 def main():
@@ -42,12 +41,7 @@ def main():
     ap.add_argument("--lags", default="0.15,0.3,0.6")
     ap.add_argument("--min-found", type=float)
     a = ap.parse_args()
-    man_path = os.path.join(a.cache, "manifest.json")
-    if not os.path.exists(man_path):
-        sys.exit(f"restrike.py: {man_path} not found: run fetch.py --cache {a.cache} first")
-    if not os.path.exists(a.struck):
-        sys.exit(f"restrike.py: struck binary {a.struck} not found (build it, or pass --struck)")
-    clips = [c for c in json.load(open(man_path))["clips"] if "wav" in c and "excluded" not in c]
+    clips = [c for c in load_manifest("restrike.py", a.cache, a.struck)["clips"] if "wav" in c]
     lags = [float(v) for v in a.lags.split(",")]
     t_start = time.time()
     rows = []
@@ -70,11 +64,8 @@ def main():
                         y[n:] += level * (low if soft else x)
                         y *= 0.9 / np.abs(y).max()
                         sf.write(wav, y.astype(np.float32), fs, subtype="FLOAT")
-                        out = subprocess.run([a.struck, "features", "--json", wav], capture_output=True, text=True)
-                        try:
-                            onsets = [i["onset_s"] for i in json.loads(out.stdout)["impacts"]]
-                        except (ValueError, KeyError):
-                            onsets = None
+                        report, _, _ = struck_features(a.struck, wav)
+                        onsets = None if report is None else [i["onset_s"] for i in report["impacts"]]
                         ok = (
                             onsets is not None
                             and len(onsets) == 2

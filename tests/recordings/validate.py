@@ -55,6 +55,18 @@ def default_struck():
     return os.path.join(root, "target/debug/struck")
 
 
+def load_manifest(tool, cache, struck):
+    """fetch.py's manifest in `cache` (exits with a one-line error naming `tool` when the
+    manifest or the struck binary is missing); its used clips are those with a "wav"."""
+    man_path = os.path.join(cache, "manifest.json")
+    if not os.path.exists(man_path):
+        sys.exit(f"{tool}: {man_path} not found: run fetch.py --cache {cache} first")
+    if not os.path.exists(struck):
+        sys.exit(f"{tool}: struck binary {struck} not found (build it, or pass --struck)")
+    with open(man_path) as f:
+        return json.load(f)
+
+
 def reference_for(clip, cache):
     """The reference partials of one clip (cached)."""
     with open(os.path.join(HERE, "subspace.py"), "rb") as f:
@@ -140,13 +152,7 @@ def main():
     ap.add_argument("--quiet", action="store_true", help="no per-clip lines")
     a = ap.parse_args()
 
-    man_path = os.path.join(a.cache, "manifest.json")
-    if not os.path.exists(man_path):
-        sys.exit(f"validate.py: {man_path} not found: run fetch.py --cache {a.cache} first")
-    if not os.path.exists(a.struck):
-        sys.exit(f"validate.py: struck binary {a.struck} not found (build it, or pass --struck)")
-    with open(man_path) as f:
-        manifest = json.load(f)
+    manifest = load_manifest("validate.py", a.cache, a.struck)
     clips = [c for c in manifest["clips"] if "wav" in c]
     excluded = [c for c in manifest["clips"] if "excluded" in c]
 
