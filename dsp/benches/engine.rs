@@ -32,7 +32,7 @@ fn quiet_params() -> SoundParams {
 fn kernel(c: &mut Criterion) {
     let _ftz = dsp::ftz::DenormalGuard::new();
     let mut g = c.benchmark_group("resonator");
-    for modes in [32usize, 256, 1000] {
+    for modes in [32usize, 96, 256, 1000] {
         let mut bank = ResonatorBank::new(modes);
         for k in 0..modes {
             // Undamped so the state never decays towards subnormals however long the bench runs.
@@ -70,6 +70,29 @@ fn engine_16_voices(c: &mut Criterion) {
         b.iter(|| {
             out.fill(0.0);
             e.render(black_box(&mut out));
+        })
+    });
+    // Few modes a voice (a glockenspiel bar's culled voices hold 5–8): the packing across
+    // voices and each voice's fixed costs, not the kernel, set the pace.
+    let mut few = Engine::new(vec![object(6)], 32, SR);
+    // Undamped: millions of blocks run in the bench, hours of audio.
+    few.set_params(SoundParams { damping: Damping::Rayleigh { alpha1: 0.0, alpha2: 0.0 }, ..quiet_params() });
+    few.reset();
+    for v in 0..16u8 {
+        few.note_on(
+            NoteId { voice_id: None, channel: 0, key: 40 + v },
+            Strike { velocity: 1.0, position: f32::from(v) / 16.0, lambda_factor: 1.0 },
+        );
+    }
+    for _ in 0..200 {
+        few.render(&mut out);
+    }
+    assert_eq!(few.active_modes(), 96, "voices {}", few.active_voices());
+    g.throughput(Throughput::Elements(96 * 512));
+    g.bench_function("16 voices x 6 modes, 512-sample block", |b| {
+        b.iter(|| {
+            out.fill(0.0);
+            few.render(black_box(&mut out));
         })
     });
 
