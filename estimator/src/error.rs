@@ -58,6 +58,21 @@ pub enum EstimateError {
         /// Number of files searched.
         files: usize,
     },
+    /// Impacts were found, but none could be used (each one's reason is in the report's
+    /// skipped list; the first is named here).
+    #[error("no usable impacts in {files} file(s): {found} found, none kept ({file} at {onset_s:.3} s: {reason})")]
+    NoUsableImpacts {
+        /// Number of files searched.
+        files: usize,
+        /// Impacts found (skipped ones included, precursors not).
+        found: usize,
+        /// The first skipped impact's file, onset and reason.
+        file: String,
+        /// Its onset, s.
+        onset_s: f64,
+        /// Why it was skipped.
+        reason: String,
+    },
     /// Too few (λ, c) points for the requested model.
     #[error("found {found} usable mode feature(s) but the fit needs at least {needed}; record more taps or choose a model with fewer parameters (rayleigh)")]
     TooFewFeatures {

@@ -288,7 +288,8 @@ pub fn load_wav(path: &Path, channel: Option<usize>) -> Result<Recording, Estima
 ///
 /// # Errors
 /// The first file that cannot be read ([`EstimateError::Wav`], [`EstimateError::Silent`], …),
-/// [`EstimateError::NoImpacts`] if no file holds a usable impact, [`EstimateError::Cancelled`].
+/// [`EstimateError::NoImpacts`] if no file holds an impact, [`EstimateError::NoUsableImpacts`]
+/// if impacts were found but every one was skipped, [`EstimateError::Cancelled`].
 pub fn extract_features(
     files: &[PathBuf],
     opts: &Options,
@@ -376,6 +377,16 @@ pub fn extract_features(
         progress((fi + 1) as f32 / nfiles as f32);
     }
     if report.impacts.is_empty() {
+        // Found but all skipped (too short, too quiet, no mode rings): say why, not "none".
+        if let Some(s) = report.skipped.iter().find(|s| !segment::is_precursor(&s.reason)) {
+            return Err(EstimateError::NoUsableImpacts {
+                files: files.len(),
+                found: report.files.iter().map(|f| f.impacts_found).sum(),
+                file: s.file.clone(),
+                onset_s: s.onset_s,
+                reason: s.reason.clone(),
+            });
+        }
         return Err(EstimateError::NoImpacts { files: files.len() });
     }
     Ok(report)

@@ -25,8 +25,15 @@
 //!   it is the start of a file whose loudest moment comes within its first 250 ms (a sample
 //!   library's trimmed strike: drums are neither sharply tonal nor that fast), or it comes
 //!   while an impact rings (it then passed the rules below, within 20 dB of that impact's
-//!   peak: a tom or a timpani struck again). A step of the noise floor (digital silence →
-//!   room noise) is none of these, and is reported, not analysed.
+//!   peak: a tom or a timpani struck again), or it is a low drum: tonal on 4× the window
+//!   (6 Hz bins: a tom's partials 110–290 Hz fill the 23 Hz bins' neighbourhoods) and decayed
+//!   `onset_db` 0.2, 0.4 or 0.8 s on (a tom falls only a few dB in 100 ms). A step of the
+//!   noise floor (digital silence → room noise) is none of these, and is reported, not
+//!   analysed. Near the file's end, where the 100 ms after it are not there, a candidate is
+//!   transient only if it rose `onset_db` over the 20 ms before.
+//! - A candidate no `rise_db` over the loudest frame of the 40 ms before (`STEADY_FRAMES`) is
+//!   a steady sound's ripple, neither a strike nor a noise step (a mains hum's 5 ms frames
+//!   rise 6 dB over their mean every cycle), unless an impact rings or it starts the file.
 //! - Within `SAME_STRIKE_S` of an onset, while that impact rings, a new onset must also come
 //!   within `onset_db` of the impact's peak: the beating and cavity swells of one strike
 //!   (woodblocks, music boxes, temple blocks) rise by 6 dB at −30 dB, a second strike that
@@ -254,6 +261,17 @@ fn long_tonal_share(x: &[f32], a: usize, len: usize, fft: &mut std::sync::Arc<dy
     let p: Vec<f64> = out.iter().map(|c| c.norm_sqr()).collect();
     tonal_share(&p)
 }
+
+/// The window a low drum's tonality is also measured on, in 40 ms windows (module docs).
+const LOW_TONAL_WINDOWS: usize = 4;
+/// Where a strike that is neither fast nor sharply tonal at 40 ms must have decayed by
+/// `onset_db` (any of them; frames of [`DECAY_CHECK_FRAMES`] from there), s.
+const DECAY_CHECK_S: [f64; 3] = [0.2, 0.4, 0.8];
+/// Frames averaged at each of [`DECAY_CHECK_S`] (25 ms).
+const DECAY_CHECK_FRAMES: usize = 10;
+
+/// Frames before a candidate onset that must all be `rise_db` under it (40 ms; module docs).
+const STEADY_FRAMES: usize = 16;
 
 /// Order of the linear predictor that follows a ring (12 partials).
 const LP_ORDER: usize = 24;
@@ -510,6 +528,9 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
     // Tonality on ~40 ms from the onset (23 Hz bins at 44.1 kHz: modes resolved).
     let tonal_len = ((0.04 * fs) as usize).next_power_of_two();
     let mut long_fft = RealFftPlanner::<f64>::new().plan_fft_forward(tonal_len);
+    // ... and on four times that (6 Hz bins) for low partials a few bins apart.
+    let mut longer_fft = RealFftPlanner::<f64>::new().plan_fft_forward(LOW_TONAL_WINDOWS * tonal_len);
+    let decay_at: Vec<usize> = DECAY_CHECK_S.iter().map(|&t| (t * fs) as usize / hop).collect();
     let (late_a, late_b) = ((0.075 * fs) as usize / hop, (0.1 * fs) as usize / hop);
     let file_head = (0.25 * fs) as usize / hop;
     let same_strike = (SAME_STRIKE_S * fs) as usize / hop;
@@ -657,7 +678,11 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
                     let late = e[j + late_a..j + late_b].iter().sum::<f64>() / (late_b - late_a).max(1) as f64;
                     late * 10f64.powf(opts.onset_db / 10.0) < e_on
                 } else {
-                    true
+                    // Too near the end of the file to look 100 ms on: a sudden rise, `onset_db`
+                    // over the 20 ms before (a tap in the file's last 100 ms), not a steady
+                    // sound's ripple (a mains hum's 5 ms frames rise 6 dB every cycle: the hum
+                    // that started mid-file was an impact at the file's end).
+                    e_on > 10f64.powf(opts.onset_db / 10.0) * prev_e.max(noise)
                 };
                 // A file that starts with the sound (a sample library's trimmed strike: a
                 // drum whose partials are neither sharp nor fast, a bell that swells): its
@@ -669,7 +694,28 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
                 // that breaks the ring's prediction, within 20 dB of its peak) is a strike
                 // even when it is neither sharply tonal nor fast: a tom or a timpani struck
                 // again (a noise floor that starts or changes is not that loud).
-                if tonal || transient || file_start || ringing {
+                // A low drum (a tom's partials 110–290 Hz, ~65 Hz apart, lie within a few of
+                // the 40 ms window's bins, whose neighbourhoods they fill, and it falls only a
+                // few dB in 100 ms): a strike when it then decays (`onset_db` down 200 or 400
+                // ms on, which a noise floor that starts or changes does not) and is tonal on
+                // the 4× window.
+                let low_drum = !(tonal || transient || file_start || ringing)
+                    && decay_at.iter().any(|&d| {
+                        let (a, b) = (j + d, j + d + DECAY_CHECK_FRAMES);
+                        b <= nfr
+                            && e[a..b].iter().sum::<f64>() / DECAY_CHECK_FRAMES as f64
+                                * 10f64.powf(opts.onset_db / 10.0)
+                                < e_on
+                    })
+                    && long_tonal_share(x, j * hop, LOW_TONAL_WINDOWS * tonal_len, &mut longer_fft) >= TONAL_SHARE;
+                // A steady sound's ripple, not an onset: no `rise_db` over the loudest frame of
+                // the last 40 ms (a mains hum's 5 ms frames rise 6 dB over their 20 ms mean
+                // every cycle, and a few of those windows read as tonal: a hum that started
+                // mid-file gave an impact).
+                let steady = !(ringing || file_start)
+                    && j >= STEADY_FRAMES
+                    && e[j - STEADY_FRAMES..j].iter().fold(0.0f64, |m, &v| m.max(v)) * rise >= e_on;
+                if (tonal || transient || file_start || ringing || low_drum) && !steady {
                     let s = s_hint.unwrap_or_else(|| sample_onset(x, j, hop, frame));
                     if onsets.last().is_none_or(|&(o, _)| s > o) {
                         // A quiet onset followed within `SAME_STRIKE_S` by one whose first
@@ -703,7 +749,7 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
                         peak_frame = j;
                     }
                     gap_until = gap_until.max(j + gap);
-                } else if !over_precursor {
+                } else if !over_precursor && !steady {
                     noise_steps.push(j * hop);
                     hold_until = hold_until.max(j + back);
                 }
