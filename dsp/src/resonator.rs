@@ -1037,8 +1037,13 @@ mod tests {
         let mut acc = vec![0.0f32; 64 * LANES];
         portable::run(&mut b.re[..padded], &mut b.im[..padded], &b.pr[..padded], &b.pi[..padded], None, &mut acc, 64);
         reduce_lanes(&acc, &mut out_b);
+        // Bit for bit: the same operations in the same order, each FMA the portable
+        // kernel's `mul_add` (cr·r − ci·i a fused multiply-subtract of the rounded ci·i).
         for (x, y) in out_a.iter().zip(&out_b) {
-            assert!((x - y).abs() <= 1e-5 * (1.0 + x.abs()), "{x} vs {y}");
+            assert_eq!(x.to_bits(), y.to_bits(), "{x} vs {y}");
+        }
+        for k in 0..a.len {
+            assert_eq!((a.re[k].to_bits(), a.im[k].to_bits()), (b.re[k].to_bits(), b.im[k].to_bits()), "mode {k}");
         }
     }
 

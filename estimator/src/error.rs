@@ -60,7 +60,9 @@ pub enum EstimateError {
     },
     /// Impacts were found, but none could be used (each one's reason is in the report's
     /// skipped list; the first is named here).
-    #[error("no usable impacts in {files} file(s): {found} found, none kept ({file} at {onset_s:.3} s: {reason})")]
+    #[error(
+        "no usable impacts in {files} file(s): {found} found, none kept (e.g. {file} at {onset_s:.3} s: {reason})"
+    )]
     NoUsableImpacts {
         /// Number of files searched.
         files: usize,

@@ -29,11 +29,11 @@
 //!   (6 Hz bins: a tom's partials 110–290 Hz fill the 23 Hz bins' neighbourhoods) and decayed
 //!   `onset_db` 0.2, 0.4 or 0.8 s on (a tom falls only a few dB in 100 ms). A step of the
 //!   noise floor (digital silence → room noise) is none of these, and is reported, not
-//!   analysed. Near the file's end, where the 100 ms after it are not there, a candidate is
-//!   transient only if it rose `onset_db` over the 20 ms before.
-//! - A candidate no `rise_db` over the loudest frame of the 40 ms before (`STEADY_FRAMES`) is
-//!   a steady sound's ripple, neither a strike nor a noise step (a mains hum's 5 ms frames
-//!   rise 6 dB over their mean every cycle), unless an impact rings or it starts the file.
+//!   analysed.
+//! - A candidate whose 40 ms before (`STEADY_FRAMES`) were all over the onset threshold and
+//!   not `rise_db` under it is a steady sound's ripple, neither a strike nor a noise step
+//!   (a mains hum's 5 ms frames rise 6 dB over their mean every cycle), unless an impact rings
+//!   or it starts the file.
 //! - Within `SAME_STRIKE_S` of an onset, while that impact rings, a new onset must also come
 //!   within `onset_db` of the impact's peak: the beating and cavity swells of one strike
 //!   (woodblocks, music boxes, temple blocks) rise by 6 dB at −30 dB, a second strike that
@@ -669,37 +669,44 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
                 None
             } {
                 // Tonal or transient, else a noise floor step.
-                // The loudest frame of the first 100 ms.
-                let jp = (j..(j + late_b).min(nfr)).max_by(|&a, &b| e[a].total_cmp(&e[b])).unwrap_or(j);
-                let tonal = long_tonal_share(x, j * hop, tonal_len, &mut long_fft) >= TONAL_SHARE
-                    || (jp > j && long_tonal_share(x, jp * hop, tonal_len, &mut long_fft) >= TONAL_SHARE);
                 let e_on = e[j..(j + 4).min(nfr)].iter().fold(0.0f64, |m, &v| m.max(v));
-                let transient = if j + late_b <= nfr {
-                    let late = e[j + late_a..j + late_b].iter().sum::<f64>() / (late_b - late_a).max(1) as f64;
-                    late * 10f64.powf(opts.onset_db / 10.0) < e_on
-                } else {
-                    // Too near the end of the file to look 100 ms on: a sudden rise, `onset_db`
-                    // over the 20 ms before (a tap in the file's last 100 ms), not a steady
-                    // sound's ripple (a mains hum's 5 ms frames rise 6 dB every cycle: the hum
-                    // that started mid-file was an impact at the file's end).
-                    e_on > 10f64.powf(opts.onset_db / 10.0) * prev_e.max(noise)
-                };
                 // A file that starts with the sound (a sample library's trimmed strike: a
                 // drum whose partials are neither sharp nor fast, a bell that swells): its
                 // first onset is a strike when the file's loudest moment comes within its
                 // first 250 ms.
                 let file_start =
                     j == 0 && e[..file_head.min(nfr)].iter().fold(0.0f64, |m, &v| m.max(v)) * 10f64.powf(0.6) >= peak_e;
+                // A steady sound's ripple, not an onset: every frame of the last 40 ms over
+                // the onset threshold (the sound went on all that time) and none `rise_db`
+                // under this one (a mains hum's 5 ms frames rise 6 dB over their 20 ms mean
+                // every cycle, and a few of those windows read as tonal: a hum that started
+                // mid-file gave an impact). A strike after a tick that rang out, or rising
+                // just after a noise floor started, has quiet frames in that window.
+                let steady = !(ringing || file_start) && j >= STEADY_FRAMES && {
+                    let w = &e[j - STEADY_FRAMES..j];
+                    w.iter().all(|&v| v > onset_thr) && w.iter().fold(0.0f64, |m, &v| m.max(v)) * rise >= e_on
+                };
+                // The loudest frame of the first 100 ms.
+                let jp = (j..(j + late_b).min(nfr)).max_by(|&a, &b| e[a].total_cmp(&e[b])).unwrap_or(j);
+                let tonal = !steady
+                    && (long_tonal_share(x, j * hop, tonal_len, &mut long_fft) >= TONAL_SHARE
+                        || (jp > j && long_tonal_share(x, jp * hop, tonal_len, &mut long_fft) >= TONAL_SHARE));
+                let transient = if j + late_b <= nfr {
+                    let late = e[j + late_a..j + late_b].iter().sum::<f64>() / (late_b - late_a).max(1) as f64;
+                    late * 10f64.powf(opts.onset_db / 10.0) < e_on
+                } else {
+                    true
+                };
                 // While an impact rings, a rise that passed the rules above (broad, or one
                 // that breaks the ring's prediction, within 20 dB of its peak) is a strike
                 // even when it is neither sharply tonal nor fast: a tom or a timpani struck
                 // again (a noise floor that starts or changes is not that loud).
                 // A low drum (a tom's partials 110–290 Hz, ~65 Hz apart, lie within a few of
                 // the 40 ms window's bins, whose neighbourhoods they fill, and it falls only a
-                // few dB in 100 ms): a strike when it then decays (`onset_db` down 200 or 400
-                // ms on, which a noise floor that starts or changes does not) and is tonal on
-                // the 4× window.
-                let low_drum = !(tonal || transient || file_start || ringing)
+                // few dB in 100 ms): a strike when it then decays (`onset_db` down 0.2, 0.4 or
+                // 0.8 s on, which a noise floor that starts or changes does not) and is tonal
+                // on the 4× window.
+                let low_drum = !(steady || tonal || transient || file_start || ringing)
                     && decay_at.iter().any(|&d| {
                         let (a, b) = (j + d, j + d + DECAY_CHECK_FRAMES);
                         b <= nfr
@@ -708,13 +715,6 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
                                 < e_on
                     })
                     && long_tonal_share(x, j * hop, LOW_TONAL_WINDOWS * tonal_len, &mut longer_fft) >= TONAL_SHARE;
-                // A steady sound's ripple, not an onset: no `rise_db` over the loudest frame of
-                // the last 40 ms (a mains hum's 5 ms frames rise 6 dB over their 20 ms mean
-                // every cycle, and a few of those windows read as tonal: a hum that started
-                // mid-file gave an impact).
-                let steady = !(ringing || file_start)
-                    && j >= STEADY_FRAMES
-                    && e[j - STEADY_FRAMES..j].iter().fold(0.0f64, |m, &v| m.max(v)) * rise >= e_on;
                 if (tonal || transient || file_start || ringing || low_drum) && !steady {
                     let s = s_hint.unwrap_or_else(|| sample_onset(x, j, hop, frame));
                     if onsets.last().is_none_or(|&(o, _)| s > o) {
