@@ -270,7 +270,8 @@ const DECAY_CHECK_S: [f64; 3] = [0.2, 0.4, 0.8];
 /// Frames averaged at each of [`DECAY_CHECK_S`] (25 ms).
 const DECAY_CHECK_FRAMES: usize = 10;
 
-/// Frames before a candidate onset that must all be `rise_db` under it (40 ms; module docs).
+/// Frames before a candidate (40 ms) that, all over the onset threshold and none `rise_db`
+/// under it, make it a steady sound's ripple, not an onset (module docs).
 const STEADY_FRAMES: usize = 16;
 
 /// Order of the linear predictor that follows a ring (12 partials).
