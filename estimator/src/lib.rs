@@ -94,6 +94,18 @@ pub struct ImpactFeatures {
     pub residual_to_noise: f64,
     /// Spectral peaks whose local fit was rejected.
     pub rejected_peaks: usize,
+    /// Isolated one-sample spikes repaired before the analysis ([`features::repair_clicks`]).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub repaired_clicks: usize,
+    /// The peak search stopped early: its rejected fits used up
+    /// [`features::REJECT_BUDGET_BINS`] (a broadband burst inside the ring); the features
+    /// found before are kept.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub search_stopped: bool,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 /// An impact that was found but not analysed.
@@ -321,6 +333,28 @@ pub fn extract_features(
                 return Err(EstimateError::Cancelled);
             }
             let fit = features::extract_impact(&rec.samples[s.start..s.end], fs, s.noise_var, &opts.extract, cancel)?;
+            let at = s.start as f64 / fs;
+            if !fit.repaired_clicks.is_empty() {
+                let times: Vec<String> = fit
+                    .repaired_clicks
+                    .iter()
+                    .take(5)
+                    .map(|&i| format!("{:.4} s", (s.start + i) as f64 / fs))
+                    .collect();
+                report.warnings.push(format!(
+                    "{name}: repaired {} isolated one-sample click(s) in the impact at {at:.3} s (at {}{}); a glitch or dropped sample in the file",
+                    fit.repaired_clicks.len(),
+                    times.join(", "),
+                    if fit.repaired_clicks.len() > 5 { ", …" } else { "" }
+                ));
+            }
+            if fit.search_stopped {
+                report.warnings.push(format!(
+                    "{name}: the impact at {at:.3} s: the peak search stopped after {} rejected peaks (a click, crackle or broadband burst inside the ring?); {} features kept",
+                    fit.rejected_peaks,
+                    fit.features.len()
+                ));
+            }
             if fit.features.is_empty() {
                 report.skipped.push(SkippedImpact {
                     file: name.clone(),
@@ -339,6 +373,8 @@ pub fn extract_features(
                     explained_power: fit.explained_power,
                     residual_to_noise: fit.residual_to_noise,
                     rejected_peaks: fit.rejected_peaks,
+                    repaired_clicks: fit.repaired_clicks.len(),
+                    search_stopped: fit.search_stopped,
                 });
             }
             progress((fi as f32 + (ii + 1) as f32 / nimp as f32) / nfiles as f32);

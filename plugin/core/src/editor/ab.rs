@@ -151,6 +151,8 @@ pub fn residual_clip(req: &AbRequest) -> Result<Vec<f32>, String> {
         explained_power: 0.0,
         residual_to_noise: 0.0,
         rejected_peaks: 0,
+        repaired_clicks: 0,
+        search_stopped: false,
     };
     let (x, _) =
         estimator::residual::impact_residual(&rec.samples, fs, &imp, &req.damping, 0.0, presets::residual::SECONDS);
