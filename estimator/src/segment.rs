@@ -61,7 +61,9 @@
 //!   anything since was that strike's precursor (a music box's pin lifting the tooth, a
 //!   mallet grazing first): it is reported as skipped and the strike starts at the loud onset,
 //!   even within `min_gap_s` of the precursor (from its first 10 ms on: a strike that loud
-//!   within them is the precursor's own attack).
+//!   within them is the precursor's own attack). Not when the first onset was a strike of its
+//!   own: it peaked in its first 10 ms and decayed (did not rise 0.5 dB over that peak), and
+//!   the second is less than 15 dB over it (`PRECURSOR_REGROWTH`).
 //! - The minimum gap (`min_gap_s`) counts from the onset's frame, so it ends 45–50 ms after
 //!   the onset sample, and holds only while the impact rings: a tick that decayed into the
 //!   floor or 40 dB under its peak (`RANG_OUT_DB`) within it is over, and what rises next is
@@ -145,6 +147,15 @@ const RINGING_RESTRIKE_DB: f64 = 20.0;
 /// An onset this many times (10 dB) louder than the impact before it, within
 /// `SAME_STRIKE_S` of that impact's onset, makes it a precursor (module docs).
 const PRECURSOR_DB_RATIO: f64 = 10.0;
+/// ... unless that impact is a strike of its own: after its first 10 ms it never rose over
+/// this factor (0.5 dB) of their peak, and the onset is under
+/// `PRECURSOR_STRUCK_DB_RATIO` (15 dB) over it. A music box's pin scrape rises 1.1–2.5 dB
+/// over its first 10 ms by 10–30 ms later (3–4 dB by the release: `metal-music-box-fluid-44`,
+/// `-50`, `-60` of `tests/recordings`) and a graze stays flat; a soft strike of a bell
+/// decays, and the same bell struck 3× harder 80–250 ms later is 10–12 dB over it.
+const PRECURSOR_REGROWTH: f64 = 1.122;
+/// See `PRECURSOR_REGROWTH`.
+const PRECURSOR_STRUCK_DB_RATIO: f64 = 31.623;
 
 /// Frames (2.5 ms hops) of a possible precursor's own start, its first 10 ms, that a strike
 /// making it a precursor must come after and be compared with.
@@ -729,7 +740,17 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
                             // (At least its own first 10 ms.)
                             let upto = j.saturating_sub(back).max(j0 + PRECURSOR_MIN_FRAMES).min(j);
                             let pre_peak = e[j0..upto.max(j0 + 1)].iter().fold(0.0f64, |m, &v| m.max(v));
-                            if j < j0 + same_strike && e_on >= PRECURSOR_DB_RATIO * pre_peak {
+                            // A strike of its own, not a precursor: it peaked in its first 10
+                            // ms and did not rise again (a struck object's ring decays; a
+                            // pin's scrape or a graze rises or stays flat), and this onset is
+                            // less than 15 dB over it (a harder strike of the same object).
+                            let head_end = (j0 + PRECURSOR_MIN_FRAMES).min(upto);
+                            let head = e[j0..head_end.max(j0 + 1)].iter().fold(0.0f64, |m, &v| m.max(v));
+                            let tail = e[head_end..upto].iter().fold(0.0f64, |m, &v| m.max(v));
+                            let struck = upto >= head_end + PRECURSOR_MIN_FRAMES
+                                && tail <= PRECURSOR_REGROWTH * head
+                                && e_on < PRECURSOR_STRUCK_DB_RATIO * pre_peak;
+                            if j < j0 + same_strike && e_on >= PRECURSOR_DB_RATIO * pre_peak && !struck {
                                 precursors.push((o, 10.0 * (e_on / pre_peak).log10()));
                                 onsets.pop();
                             }
