@@ -44,7 +44,7 @@
 //!    a dropped sample) are repaired before the search ([`repair_clicks`]): a spike's flat
 //!    spectrum is not modal, and it puts a local maximum over the threshold in every few
 //!    bins of every level; and the peaks rejected per impact have a budget
-//!    ([`REJECT_BUDGET_BINS`]): a broadband event the repair does not cover (a short DC step)
+//!    ([`REJECT_BUDGET_BINS`]): a broadband event the repair does not cover (a pulse of two samples)
 //!    stops the search with a warning instead of fitting and rejecting peaks for minutes.
 //!
 //! Measured accuracy and speed: `estimator/RESULTS.md`.
@@ -190,9 +190,11 @@ pub struct ImpactFit {
 
 /// Budget of the fits rejected in one impact, in bins fitted (the sum of the rejected
 /// peaks' band lengths; a fit's cost grows with its band). The real clips of
-/// `tests/recordings` use at most 48,000 per file (a music box: 367 rejected peaks); a
-/// one-sample spike or a 1 ms DC step inside a bell's ring used 410,000–560,000 and took
-/// 22–45 s for an impact that takes 1 s without it.
+/// `tests/recordings` use at most 48,000 per file (a music box: 367 rejected peaks); before
+/// [`repair_clicks`], a one-sample spike inside a bell's ring used 410,000–560,000 and took
+/// 22–45 s for an impact that takes 1 s without it. What the repair leaves, a pulse of two
+/// samples (`tests/glitch.rs`: 685 rejected peaks), reaches the budget; a 1 ms DC step in
+/// of 0.03 in the same ring stays under it (186 rejected peaks, 3.4 s).
 pub const REJECT_BUDGET_BINS: usize = 100_000;
 
 /// A sample is a click when its distance from its neighbours' mean, |x[n] − (x[n−1] +
@@ -201,6 +203,8 @@ pub const REJECT_BUDGET_BINS: usize = 100_000;
 const CLICK_OVER_SCALE: f64 = 12.0;
 /// ... and at least this fraction of the impact's peak (−60 dB).
 const CLICK_MIN_REL: f64 = 1e-3;
+/// ... and at least this many quantisation steps (the smallest change between samples).
+const CLICK_MIN_STEPS: f64 = 4.0;
 /// Samples per block of the click detector's local scale.
 const CLICK_BLOCK: usize = 256;
 /// ... and when no sample within `CLICK_ISOLATION` of it (its two neighbours excepted, which
@@ -209,10 +213,13 @@ const CLICK_ISOLATION: usize = 8;
 
 /// Repairs isolated one-sample spikes in `r` (a glitch of a sample library, a dropped or
 /// corrupted sample): each is replaced by its neighbours' mean. `noise_var` (per sample)
-/// floors the local scale, so a quiet tail's few quantisation steps are no spike. Returns the
+/// floors the local scale, and a spike must stand `CLICK_MIN_STEPS` quantisation steps
+/// high, so a quiet tail's few quantisation steps are no spike. Returns the
 /// repaired samples. A struck object's samples are smooth at that scale: a partial of
 /// amplitude A at ω rad/sample moves the measure by at most (1 − cos ω)·A, and a sum of
 /// partials or noise spreads it over every sample; an attack is not one sample alone.
+/// Only the mode search's copy of the impact is repaired: the recording, and the residual
+/// taken from it ([`crate::residual::impact_residual`]), keep the spike.
 pub fn repair_clicks(r: &mut [f64], noise_var: f64) -> Vec<usize> {
     let n = r.len();
     if n < 2 * CLICK_ISOLATION + 3 {
@@ -223,7 +230,8 @@ pub fn repair_clicks(r: &mut [f64], noise_var: f64) -> Vec<usize> {
     // Scale per block: σ of e for Gaussian noise, from the median of |e| (× 1.4826) or from
     // its mean (× 1.2533), whichever is larger: a signal that holds still most of the time
     // and moves in small steps (a coarsely coded quiet tail) has a median of 0, and its steps
-    // are no spikes. The mean moves by 1/768 of a spike's height per spike: no masking.
+    // are no spikes. A spike of height h moves its block's mean by about h/128 (e is h at the
+    // spike and h/2 at its two neighbours, over 256 samples): no masking.
     let mut scratch = Vec::with_capacity(CLICK_BLOCK);
     let blocks: Vec<f64> = e
         .chunks(CLICK_BLOCK)
@@ -240,7 +248,12 @@ pub fn repair_clicks(r: &mut [f64], noise_var: f64) -> Vec<usize> {
     let floor = (1.5 * noise_var.max(0.0)).sqrt();
     // Nor are spikes 60 dB under the impact's peak (a coarsely coded tail's odd sample): they
     // hold a millionth of the peak's power, spread over every bin.
-    let least = CLICK_MIN_REL * r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    // Nor are a few quantisation steps, in a coded signal: a quiet ring that decays into
+    // digital silence with a dither far under one step leaves a tail of zeros and lone ±1
+    // steps, whose local scale and noise are 0. The step is the smallest nonzero change
+    // between samples (one LSB in a 16-bit file; far under any spike in a float one).
+    let step = r.windows(2).map(|w| (w[1] - w[0]).abs()).filter(|&d| d > 0.0).fold(f64::INFINITY, f64::min);
+    let least = (CLICK_MIN_REL * r.iter().fold(0.0f64, |m, v| m.max(v.abs()))).max(CLICK_MIN_STEPS * step);
     let mut out = Vec::new();
     for i in CLICK_ISOLATION..n - CLICK_ISOLATION {
         let b = i / CLICK_BLOCK;

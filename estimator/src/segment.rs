@@ -151,8 +151,10 @@ const PRECURSOR_DB_RATIO: f64 = 10.0;
 /// this factor (0.5 dB) of their peak, and the onset is under
 /// `PRECURSOR_STRUCK_DB_RATIO` (15 dB) over it. A music box's pin scrape rises 1.1–2.5 dB
 /// over its first 10 ms by 10–30 ms later (3–4 dB by the release: `metal-music-box-fluid-44`,
-/// `-50`, `-60` of `tests/recordings`) and a graze stays flat; a soft strike of a bell
-/// decays, and the same bell struck 3× harder 80–250 ms later is 10–12 dB over it.
+/// `-50`, `-60` of `tests/recordings`); a soft strike of a bell decays, and the same bell
+/// struck 3× harder 80–250 ms later is 10–12 dB over it. A graze that stays flat (within
+/// 0.5 dB) counts as struck: 15–20 dB under the strike it stays a precursor, within 15 dB
+/// it is an impact of its own.
 const PRECURSOR_REGROWTH: f64 = 1.122;
 /// See `PRECURSOR_REGROWTH`.
 const PRECURSOR_STRUCK_DB_RATIO: f64 = 31.623;
@@ -741,9 +743,10 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
                             let upto = j.saturating_sub(back).max(j0 + PRECURSOR_MIN_FRAMES).min(j);
                             let pre_peak = e[j0..upto.max(j0 + 1)].iter().fold(0.0f64, |m, &v| m.max(v));
                             // A strike of its own, not a precursor: it peaked in its first 10
-                            // ms and did not rise again (a struck object's ring decays; a
-                            // pin's scrape or a graze rises or stays flat), and this onset is
-                            // less than 15 dB over it (a harder strike of the same object).
+                            // ms and did not rise again by 0.5 dB (a struck object's ring
+                            // decays; a pin's scrape rises), and this onset is less than 15 dB
+                            // over it (a harder strike of the same object). A flat graze
+                            // passes the first test: only the 15 dB keeps it a precursor.
                             let head_end = (j0 + PRECURSOR_MIN_FRAMES).min(upto);
                             let head = e[j0..head_end.max(j0 + 1)].iter().fold(0.0f64, |m, &v| m.max(v));
                             let tail = e[head_end..upto].iter().fold(0.0f64, |m, &v| m.max(v));

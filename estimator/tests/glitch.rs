@@ -140,7 +140,8 @@ fn a_broadband_burst_in_a_ring_stops_the_search_and_says_so() {
 /// The detector itself: a spike on noise is found at its sample and repaired to within the
 /// noise; nothing is repaired in strikes with sharp attacks (sine and cosine phase, partials
 /// up to 18 kHz at 44.1 kHz, a 300 s⁻¹ woodblock), a step, white noise, or a 16-bit quiet
-/// tail of a few quantisation steps.
+/// tail of a few quantisation steps, nor in a quiet 16-bit ring that decays into sparse
+/// ±1 LSB samples with no noise floor to scale them.
 #[test]
 fn the_click_detector_finds_spikes_and_only_spikes() {
     let mut g = Gen(11);
@@ -183,8 +184,25 @@ fn the_click_detector_finds_spikes_and_only_spikes() {
             })
             .collect(),
     ));
+    // A quiet strike in 16 bits whose ring decays into digital silence, with a dither of 0.2
+    // LSB rms: the tail is zeros with a ±1 LSB sample here and there, which stand alone like
+    // spikes over a local scale of 0. Estimated from such a tail the noise variance is 0, and
+    // the strike's peak (0.02) puts −60 dB under one step.
+    let mut quiet = vec![0.0; n];
+    for (i, v) in quiet.iter_mut().enumerate() {
+        let t = i as f64 / FS;
+        let ring = 0.02 * (-40.0 * t).exp() * (std::f64::consts::TAU * 520.0 * t).sin();
+        *v = ((ring + 0.2 * lsb * g.normal()) / lsb).round() * lsb;
+    }
+    let blips = quiet[n / 2..].iter().filter(|v| **v != 0.0).count();
+    assert!((10..2000).contains(&blips), "{blips} nonzero samples in the quiet tail");
+    cases.push(("16-bit quiet tail, no noise floor", quiet));
     for (name, mut x) in cases {
-        let nv = if name == "16-bit tail" { lsb * lsb / 12.0 } else { 1e-6 };
+        let nv = match name {
+            "16-bit tail" => lsb * lsb / 12.0,
+            "16-bit quiet tail, no noise floor" => 0.0,
+            _ => 1e-6,
+        };
         let before = x.clone();
         assert_eq!(repair_clicks(&mut x, nv), Vec::<usize>::new(), "{name}");
         assert_eq!(x, before, "{name}");
