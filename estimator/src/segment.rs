@@ -48,7 +48,8 @@
 //!   partials already ringing (a soft mallet: no click, no new band, and a rise of each
 //!   partial that depends on its phase against the ring) is seen by a linear predictor of
 //!   order 24, 1.25 ms ahead, fitted to the 40 ms of ring that end a hop before the frame
-//!   (covariance method, `RingPredictor`). Decaying partials are predicted to the noise
+//!   (covariance method, `RingPredictor`; soon after an onset, to as much of them as the
+//!   ring since the onset's first 5 ms fills, 20 ms at least: `LP_MIN_TRAIN_S`). Decaying partials are predicted to the noise
 //!   whatever their amplitudes and beating; a strike that changes them is not. The frame's
 //!   prediction error must jump `LP_JUMP_DB` (9 dB) over the largest of the 20 ms before,
 //!   the energy rise 0.5 dB, and the ring's loudest frame lie 10 ms before those 20 ms (a
@@ -289,8 +290,12 @@ const STEADY_FRAMES: usize = 16;
 
 /// Order of the linear predictor that follows a ring (12 partials).
 const LP_ORDER: usize = 24;
-/// Its training window, s: the 40 ms that end a hop before the frame it predicts.
+/// Its training window, s: the 40 ms that end a hop before the frame it predicts ...
 const LP_TRAIN_S: f64 = 0.04;
+/// ... or as much of them as the ring since the onset's first 5 ms fills, this much at
+/// least, s: a strike 50–75 ms after the onset is judged on 20–40 ms of ring (with the full
+/// 40 ms only, the predictor first fired 75 ms after an onset).
+const LP_MIN_TRAIN_S: f64 = 0.02;
 /// A strike on a ringing object that re-excites only the partials already ringing: the
 /// prediction error of the frame (and the next) rose this far over the largest of the 20 ms
 /// before (module docs), dB ...
@@ -315,11 +320,14 @@ struct RingPredictor<'a> {
     x: &'a [f32],
     hop: usize,
     frame: usize,
+    /// Longest training window, samples (`LP_TRAIN_S`).
     train: usize,
     /// How far ahead it predicts, samples (half a hop).
     ahead: usize,
-    /// Mean squared error per frame, NaN until computed.
+    /// Mean squared error per frame, NaN until computed, and the training window it was
+    /// computed with.
     err: Vec<f64>,
+    err_train: Vec<usize>,
     /// Covariance over the training window of the target x[n] (index 0) and the regressors
     /// x[n − ahead − k] (index k ∈ 1..=LP_ORDER), row-major.
     phi: Vec<f64>,
@@ -336,20 +344,23 @@ impl<'a> RingPredictor<'a> {
             train: (LP_TRAIN_S * fs) as usize,
             ahead: hop / 2,
             err: vec![f64::NAN; nfr],
+            err_train: vec![0; nfr],
             phi: vec![0.0; n * n],
             coef: vec![0.0; LP_ORDER],
         }
     }
 
-    /// First sample of the training window of frame `j` (None when the file starts later).
-    fn train_start(&self, j: usize) -> Option<usize> {
-        (j * self.hop).checked_sub(self.hop + self.train).filter(|&t0| t0 > LP_ORDER + self.ahead)
+    /// First sample of the training window of `train` samples of frame `j` (None when the
+    /// file starts later).
+    fn train_start(&self, j: usize, train: usize) -> Option<usize> {
+        (j * self.hop).checked_sub(self.hop + train).filter(|&t0| t0 > LP_ORDER + self.ahead)
     }
 
-    /// Fits the predictor of frame `j` into `coef`; false when the window is silent.
-    fn fit(&mut self, j: usize) -> bool {
-        let Some(t0) = self.train_start(j) else { return false };
-        let t1 = t0 + self.train;
+    /// Fits the predictor of frame `j` on `train` samples into `coef`; false when the window
+    /// is silent.
+    fn fit(&mut self, j: usize, train: usize) -> bool {
+        let Some(t0) = self.train_start(j, train) else { return false };
+        let t1 = t0 + train;
         let n = LP_ORDER + 1;
         let a = self.ahead;
         let x = |i: usize| f64::from(self.x[i]);
@@ -421,15 +432,16 @@ impl<'a> RingPredictor<'a> {
         f64::from(self.x[i]) - pred
     }
 
-    /// Mean squared prediction error of frame `j` (None before the first training window
-    /// or on digital silence).
-    fn error(&mut self, j: usize) -> Option<f64> {
+    /// Mean squared prediction error of frame `j`, trained on `train` samples (None before
+    /// the first training window or on digital silence).
+    fn error(&mut self, j: usize, train: usize) -> Option<f64> {
         if j >= self.err.len() {
             return None;
         }
-        if self.err[j].is_nan() {
+        if self.err[j].is_nan() || self.err_train[j] != train {
             let a = j * self.hop;
-            self.err[j] = if self.fit(j) {
+            self.err_train[j] = train;
+            self.err[j] = if self.fit(j, train) {
                 (a..a + self.frame).map(|i| self.error_at(i).powi(2)).sum::<f64>() / self.frame as f64
             } else {
                 f64::INFINITY
@@ -439,10 +451,11 @@ impl<'a> RingPredictor<'a> {
     }
 
     /// First sample from frame `j − 1` on, to the end of frame `j`, whose squared prediction
-    /// error (with the predictor of frame `j − 1`) exceeds `level`, if any.
-    fn first_over(&mut self, j: usize, level: f64) -> Option<usize> {
+    /// error (with the predictor of frame `j − 1`, trained on `train` samples) exceeds
+    /// `level`, if any.
+    fn first_over(&mut self, j: usize, level: f64, train: usize) -> Option<usize> {
         let jf = j.checked_sub(1)?;
-        if !self.fit(jf) {
+        if !self.fit(jf, train) {
             return None;
         }
         let a = jf * self.hop;
@@ -465,7 +478,8 @@ fn sample_onset(x: &[f32], j: usize, hop: usize, frame: usize) -> usize {
 /// A strike at frame `j` on an object still ringing from the onset at sample `onset`, seen by
 /// its prediction error ([`RingPredictor`]): the error of frame `j` or `j + 1` `LP_JUMP_DB`
 /// over the largest of frames `j − 8 ..= j − 2` (all predicted from the ring after the
-/// onset's first 5 ms), the energy risen `LP_ENERGY_RISE_DB` over frames `j − 6 ..= j − 2`,
+/// onset's first 5 ms, by windows of one length: `LP_TRAIN_S`, or what frame `j − 8` has of
+/// it, `LP_MIN_TRAIN_S` at least), the energy risen `LP_ENERGY_RISE_DB` over frames `j − 6 ..= j − 2`,
 /// and the impact's loudest frame `peak_frame` 10 ms before those (its attack is over).
 /// Returns the strike's first sample (where the error first exceeds 30 times (15 dB) the
 /// earlier frames' largest), else `None`; a sample library's glitch (the energy does not
@@ -478,7 +492,14 @@ fn rings_again(
     peak_frame: usize,
 ) -> Option<usize> {
     let onset = onset?;
-    if j < 12 + peak_frame || j + 4 > e.len() || pred.train_start(j - 8).is_none_or(|t0| t0 < onset + pred.frame) {
+    if j < 12 + peak_frame || j + 4 > e.len() {
+        return None;
+    }
+    // Every frame of the decision is predicted with the same window: the 40 ms, or as much
+    // ring as frame j − 8's window finds after the onset's first 5 ms (20 ms at least).
+    let ring = (j - 8).checked_mul(pred.hop)?.checked_sub(pred.hop + onset + pred.frame)?;
+    let train = ring.min(pred.train);
+    if (train as f64) < LP_MIN_TRAIN_S / LP_TRAIN_S * pred.train as f64 || pred.train_start(j - 8, train).is_none() {
         return None;
     }
     let before = e[j - 6..j - 1].iter().fold(0.0f64, |m, &v| m.max(v));
@@ -488,13 +509,13 @@ fn rings_again(
     }
     let mut reference = 0.0f64;
     for jj in j - 8..j - 1 {
-        reference = reference.max(pred.error(jj)?);
+        reference = reference.max(pred.error(jj, train)?);
     }
-    let now = pred.error(j)?.max(pred.error(j + 1).unwrap_or(0.0));
+    let now = pred.error(j, train)?.max(pred.error(j + 1, train).unwrap_or(0.0));
     if reference <= 0.0 || now < reference * 10f64.powf(LP_JUMP_DB / 10.0) {
         return None;
     }
-    Some(pred.first_over(j, 30.0 * reference).unwrap_or_else(|| sample_onset(pred.x, j, pred.hop, pred.frame)))
+    Some(pred.first_over(j, 30.0 * reference, train).unwrap_or_else(|| sample_onset(pred.x, j, pred.hop, pred.frame)))
 }
 
 /// Finds the impacts in a mono signal `x` sampled at `fs` Hz.
