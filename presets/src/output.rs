@@ -6,6 +6,12 @@
 //! was: it is never truncated first. [`check_output`] makes the checks that can fail (missing
 //! or read-only folder, destination that is a folder, read-only file, output that is one of the
 //! inputs) before long work starts.
+//!
+//! A destination that is a link is followed: the file it points to is replaced and the link
+//! stays. A destination that is not a regular file (`/dev/null`, `/dev/stdout`, a named pipe,
+//! a terminal) is never replaced: the output is completed in a temporary file in the system's
+//! temporary folder and then copied into it, so writing to a device or a pipe works as a shell
+//! redirection does and a device's failure (`/dev/full`) is an error.
 
 use std::fs::{self, File, OpenOptions};
 use std::io::{self, BufWriter, Seek, SeekFrom, Write};
@@ -153,10 +159,46 @@ static COUNTER: AtomicU32 = AtomicU32::new(0);
 /// Writes are buffered; the file is flushed and synced to disk before the rename.
 #[derive(Debug)]
 pub struct AtomicFile {
+    /// The destination as the user named it (for messages).
     dest: PathBuf,
+    /// Where the output goes: `dest` with its links followed (a regular file, replaced by the
+    /// rename), or `dest` itself when it is a device or a pipe (written into on commit).
+    target: PathBuf,
+    /// The target is not a regular file: copy into it rather than rename over it.
+    stream: bool,
     tmp: PathBuf,
     /// `None` only once committed.
     file: Option<BufWriter<File>>,
+}
+
+/// Links followed at most (as the system's own limit).
+const MAX_LINKS: usize = 40;
+
+/// Where writing `dest` should go, and whether that is a stream (a device, a pipe or a
+/// socket, or a path under `/dev` or `/proc`, whose links are the system's) rather than a
+/// regular file. A link to an existing file resolves to that file; a dangling link to the path
+/// it names (the file is created there, as a shell redirection does).
+fn resolve_target(dest: &Path) -> (PathBuf, bool) {
+    let system = dest.is_absolute() && (dest.starts_with("/dev") || dest.starts_with("/proc"));
+    match fs::metadata(dest) {
+        Ok(m) if !m.is_file() && !m.is_dir() => return (dest.to_path_buf(), true),
+        Ok(m) if m.is_file() && system => return (dest.to_path_buf(), true),
+        Ok(m) if m.is_file() => return (fs::canonicalize(dest).unwrap_or_else(|_| dest.to_path_buf()), false),
+        Ok(_) => return (dest.to_path_buf(), false),
+        Err(_) => {}
+    }
+    // Missing: a dangling link names the file to create.
+    let mut path = dest.to_path_buf();
+    for _ in 0..MAX_LINKS {
+        match fs::symlink_metadata(&path) {
+            Ok(m) if m.file_type().is_symlink() => match fs::read_link(&path) {
+                Ok(to) => path = folder_of(&path).join(to),
+                Err(_) => break,
+            },
+            _ => break,
+        }
+    }
+    (path, system)
 }
 
 impl AtomicFile {
@@ -168,7 +210,8 @@ impl AtomicFile {
     /// [`OutputError::FolderNotWritable`] or [`OutputError::Io`].
     pub fn create(dest: &Path) -> Result<Self, OutputError> {
         let path = dest.to_path_buf();
-        let existing = fs::metadata(dest).ok();
+        let (target, stream) = resolve_target(dest);
+        let existing = fs::metadata(&target).ok();
         if let Some(m) = &existing {
             if m.is_dir() {
                 return Err(OutputError::IsAFolder { path });
@@ -177,10 +220,14 @@ impl AtomicFile {
                 return Err(OutputError::ReadOnly { path });
             }
         }
-        let Some(name) = dest.file_name() else {
+        let Some(name) = target.file_name() else {
             return Err(OutputError::IsAFolder { path });
         };
-        let folder = folder_of(dest);
+        if stream {
+            // Completed in the system's temporary folder, then copied into the stream.
+            return Self::create_in(path, target.clone(), true, &std::env::temp_dir(), name, None);
+        }
+        let folder = folder_of(&target);
         match fs::metadata(&folder) {
             Ok(m) if m.is_dir() => {}
             Ok(_) => {
@@ -189,25 +236,41 @@ impl AtomicFile {
             }
             Err(_) => return Err(OutputError::NoFolder { path, folder }),
         }
+        Self::create_in(path, target.clone(), false, &folder, name, existing.as_ref())
+    }
+
+    /// Creates the temporary file `.NAME.PID-N.tmp` in `folder`.
+    fn create_in(
+        path: PathBuf,
+        target: PathBuf,
+        stream: bool,
+        folder: &Path,
+        name: &std::ffi::OsStr,
+        existing: Option<&fs::Metadata>,
+    ) -> Result<Self, OutputError> {
         let pid = std::process::id();
         let mut attempt = 0;
         loop {
             let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-            let mut tmp_name = std::ffi::OsString::from(".");
+            let mut tmp_name = std::ffi::OsString::from(if stream { ".struck-" } else { "." });
             tmp_name.push(name);
             tmp_name.push(format!(".{pid}-{n}.tmp"));
             let tmp = folder.join(tmp_name);
-            match OpenOptions::new().write(true).create_new(true).open(&tmp) {
+            // A stream's copy is read back on commit.
+            match OpenOptions::new().read(stream).write(true).create_new(true).open(&tmp) {
                 Ok(file) => {
-                    if let Some(m) = &existing {
+                    if let Some(m) = existing {
                         // Keep the replaced file's mode (e.g. group-readable); best effort.
                         let _ = file.set_permissions(m.permissions());
                     }
-                    return Ok(AtomicFile { dest: path, tmp, file: Some(BufWriter::with_capacity(1 << 16, file)) });
+                    let file = Some(BufWriter::with_capacity(1 << 16, file));
+                    return Ok(AtomicFile { dest: path, target, stream, tmp, file });
                 }
                 // A leftover of a killed run with the same pid and counter: try the next name.
                 Err(e) if e.kind() == io::ErrorKind::AlreadyExists && attempt < 100 => attempt += 1,
-                Err(source) => return Err(OutputError::FolderNotWritable { path, folder, source }),
+                Err(source) => {
+                    return Err(OutputError::FolderNotWritable { path, folder: folder.to_path_buf(), source });
+                }
             }
         }
     }
@@ -240,17 +303,33 @@ impl AtomicFile {
         self.sync()?;
         let io = |source| OutputError::Io { path: self.dest.clone(), source };
         // Dropping the writer closes the file (its buffer is empty after `sync`).
-        drop(self.file.take());
-        if let Err(e) = fs::rename(&self.tmp, &self.dest) {
+        let file = self.file.take();
+        if self.stream {
+            let copied = file.map_or(Ok(()), |w| Self::copy_into(w.into_parts().0, &self.target));
+            let _ = fs::remove_file(&self.tmp);
+            return copied.map_err(io);
+        }
+        drop(file);
+        if let Err(e) = fs::rename(&self.tmp, &self.target) {
             let _ = fs::remove_file(&self.tmp);
             return Err(io(e));
         }
         // The rename is durable once the folder itself is synced (best effort: not every
         // platform can open a folder).
-        if let Ok(dir) = File::open(folder_of(&self.dest)) {
+        if let Ok(dir) = File::open(folder_of(&self.target)) {
             let _ = dir.sync_all();
         }
         Ok(())
+    }
+
+    /// Copies the completed temporary file `tmp` into the stream `target` (opened for writing
+    /// only now: a pipe's reader sees the whole output or nothing).
+    fn copy_into(mut tmp: File, target: &Path) -> io::Result<()> {
+        tmp.seek(SeekFrom::Start(0))?;
+        // Appending: a file behind `/dev/stdout` keeps what the shell's `>>` put there first.
+        let mut out = OpenOptions::new().append(true).open(target)?;
+        io::copy(&mut tmp, &mut out)?;
+        out.flush()
     }
 
     fn writer(&mut self) -> io::Result<&mut BufWriter<File>> {
@@ -383,5 +462,71 @@ mod tests {
         p.set_readonly(false);
         fs::set_permissions(&ro, p).unwrap();
         let _ = fs::remove_dir_all(dir);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_link_is_followed_and_stays_a_link() {
+        let dir = scratch("link");
+        let real = dir.join("real.json");
+        fs::write(&real, "old").unwrap();
+        let link = dir.join("link.json");
+        std::os::unix::fs::symlink("real.json", &link).unwrap();
+        write_atomically(&link, b"new").unwrap();
+        assert!(fs::symlink_metadata(&link).unwrap().file_type().is_symlink(), "the link was replaced");
+        assert_eq!(fs::read_to_string(&real).unwrap(), "new");
+        // A dangling link: the file it names is created.
+        let dangling = dir.join("dangling.json");
+        std::os::unix::fs::symlink("made.json", &dangling).unwrap();
+        write_atomically(&dangling, b"made").unwrap();
+        assert!(fs::symlink_metadata(&dangling).unwrap().file_type().is_symlink());
+        assert_eq!(fs::read_to_string(dir.join("made.json")).unwrap(), "made");
+        let mut left = others(&dir, "");
+        left.sort();
+        assert_eq!(left, ["dangling.json", "link.json", "made.json", "real.json"]);
+        let _ = fs::remove_dir_all(dir);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_named_pipe_is_written_into_not_replaced() {
+        let dir = scratch("fifo");
+        let fifo = dir.join("report.json");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        if !made.is_ok_and(|s| s.success()) {
+            eprintln!("mkfifo is not available: skipped");
+            return;
+        }
+        check_output(&fifo, &[]).unwrap();
+        let reader = {
+            let fifo = fifo.clone();
+            std::thread::spawn(move || fs::read(fifo).unwrap())
+        };
+        let mut f = AtomicFile::create(&fifo).unwrap();
+        f.write_all(&[b'x'; 200_000]).unwrap();
+        f.commit().unwrap();
+        assert_eq!(reader.join().unwrap().len(), 200_000, "the reader got the whole output");
+        use std::os::unix::fs::FileTypeExt;
+        assert!(fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo(), "the pipe was replaced");
+        assert!(others(&dir, "report.json").is_empty());
+        let _ = fs::remove_dir_all(dir);
+    }
+
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn devices_are_written_into_and_their_errors_reported() {
+        use std::os::unix::fs::FileTypeExt;
+        let is_char = |p: &str| fs::symlink_metadata(p).is_ok_and(|m| m.file_type().is_char_device());
+        if !is_char("/dev/null") || !is_char("/dev/full") {
+            eprintln!("no /dev/null or /dev/full: skipped");
+            return;
+        }
+        assert_eq!(resolve_target(Path::new("/dev/null")), (PathBuf::from("/dev/null"), true));
+        write_atomically(Path::new("/dev/null"), b"gone").unwrap();
+        assert!(is_char("/dev/null"), "/dev/null is no longer a device");
+        let e = write_atomically(Path::new("/dev/full"), &[0; 10_000]).unwrap_err();
+        assert!(matches!(e, OutputError::Io { .. }), "{e}");
+        assert!(e.to_string().starts_with("cannot write /dev/full: "), "{e}");
+        assert!(is_char("/dev/full"), "/dev/full is no longer a device");
     }
 }

@@ -1,13 +1,46 @@
 //! The command line's work, as a library so tests and `xtask` use the same code.
 
-/// `println!` that ignores a closed pipe (`struck modes --json | head` must not panic).
+/// `println!` that ignores a closed pipe (`struck modes --json | head` must not panic) and
+/// keeps any other failure (a full disk behind `> file`) for [`stdout_result`].
 macro_rules! outln {
     ($($t:tt)*) => {{
         use std::io::Write as _;
-        let _ = writeln!(std::io::stdout(), $($t)*);
+        if let Err(e) = writeln!(std::io::stdout(), $($t)*) {
+            $crate::cli::note_stdout_error(e);
+        }
     }};
 }
 pub(crate) use outln;
+
+/// The first failure writing to the standard output other than a closed pipe.
+static STDOUT_ERROR: std::sync::Mutex<Option<String>> = std::sync::Mutex::new(None);
+
+/// Keeps `e` as the standard output's failure unless one is kept or it is a closed pipe (the
+/// reader, e.g. `head`, has what it wanted).
+pub fn note_stdout_error(e: std::io::Error) {
+    if e.kind() == std::io::ErrorKind::BrokenPipe {
+        return;
+    }
+    if let Ok(mut kept) = STDOUT_ERROR.lock() {
+        kept.get_or_insert_with(|| e.to_string());
+    }
+}
+
+/// Flushes the standard output; an error if anything written to it was lost (a script must
+/// not take a partial listing on a full disk for a whole one).
+///
+/// # Errors
+/// `cannot write to the standard output: REASON`.
+pub fn stdout_result() -> Result<(), String> {
+    use std::io::Write as _;
+    if let Err(e) = std::io::stdout().flush() {
+        note_stdout_error(e);
+    }
+    match STDOUT_ERROR.lock().ok().and_then(|k| k.clone()) {
+        Some(e) => Err(format!("cannot write to the standard output: {e}")),
+        None => Ok(()),
+    }
+}
 
 /// Whether a progress line (drawn with `\r`, no newline) is on stderr.
 static PROGRESS_OPEN: AtomicBool = AtomicBool::new(false);

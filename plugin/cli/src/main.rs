@@ -306,7 +306,7 @@ fn main() -> ExitCode {
             _ => return fail(&clap_one_line(&e)),
         },
     };
-    let result = run(cli);
+    let result = run(cli).and_then(|()| cli::stdout_result());
     cli::end_progress_line();
     match result {
         Ok(()) => ExitCode::SUCCESS,

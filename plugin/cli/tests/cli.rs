@@ -574,6 +574,52 @@ fn estimate_never_replaces_an_input_or_a_file_on_failure() {
     assert!(r["impacts"].as_array().is_some_and(|a| a.len() == 3), "{r}");
 }
 
+/// Outputs that are not plain files, as users name them: a link is followed (the file it
+/// points to is replaced, the link stays), a named pipe and `/dev/null` are written into,
+/// never replaced; a full device and a full standard output are errors, not silent successes.
+#[cfg(target_os = "linux")]
+#[test]
+fn outputs_through_links_pipes_and_devices_are_written_into() {
+    use std::os::unix::fs::FileTypeExt;
+    let dir = scratch("estimate-special");
+    let rec = strikes(&dir);
+    let rec_s = rec.to_str().unwrap();
+    std::fs::write(dir.join("real.json"), PRECIOUS).unwrap();
+    let link = dir.join("m.json");
+    std::os::unix::fs::symlink("real.json", &link).unwrap();
+    let fifo = dir.join("report.json");
+    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    let reader = {
+        let fifo = fifo.clone();
+        std::thread::spawn(move || std::fs::read(fifo).unwrap())
+    };
+    let o = struck(&dir, &["estimate", rec_s, "--out", link.to_str().unwrap(), "--report", fifo.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let report: serde_json::Value = serde_json::from_slice(&reader.join().unwrap()).unwrap();
+    assert!(report["impacts"].as_array().is_some_and(|a| a.len() == 3), "{report}");
+    assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink(), "the link was replaced");
+    presets::Material::load(&dir.join("real.json")).unwrap();
+    assert!(std::fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo(), "the pipe was replaced");
+
+    let is_char = |p: &str| std::fs::symlink_metadata(p).is_ok_and(|m| m.file_type().is_char_device());
+    if is_char("/dev/null") && is_char("/dev/full") {
+        let o = struck(&dir, &["estimate", rec_s, "--out", "/dev/null"]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        assert!(is_char("/dev/null"), "/dev/null was replaced");
+        let e = error_line(&struck(&dir, &["estimate", rec_s, "--out", "/dev/full"]));
+        assert!(e.starts_with("cannot write /dev/full"), "{e}");
+        assert!(is_char("/dev/full"), "/dev/full was replaced");
+        // The standard output on a full device.
+        let full = std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
+        let o = command(&dir, &["objects", "--json"]).stdout(full).output().unwrap();
+        let e = error_line(&o);
+        assert!(e.starts_with("cannot write to the standard output"), "{e}");
+    }
+    let mut left = listing(&dir);
+    left.retain(|n| n.starts_with('.'));
+    assert!(left.is_empty(), "temporary files left: {left:?}");
+}
+
 #[test]
 fn bank_build_never_replaces_its_mesh_or_a_file_on_failure_and_checks_the_folder_first() {
     let dir = scratch("bank-out");
