@@ -14,11 +14,21 @@ pub enum EstimateError {
         /// What the decoder said.
         reason: String,
     },
+    /// The file cannot be opened (missing, a folder, no permission).
+    #[error("{path}: cannot open ({reason})")]
+    Open {
+        /// The file.
+        path: PathBuf,
+        /// What the system said.
+        reason: String,
+    },
     /// The WAV file holds no samples, or only digital silence.
-    #[error("{path}: the recording is silent; check the input level and that the right file/channel was chosen")]
+    #[error("{path}: {}", why.message())]
     Silent {
         /// The file.
         path: PathBuf,
+        /// Which kind of silence.
+        why: Silence,
     },
     /// The requested channel does not exist.
     #[error("{path}: channel {channel} requested but the file has {channels} channel(s); channels count from 0")]
@@ -76,7 +86,11 @@ pub enum EstimateError {
         reason: String,
     },
     /// Too few (λ, c) points for the requested model.
-    #[error("found {found} usable mode feature(s) but the fit needs at least {needed}; record more taps or choose a model with fewer parameters (rayleigh)")]
+    #[error("found {found} usable mode feature(s) but the fit needs at least {needed}; {}", if *needed > 4 {
+        "record more taps or choose a model with fewer parameters (rayleigh)"
+    } else {
+        "record more taps, struck where more modes ring (away from the middle and the edges)"
+    })]
     TooFewFeatures {
         /// Features available.
         found: usize,
@@ -110,4 +124,30 @@ pub enum EstimateError {
     /// The caller set the cancel flag.
     #[error("cancelled")]
     Cancelled,
+}
+
+/// Why a recording counts as silent ([`EstimateError::Silent`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Silence {
+    /// The data chunk holds no whole sample.
+    NoSamples,
+    /// Every sample is zero.
+    Zeros,
+    /// The channels are not silent but cancel out when mixed to mono (one is the other
+    /// inverted).
+    ChannelsCancel,
+}
+
+impl Silence {
+    fn message(self) -> &'static str {
+        match self {
+            Silence::NoSamples => "the file holds no samples (empty, or its writer never finished it); export it again",
+            Silence::Zeros => {
+                "the recording is silent; check the input level and that the right file/channel was chosen"
+            }
+            Silence::ChannelsCancel => {
+                "the channels cancel each other out when mixed to mono (one is the other inverted); pick one channel (--channel 0)"
+            }
+        }
+    }
 }

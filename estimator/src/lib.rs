@@ -43,7 +43,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use serde::{Deserialize, Serialize};
 
-pub use error::EstimateError;
+pub use error::{EstimateError, Silence};
 pub use features::{ExtractOptions, Feature, ImpactFit};
 pub use fit::{fit_damping, fit_damping_weighted, FitParams, FitResult, Method, ModelKind};
 pub use object::{ModeSupport, ObjectMatch};
@@ -314,8 +314,19 @@ pub fn extract_features(
         if cancel.load(Ordering::Relaxed) {
             return Err(EstimateError::Cancelled);
         }
-        let rec = load_wav(path, opts.channel)?;
         let name = path.display().to_string();
+        if let Some(first) = files[..fi].iter().find(|f| presets::output::same_file(f, path)) {
+            report.warnings.push(format!("{name} is the same file as {}: read once", first.display()));
+            continue;
+        }
+        let rec = match load_wav(path, opts.channel) {
+            // A silent file among others is skipped like one with no impact in it.
+            Err(e @ EstimateError::Silent { .. }) if files.len() > 1 => {
+                report.warnings.push(format!("{e}; skipped"));
+                continue;
+            }
+            r => r?,
+        };
         report.warnings.extend(rec.warnings.iter().cloned());
         let fs = f64::from(rec.sample_rate);
         let seg = segment::segment(&rec.samples, fs, &opts.segment);

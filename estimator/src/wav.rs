@@ -1,5 +1,5 @@
-//! WAV input (hound): any PCM integer depth hound reads (8/16/24/32 bit) and 32-bit float,
-//! any channel count, 8–192 kHz. Samples are scaled to ±1 full scale and mixed to mono
+//! WAV input: PCM integers of 8–32 bits (in 1–4 byte containers, WAVE_FORMAT_EXTENSIBLE's
+//! left-justified valid bits included) and 32- or 64-bit float, any channel count, 8–192 kHz. Samples are scaled to ±1 full scale and mixed to mono
 //! (mean of the channels) or one channel is picked.
 //!
 //! Memory bound: the file is streamed, only the mono result is kept, as `f32`, and it is cut
@@ -10,7 +10,7 @@ use std::fs::File;
 use std::io::{self, Read as _};
 use std::path::{Path, PathBuf};
 
-use crate::EstimateError;
+use crate::{EstimateError, Silence};
 
 /// Longest recording read, in seconds (15 minutes). Longer files are truncated with a warning.
 pub const MAX_SECONDS: f64 = 900.0;
@@ -53,77 +53,219 @@ fn chunk_header(h: [u8; 8]) -> ([u8; 4], u32) {
 /// Longest `fmt ` chunk accepted (WAVE_FORMAT_EXTENSIBLE takes 40 bytes).
 const MAX_FMT_LEN: u32 = 1024;
 
-/// The stream [`open_wav`] hands to hound: a canonical header, then the file's `data` bytes.
-type WavStream = io::Chain<io::Cursor<Vec<u8>>, io::Take<io::BufReader<File>>>;
+/// The sample layout of a WAV file's `fmt ` chunk.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Format {
+    /// IEEE float samples (else two's-complement integers; 8-bit ones unsigned).
+    float: bool,
+    channels: u16,
+    sample_rate: u32,
+    /// Bytes a sample takes in the file (its container).
+    bytes: usize,
+    /// Bits of each sample that carry signal (left-justified in the container).
+    valid_bits: u16,
+}
 
-/// Opens a WAV file for hound by walking its RIFF chunks itself.
-///
-/// hound 3.5 skips an unknown chunk by its length only, but RIFF pads every odd-sized chunk
-/// with one byte (Microsoft's RIFF spec; e.g. an odd-length `LIST`/`INFO` chunk), so such a
-/// file would be misread. Here every chunk before `data` is skipped with its pad byte, and
-/// hound is given a minimal header (`RIFF`, `WAVE`, the file's own `fmt ` chunk, `data`)
-/// followed by the file's data bytes, so hound still checks the format and decodes.
-fn open_wav(path: &Path) -> Result<hound::WavReader<WavStream>, String> {
-    let file = File::open(path).map_err(|e| e.to_string())?;
+/// Names of the WAVE format tags Struck meets but cannot decode.
+fn format_name(tag: u16) -> String {
+    match tag {
+        0x0002 => "Microsoft ADPCM".into(),
+        0x0006 => "A-law".into(),
+        0x0007 => "µ-law".into(),
+        0x0011 => "IMA ADPCM".into(),
+        0x0050 | 0x0055 => "MPEG audio".into(),
+        _ => format!("format 0x{tag:04x}"),
+    }
+}
+
+/// Reads the `fmt ` chunk: PCM (tag 1), IEEE float (3) and WAVE_FORMAT_EXTENSIBLE (0xFFFE)
+/// with either as its sub-format; integers of 8–32 bits in containers of 1–4 bytes (valid bits
+/// under the container are left-justified, as Microsoft's spec has them, so the container sets
+/// the full scale), floats of 32 or 64 bits.
+fn parse_fmt(fmt: &[u8]) -> Result<Format, String> {
+    if fmt.len() < 16 {
+        return Err(format!("the fmt chunk has {} bytes, fewer than the 16 of any WAV", fmt.len()));
+    }
+    let u16_at = |i: usize| u16::from_le_bytes([fmt[i], fmt[i + 1]]);
+    let mut tag = u16_at(0);
+    let channels = u16_at(2);
+    let sample_rate = u32::from_le_bytes([fmt[4], fmt[5], fmt[6], fmt[7]]);
+    let block_align = usize::from(u16_at(12));
+    let bits = u16_at(14);
+    let mut valid_bits = bits;
+    if tag == 0xFFFE {
+        if fmt.len() < 40 {
+            return Err("the extensible fmt chunk is cut short".into());
+        }
+        // A valid-bits field of 0 (or over the container) is a writer's slip: the container counts.
+        let v = u16_at(18);
+        if v > 0 && v <= bits {
+            valid_bits = v;
+        }
+        // The sub-format GUID's first two bytes are the plain format tag.
+        tag = u16_at(24);
+    }
+    let float = match tag {
+        1 => false,
+        3 => true,
+        t => return Err(format!("{}-encoded samples are not supported", format_name(t))),
+    };
+    if channels == 0 {
+        return Err("the file declares 0 channels".into());
+    }
+    if bits == 0 {
+        return Err("the file declares 0 bits per sample".into());
+    }
+    let bytes = usize::from(bits).div_ceil(8);
+    // Some writers pad every sample to a wider container than its bits need: block_align says.
+    let bytes = if block_align >= usize::from(channels) * bytes && block_align % usize::from(channels) == 0 {
+        block_align / usize::from(channels)
+    } else {
+        bytes
+    };
+    match (float, bytes) {
+        (false, 1..=4) | (true, 4) | (true, 8) => {}
+        (false, _) => return Err(format!("{}-bit integer samples are not supported", 8 * bytes)),
+        (true, _) => return Err(format!("{}-bit float samples are not supported (32 or 64 are)", 8 * bytes)),
+    }
+    Ok(Format { float, channels, sample_rate, bytes, valid_bits: valid_bits.min(8 * bytes as u16) })
+}
+
+impl Format {
+    /// One sample from its `bytes` little-endian bytes, integers scaled so that the
+    /// container's full scale is ±1.
+    fn decode(&self, b: &[u8]) -> f64 {
+        match (self.float, self.bytes) {
+            (true, 4) => f64::from(f32::from_le_bytes([b[0], b[1], b[2], b[3]])),
+            (true, _) => f64::from_le_bytes([b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]]),
+            (false, 1) => (f64::from(b[0]) - 128.0) / 128.0,
+            (false, 2) => f64::from(i16::from_le_bytes([b[0], b[1]])) / 32_768.0,
+            (false, 3) => f64::from(i32::from_le_bytes([0, b[0], b[1], b[2]])) / 2_147_483_648.0,
+            (false, _) => f64::from(i32::from_le_bytes([b[0], b[1], b[2], b[3]])) / 2_147_483_648.0,
+        }
+    }
+}
+
+/// Whether a data chunk's size is one a writer leaves when it never goes back to set it (a
+/// stream or a recording still in progress): 0, or within 64 KiB of 4 GiB (0xFFFFFFFF,
+/// 0xFFFFFFFC, … as streaming writers put there). The samples then run to the end of the file.
+fn unset_data_len(len: u32) -> bool {
+    len == 0 || len >= 0xFFFF_0000
+}
+
+/// An open WAV file positioned at its samples.
+struct WavData {
+    format: Format,
+    reader: io::BufReader<File>,
+    /// Bytes of samples to read.
+    len: u64,
+    /// Bytes the data chunk declares (`None`: unset, read to the end of the file).
+    declared: Option<u64>,
+}
+
+/// Opens a WAV file and walks its RIFF chunks to the samples: every chunk before `data`
+/// (LIST, fact, bext, cue, …) is skipped with its pad byte (RIFF pads every odd-sized chunk,
+/// Microsoft's RIFF spec), the `fmt ` chunk is read, and a data size that was never set or that
+/// runs past the end of the file stops at the end of the file.
+fn open_wav(path: &Path) -> Result<WavData, EstimateError> {
+    let wav_err = |reason: String| EstimateError::Wav { path: path.to_path_buf(), reason };
+    let open_err = |e: io::Error| EstimateError::Open { path: path.to_path_buf(), reason: e.to_string() };
+    let meta = std::fs::metadata(path).map_err(open_err)?;
+    if meta.is_dir() {
+        return Err(EstimateError::Open { path: path.to_path_buf(), reason: "it is a folder, not a file".into() });
+    }
+    let file = File::open(path).map_err(open_err)?;
+    let size = meta.len();
     let mut r = io::BufReader::new(file);
     let mut head = [0u8; 12];
-    r.read_exact(&mut head).map_err(|_| "the file is shorter than a WAV header".to_string())?;
+    r.read_exact(&mut head).map_err(|_| wav_err("the file is shorter than a WAV header".into()))?;
     if &head[0..4] != b"RIFF" || &head[8..12] != b"WAVE" {
-        return Err("no RIFF/WAVE header: not a WAV file".into());
+        return Err(wav_err(if &head[0..4] == b"RIFX" {
+            "big-endian (RIFX) WAV files are not supported".into()
+        } else {
+            "no RIFF/WAVE header: not a WAV file".into()
+        }));
     }
+    let mut pos = 12u64;
     let mut fmt: Option<Vec<u8>> = None;
+    // The byte after an odd-sized chunk, when it is not a zero pad byte but the first letter of
+    // the next chunk's id (buggy writers leave the pad out).
+    let mut carried: Option<u8> = None;
     let data_len = loop {
         let mut h = [0u8; 8];
-        if r.read_exact(&mut h).is_err() {
-            return Err(if fmt.is_none() { "no fmt chunk" } else { "no data chunk" }.into());
+        let start = usize::from(carried.is_some());
+        if let Some(b) = carried.take() {
+            h[0] = b;
         }
+        if r.read_exact(&mut h[start..]).is_err() {
+            return Err(wav_err(if fmt.is_none() { "no fmt chunk" } else { "no data chunk" }.into()));
+        }
+        pos += 8 - start as u64;
         let (id, len) = chunk_header(h);
         match &id {
             b"fmt " => {
                 if len > MAX_FMT_LEN {
-                    return Err(format!("fmt chunk of {len} bytes is too long"));
+                    return Err(wav_err(format!("fmt chunk of {len} bytes is too long")));
                 }
                 let mut body = vec![0u8; len as usize];
-                r.read_exact(&mut body).map_err(|_| "the fmt chunk is cut short".to_string())?;
-                if len % 2 == 1 {
-                    r.seek_relative(1).map_err(|e| e.to_string())?;
-                }
+                r.read_exact(&mut body).map_err(|_| wav_err("the fmt chunk is cut short".into()))?;
+                pos += u64::from(len);
                 fmt = Some(body);
+                if len % 2 == 1 {
+                    carried = pad_or_id(&mut r, &mut pos);
+                }
             }
             b"data" => {
                 if fmt.is_none() {
-                    return Err("the data chunk comes before the fmt chunk".into());
+                    return Err(wav_err("the data chunk comes before the fmt chunk".into()));
                 }
                 break len;
             }
-            // Any other chunk (LIST, fact, bext, cue, …): skip it and its pad byte.
-            _ => r.seek_relative(i64::from(len) + i64::from(len % 2)).map_err(|e| e.to_string())?,
+            // Any other chunk: skip it and its pad byte.
+            _ => {
+                let skip = u64::from(len);
+                if pos + skip > size {
+                    let id = String::from_utf8_lossy(&id).trim().to_string();
+                    return Err(wav_err(format!(
+                        "no data chunk (a '{id}' chunk of {len} bytes at byte {} runs past the end of the file)",
+                        pos - 8
+                    )));
+                }
+                r.seek_relative(skip as i64).map_err(|e| wav_err(e.to_string()))?;
+                pos += skip;
+                if len % 2 == 1 {
+                    carried = pad_or_id(&mut r, &mut pos);
+                }
+            }
         }
     };
-    let fmt = fmt.unwrap_or_default();
-    let fmt_len = u32::try_from(fmt.len()).unwrap_or(MAX_FMT_LEN);
-    let mut header = Vec::with_capacity(28 + fmt.len());
-    header.extend_from_slice(b"RIFF");
-    header.extend_from_slice(&(4 + 8 + fmt_len).saturating_add(8).saturating_add(data_len).to_le_bytes());
-    header.extend_from_slice(b"WAVE");
-    header.extend_from_slice(b"fmt ");
-    header.extend_from_slice(&fmt_len.to_le_bytes());
-    header.extend_from_slice(&fmt);
-    header.extend_from_slice(b"data");
-    header.extend_from_slice(&data_len.to_le_bytes());
-    let stream = io::Cursor::new(header).chain(r.take(u64::from(data_len)));
-    hound::WavReader::new(stream).map_err(|e| e.to_string())
+    let format = parse_fmt(&fmt.unwrap_or_default()).map_err(wav_err)?;
+    let left = size.saturating_sub(pos);
+    let declared = (!unset_data_len(data_len)).then_some(u64::from(data_len));
+    let len = declared.map_or(left, |d| d.min(left));
+    Ok(WavData { format, reader: r, len, declared })
+}
+
+/// Reads the pad byte after an odd-sized chunk: `None` if it is one (zero, as the RIFF spec
+/// writes it), else the byte, which is then the first of the next chunk's id (an ASCII letter,
+/// digit or space).
+fn pad_or_id(r: &mut impl io::Read, pos: &mut u64) -> Option<u8> {
+    let mut b = [0u8; 1];
+    r.read_exact(&mut b).ok()?;
+    *pos += 1;
+    (b[0] != 0 && (b[0].is_ascii_alphanumeric() || b[0] == b' ')).then_some(b[0])
 }
 
 /// Reads a WAV file into a mono [`Recording`]; `channel` picks one channel (0-based), `None`
 /// averages all channels.
 ///
 /// # Errors
-/// [`EstimateError::Wav`] if the file cannot be opened or decoded (corrupt, truncated header,
-/// unsupported format), [`EstimateError::NonFinite`] naming the first NaN or infinite sample
-/// of a float file, [`EstimateError::SampleRate`] outside 8–192 kHz,
-/// [`EstimateError::NoSuchChannel`], [`EstimateError::Silent`] if it has no samples or only
-/// zeros. Clipping, DC offset, very low level and truncation only add warnings.
+/// [`EstimateError::Open`] if the file cannot be opened, [`EstimateError::Wav`] if it cannot
+/// be decoded (corrupt, truncated header, unsupported format), [`EstimateError::NonFinite`]
+/// naming the first NaN or infinite sample of a float file, [`EstimateError::SampleRate`]
+/// outside 8–192 kHz, [`EstimateError::NoSuchChannel`], [`EstimateError::Silent`] if it has
+/// no samples or only zeros (or channels that cancel out in the mono mix). Clipping, DC
+/// offset, very low level, samples far beyond full scale and truncation only add warnings.
 pub fn load_wav(path: &Path, channel: Option<usize>) -> Result<Recording, EstimateError> {
     read_wav(path, channel, true)
 }
@@ -138,120 +280,111 @@ pub fn load_wav_exact(path: &Path, channel: Option<usize>) -> Result<Recording, 
     read_wav(path, channel, false)
 }
 
+/// Peak above which float samples are taken to be in the wrong units (e.g. integer counts
+/// written as floats): 4× (12 dB) over full scale, far beyond any float overshoot.
+const WRONG_UNITS_PEAK: f64 = 4.0;
+
 fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recording, EstimateError> {
-    let wav_err = |reason: String| EstimateError::Wav { path: path.to_path_buf(), reason };
-    let reader = open_wav(path).map_err(wav_err)?;
-    let spec = reader.spec();
+    let WavData { format, mut reader, len, declared } = open_wav(path)?;
+    let spec = format;
     if !(MIN_RATE..=MAX_RATE).contains(&spec.sample_rate) {
         return Err(EstimateError::SampleRate { path: path.to_path_buf(), sample_rate: spec.sample_rate });
     }
-    let channels = usize::from(spec.channels.max(1));
+    let channels = usize::from(spec.channels);
     if let Some(ch) = channel {
         if ch >= channels {
             return Err(EstimateError::NoSuchChannel { path: path.to_path_buf(), channel: ch, channels });
         }
     }
+    let frame_bytes = channels * spec.bytes;
     let max_frames = ((MAX_SECONDS * f64::from(spec.sample_rate)) as usize).min(MAX_SAMPLES);
-    let total_frames = reader.duration() as usize;
+    let total_frames = usize::try_from(len / frame_bytes as u64).unwrap_or(usize::MAX);
     let mut warnings = Vec::new();
+    let seconds = |frames: usize| frames as f64 / f64::from(spec.sample_rate);
     if total_frames > max_frames {
         warnings.push(format!(
             "{}: only the first {:.0} s of {:.0} s were analysed (length limit); split long sessions into several files",
             path.display(),
-            max_frames as f64 / f64::from(spec.sample_rate),
-            total_frames as f64 / f64::from(spec.sample_rate)
+            seconds(max_frames),
+            seconds(total_frames)
         ));
     }
-    let mut mono = Vec::with_capacity(total_frames.min(max_frames));
-    let mut acc = 0.0f64;
-    let mut idx = 0usize;
-    let mut clipped = 0usize;
-    let mut seen = 0usize;
-    let mut push = |v: f64, mono: &mut Vec<f32>| -> bool {
-        if v.abs() >= 0.999 {
-            clipped += 1;
+    let frames = total_frames.min(max_frames);
+    let mut mono = Vec::with_capacity(frames);
+    let (mut clipped, mut seen, mut peak_any) = (0usize, 0usize, 0.0f64);
+    // Whole frames at a time, 64 KiB or so per read.
+    let per_read = (65_536 / frame_bytes).max(1);
+    let mut buf = vec![0u8; per_read * frame_bytes];
+    let mut done = 0usize;
+    let mut short_read = None;
+    while done < frames {
+        let want = per_read.min(frames - done);
+        let bytes = &mut buf[..want * frame_bytes];
+        if let Err(e) = reader.read_exact(bytes) {
+            short_read = Some(e.to_string());
+            break;
         }
-        seen += 1;
-        let ch = idx % channels;
-        idx += 1;
-        match channel {
-            Some(c) if c == ch => mono.push(v as f32),
-            Some(_) => {}
-            None => {
-                acc += v;
-                if ch + 1 == channels {
-                    mono.push((acc / channels as f64) as f32);
-                    acc = 0.0;
+        for (f, frame) in bytes.chunks_exact(frame_bytes).enumerate() {
+            let mut acc = 0.0f64;
+            for (ch, b) in frame.chunks_exact(spec.bytes).enumerate() {
+                let v = spec.decode(b);
+                if !v.is_finite() {
+                    let frame = done + f;
+                    return Err(EstimateError::NonFinite {
+                        path: path.to_path_buf(),
+                        frame,
+                        channel: ch,
+                        seconds: seconds(frame),
+                        value: v as f32,
+                    });
+                }
+                if v.abs() >= 0.999 {
+                    clipped += 1;
+                }
+                seen += 1;
+                peak_any = peak_any.max(v.abs());
+                match channel {
+                    Some(c) if c == ch => mono.push(v as f32),
+                    Some(_) => {}
+                    None => acc += v,
                 }
             }
-        }
-        mono.len() < max_frames || ch + 1 != channels
-    };
-    let mut decode_error = None;
-    match spec.sample_format {
-        hound::SampleFormat::Float => {
-            let mut r = reader;
-            for (k, s) in r.samples::<f32>().enumerate() {
-                match s {
-                    Ok(v) if !v.is_finite() => {
-                        let frame = k / channels;
-                        return Err(EstimateError::NonFinite {
-                            path: path.to_path_buf(),
-                            frame,
-                            channel: k % channels,
-                            seconds: frame as f64 / f64::from(spec.sample_rate),
-                            value: v,
-                        });
-                    }
-                    Ok(v) => {
-                        if !push(f64::from(v), &mut mono) {
-                            break;
-                        }
-                    }
-                    Err(e) => {
-                        decode_error = Some(e.to_string());
-                        break;
-                    }
-                }
+            if channel.is_none() {
+                mono.push((acc / channels as f64) as f32);
             }
         }
-        hound::SampleFormat::Int => {
-            let scale = 1.0 / f64::from(1u32 << (spec.bits_per_sample.clamp(8, 32) - 1)).max(1.0);
-            let scale = if spec.bits_per_sample >= 32 { 1.0 / 2_147_483_648.0 } else { scale };
-            let mut r = reader;
-            for s in r.samples::<i32>() {
-                match s {
-                    Ok(v) => {
-                        if !push(f64::from(v) * scale, &mut mono) {
-                            break;
-                        }
-                    }
-                    Err(e) => {
-                        decode_error = Some(e.to_string());
-                        break;
-                    }
-                }
-            }
-        }
+        done += want;
     }
-    if let Some(reason) = decode_error {
-        if mono.is_empty() {
-            return Err(wav_err(reason));
-        }
+    let cut_short = declared.is_some_and(|d| d > len) || short_read.is_some();
+    if cut_short && !mono.is_empty() {
         warnings.push(format!(
-            "{}: the data ends early ({reason}); {} samples were read, the file may be truncated",
+            "{}: the data ends early ({} of {} bytes); {} samples were read, the file may be truncated",
             path.display(),
+            len,
+            declared.unwrap_or(len),
             mono.len()
         ));
     }
-    if mono.is_empty() || (analysis && mono.iter().all(|&v| v == 0.0)) {
-        return Err(EstimateError::Silent { path: path.to_path_buf() });
+    if mono.is_empty() {
+        return Err(EstimateError::Silent { path: path.to_path_buf(), why: Silence::NoSamples });
+    }
+    if analysis && mono.iter().all(|&v| v == 0.0) {
+        let why =
+            if peak_any > 0.0 && channel.is_none() && channels > 1 { Silence::ChannelsCancel } else { Silence::Zeros };
+        return Err(EstimateError::Silent { path: path.to_path_buf(), why });
     }
     let n = mono.len() as f64;
     let mean = mono.iter().map(|&v| f64::from(v)).sum::<f64>() / n;
     let peak = mono.iter().fold(0.0f64, |m, &v| m.max(f64::from(v).abs()));
     let clip_fraction = clipped as f64 / seen.max(1) as f64;
-    if clipped >= 3 {
+    let wrong_units = spec.float && peak_any > WRONG_UNITS_PEAK;
+    if wrong_units {
+        warnings.push(format!(
+            "{}: float samples reach {:.0}× full scale (±1): the file is not scaled to ±1 (wrong units?); the analysis uses the samples as they are",
+            path.display(),
+            peak_any
+        ));
+    } else if clipped >= 3 {
         warnings.push(format!(
             "{}: {} samples ({:.3} %) are at full scale (clipping); lower the recording gain, clipped taps bias the damping",
             path.display(),
@@ -259,7 +392,7 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
             100.0 * clip_fraction
         ));
     }
-    if analysis && mean.abs() > 0.01 {
+    if analysis && mean.abs() > 0.01 * if wrong_units { peak } else { 1.0 } {
         warnings.push(format!(
             "{}: DC offset {:.3} of full scale was removed; check the microphone/interface",
             path.display(),
@@ -284,7 +417,7 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
         samples: mono,
         sample_rate: spec.sample_rate,
         channels: spec.channels,
-        bits_per_sample: spec.bits_per_sample,
+        bits_per_sample: spec.valid_bits,
         warnings,
     })
 }
@@ -333,6 +466,21 @@ mod tests {
         let chunks: [(&[u8; 4], &[u8]); 2] =
             [(b"LIST", b"INFOINAM\x05\x00\x00\x00bell"), (b"fact", b"\x40\x12\x00\x00\x07")];
         let odd = scratch("odd", &pcm16(48_000, &chunks, &samples));
+        // The same without the pad bytes, as buggy writers leave them out.
+        let mut nopad = b"WAVE".to_vec();
+        nopad.extend_from_slice(&pcm16(48_000, &[], &samples)[12..12 + 24]);
+        for (id, payload) in chunks {
+            nopad.extend_from_slice(id);
+            nopad.extend((payload.len() as u32).to_le_bytes());
+            nopad.extend_from_slice(payload);
+        }
+        nopad.extend_from_slice(&pcm16(48_000, &[], &samples)[12 + 24..]);
+        let mut f = b"RIFF".to_vec();
+        f.extend((nopad.len() as u32).to_le_bytes());
+        f.extend(nopad);
+        let nopad = scratch("nopad", &f);
+        assert_eq!(load_wav(&nopad, None).unwrap().samples.len(), 4800);
+        let _ = std::fs::remove_file(nopad);
         let a = load_wav(&plain, None).unwrap();
         let b = load_wav(&odd, None).unwrap();
         assert_eq!(b.samples.len(), 4800);
@@ -366,5 +514,142 @@ mod tests {
             }
             let _ = std::fs::remove_file(p);
         }
+    }
+
+    /// A WAV file of `fmt` (the chunk's body) and `data` bytes, the data chunk declaring
+    /// `data_len` (its true length if `None`).
+    fn wav_bytes(fmt: &[u8], data: &[u8], data_len: Option<u32>) -> Vec<u8> {
+        let mut f = b"RIFF\0\0\0\0WAVEfmt ".to_vec();
+        f.extend((fmt.len() as u32).to_le_bytes());
+        f.extend_from_slice(fmt);
+        f.extend_from_slice(b"data");
+        f.extend(data_len.unwrap_or(data.len() as u32).to_le_bytes());
+        f.extend_from_slice(data);
+        let riff = (f.len() - 8) as u32;
+        f[4..8].copy_from_slice(&riff.to_le_bytes());
+        f
+    }
+
+    /// A `fmt ` body: plain (`valid` = None) or WAVE_FORMAT_EXTENSIBLE with `valid` bits.
+    fn fmt_body(tag: u16, channels: u16, rate: u32, container_bits: u16, valid: Option<u16>) -> Vec<u8> {
+        let align = channels * container_bits / 8;
+        let mut b = Vec::new();
+        b.extend(if valid.is_some() { 0xFFFEu16 } else { tag }.to_le_bytes());
+        b.extend(channels.to_le_bytes());
+        b.extend(rate.to_le_bytes());
+        b.extend((rate * u32::from(align)).to_le_bytes());
+        b.extend(align.to_le_bytes());
+        b.extend(container_bits.to_le_bytes());
+        if let Some(v) = valid {
+            b.extend(22u16.to_le_bytes());
+            b.extend(v.to_le_bytes());
+            b.extend(4u32.to_le_bytes()); // channel mask
+            b.extend(tag.to_le_bytes());
+            b.extend([0x00, 0x00, 0x00, 0x00, 0x10, 0x00, 0x80, 0x00, 0x00, 0xaa, 0x00, 0x38, 0x9b, 0x71]);
+        }
+        b
+    }
+
+    /// A 440 Hz tone of peak 0.5 (the truth the decoders are checked against).
+    fn tone(n: usize) -> Vec<f64> {
+        (0..n).map(|i| 0.5 * (2.0 * std::f64::consts::PI * 440.0 * i as f64 / 48_000.0).sin()).collect()
+    }
+
+    /// Loads `bytes` exactly (no DC removal) and compares with `x` within `tol`.
+    fn check_exact(name: &str, bytes: &[u8], x: &[f64], tol: f64) -> Recording {
+        let p = scratch(name, bytes);
+        let r = load_wav_exact(&p, None).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let _ = std::fs::remove_file(p);
+        assert_eq!(r.samples.len(), x.len(), "{name}");
+        let worst = r.samples.iter().zip(x).map(|(a, b)| (f64::from(*a) - b).abs()).fold(0.0, f64::max);
+        assert!(worst < tol, "{name}: worst error {worst}");
+        r
+    }
+
+    #[test]
+    fn extensible_and_64_bit_float_files_read_at_full_scale() {
+        let x = tone(4800);
+        // 24 valid bits left-justified in 32-bit containers (pro-audio interfaces write these).
+        let data: Vec<u8> = x.iter().flat_map(|v| (((v * 8_388_608.0).round() as i32) << 8).to_le_bytes()).collect();
+        let r = check_exact("ext24in32", &wav_bytes(&fmt_body(1, 1, 48_000, 32, Some(24)), &data, None), &x, 1e-6);
+        assert_eq!(r.bits_per_sample, 24);
+        // 20 valid bits in 24-bit containers.
+        let data: Vec<u8> = x
+            .iter()
+            .flat_map(|v| {
+                let s = ((v * 524_288.0).round() as i32) << 12;
+                let b = s.to_le_bytes();
+                [b[1], b[2], b[3]]
+            })
+            .collect();
+        check_exact("ext20in24", &wav_bytes(&fmt_body(1, 1, 48_000, 24, Some(20)), &data, None), &x, 1e-5);
+        // 64-bit float, plain and extensible.
+        let data: Vec<u8> = x.iter().flat_map(|v| v.to_le_bytes()).collect();
+        check_exact("f64", &wav_bytes(&fmt_body(3, 1, 48_000, 64, None), &data, None), &x, 1e-7);
+        check_exact("extf64", &wav_bytes(&fmt_body(3, 1, 48_000, 64, Some(64)), &data, None), &x, 1e-7);
+        // 8-bit unsigned (128 is zero).
+        let data: Vec<u8> = x.iter().map(|v| (128.0 + v * 128.0).round() as u8).collect();
+        check_exact("u8", &wav_bytes(&fmt_body(1, 1, 48_000, 8, None), &data, None), &x, 1.0 / 128.0);
+    }
+
+    #[test]
+    fn unset_and_overlong_data_sizes_read_to_the_end_of_the_file() {
+        let x = tone(4800);
+        let data: Vec<u8> = x.iter().flat_map(|v| ((v * 32_767.0).round() as i16).to_le_bytes()).collect();
+        let fmt = fmt_body(1, 1, 48_000, 16, None);
+        for (name, declared) in [("unset-ffff", u32::MAX), ("unset-fffc", 0xFFFF_FFFC), ("unset-0", 0)] {
+            let r = check_exact(name, &wav_bytes(&fmt, &data, Some(declared)), &x, 1e-4);
+            assert!(r.warnings.is_empty(), "{name}: {:?}", r.warnings);
+        }
+        let r = check_exact("overlong", &wav_bytes(&fmt, &data, Some(2 * data.len() as u32)), &x, 1e-4);
+        assert!(r.warnings.iter().any(|w| w.contains("truncated")), "{:?}", r.warnings);
+    }
+
+    #[test]
+    fn what_cannot_be_read_says_why_in_one_line() {
+        let fmt = fmt_body(1, 1, 48_000, 16, None);
+        let cases: [(&str, Vec<u8>, &str); 5] = [
+            ("no-samples", wav_bytes(&fmt, &[], None), "holds no samples"),
+            ("alaw", wav_bytes(&fmt_body(6, 1, 48_000, 8, None), &[1, 2, 3], None), "A-law-encoded samples"),
+            ("f16", wav_bytes(&fmt_body(3, 1, 48_000, 16, None), &[1, 2], None), "16-bit float"),
+            ("rifx", b"RIFX\0\0\0\0WAVE".to_vec(), "big-endian"),
+            (
+                "antiphase",
+                wav_bytes(
+                    &fmt_body(1, 2, 48_000, 16, None),
+                    &tone(480)
+                        .iter()
+                        .flat_map(|v| {
+                            let s = (v * 32_767.0).round() as i16;
+                            [s.to_le_bytes(), (-s).to_le_bytes()].concat()
+                        })
+                        .collect::<Vec<u8>>(),
+                    None,
+                ),
+                "--channel 0",
+            ),
+        ];
+        for (name, bytes, says) in cases {
+            let p = scratch(name, &bytes);
+            let e = load_wav(&p, None).unwrap_err().to_string();
+            let _ = std::fs::remove_file(p);
+            assert!(e.contains(says) && !e.contains('\n'), "{name}: {e}");
+        }
+        let folder = std::env::temp_dir();
+        let e = load_wav(&folder, None).unwrap_err();
+        assert!(matches!(e, EstimateError::Open { .. }) && e.to_string().contains("folder"), "{e}");
+        let e = load_wav(&folder.join("struck-no-such-file.wav"), None).unwrap_err();
+        assert!(matches!(e, EstimateError::Open { .. }) && !e.to_string().contains("export"), "{e}");
+    }
+
+    #[test]
+    fn float_samples_in_the_wrong_units_are_named() {
+        let x = tone(4800);
+        let data: Vec<u8> = x.iter().flat_map(|v| ((v * 32_768.0) as f32).to_le_bytes()).collect();
+        let p = scratch("units", &wav_bytes(&fmt_body(3, 1, 48_000, 32, None), &data, None));
+        let r = load_wav(&p, None).unwrap();
+        let _ = std::fs::remove_file(p);
+        assert!(r.warnings.iter().any(|w| w.contains("wrong units")), "{:?}", r.warnings);
+        assert!(!r.warnings.iter().any(|w| w.contains("clipping")), "{:?}", r.warnings);
     }
 }

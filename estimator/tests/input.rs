@@ -263,3 +263,25 @@ fn ten_minute_file_with_sparse_taps() {
         assert!(imp.features.iter().any(|f| (f.freq_hz / 440.0 - 1.0).abs() < 1e-3));
     }
 }
+
+/// The same file given twice is read once (its impacts would count twice), and a silent file
+/// among others is skipped with a warning rather than stopping the whole analysis.
+#[test]
+fn a_file_given_twice_is_read_once_and_a_silent_one_is_skipped() {
+    let p = tmp("twice");
+    session(&p, 7, 3, 48_000.0);
+    let silent = tmp("twice-silent");
+    write_int(&silent, 16, 1, 48_000, &vec![vec![0.0]; 4800]);
+    let cancel = AtomicBool::new(false);
+    let other_spelling = p.parent().unwrap().join(".").join(p.file_name().unwrap());
+    let files = [p.clone(), silent.clone(), other_spelling];
+    let rep = extract_features(&files, &Options::default(), &|_| {}, &cancel).unwrap();
+    assert_eq!(rep.impacts.len(), 3, "{:?}", rep.warnings);
+    assert!(rep.warnings.iter().any(|w| w.contains("same file") && w.contains("read once")), "{:?}", rep.warnings);
+    assert!(rep.warnings.iter().any(|w| w.contains("silent") && w.ends_with("skipped")), "{:?}", rep.warnings);
+    // Alone, a silent file is still an error.
+    assert!(matches!(
+        extract_features(std::slice::from_ref(&silent), &Options::default(), &|_| {}, &cancel),
+        Err(EstimateError::Silent { .. })
+    ));
+}
