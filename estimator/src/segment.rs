@@ -283,6 +283,11 @@ const LOW_TONAL_WINDOWS: usize = 4;
 const DECAY_CHECK_S: [f64; 3] = [0.2, 0.4, 0.8];
 /// Frames averaged at each of [`DECAY_CHECK_S`] (25 ms).
 const DECAY_CHECK_FRAMES: usize = 10;
+/// A sound the file starts with that changes by less than this (dB of mean energy) in its
+/// first 0.2 s, and is not the file's loudest, is a steady sound (a hum, a room tone), not a
+/// strike. A ring that slow (decay rate under 0.6 s⁻¹) starting the file mid-ring has no attack
+/// in it anyway.
+const START_STEADY_DB: f64 = 1.0;
 
 /// Frames before a candidate (40 ms) that, all over the onset threshold and none `rise_db`
 /// under it, make it a steady sound's ripple, not an onset (module docs).
@@ -717,10 +722,31 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
                 // every cycle, and a few of those windows read as tonal: a hum that started
                 // mid-file gave an impact). A strike after a tick that rang out, or rising
                 // just after a noise floor started, has quiet frames in that window.
-                let steady = !(ringing || file_start) && j >= STEADY_FRAMES && {
-                    let w = &e[j - STEADY_FRAMES..j];
-                    w.iter().all(|&v| v > onset_thr) && w.iter().fold(0.0f64, |m, &v| m.max(v)) * rise >= e_on
-                };
+                // Falls `onset_db` 0.2, 0.4 or 0.8 s on (which a noise floor that starts or
+                // changes, or a hum, does not).
+                let decays = decay_at.iter().any(|&d| {
+                    let (a, b) = (j + d, j + d + DECAY_CHECK_FRAMES);
+                    b <= nfr
+                        && e[a..b].iter().sum::<f64>() / DECAY_CHECK_FRAMES as f64 * 10f64.powf(opts.onset_db / 10.0)
+                            < e_on
+                });
+                let steady = !(ringing || file_start)
+                    && if j >= STEADY_FRAMES {
+                        let w = &e[j - STEADY_FRAMES..j];
+                        w.iter().all(|&v| v > onset_thr) && w.iter().fold(0.0f64, |m, &v| m.max(v)) * rise >= e_on
+                    } else {
+                        // The file starts with a sound that is not its loudest: with nothing
+                        // before to compare, it is a steady sound (a mains hum or a room tone
+                        // running from the first sample, which gave an impact at 0.001 s whose
+                        // undamped "modes" went into the fit) when its mean energy 0.2 s on is
+                        // within `START_STEADY_DB` of its first 50 ms's.
+                        j == 0 && {
+                            let mean = |a: usize| e[a..a + DECAY_CHECK_FRAMES].iter().sum::<f64>();
+                            let d = decay_at[0];
+                            d + DECAY_CHECK_FRAMES <= nfr
+                                && (10.0 * (mean(d) / mean(0).max(1e-300)).log10()).abs() < START_STEADY_DB
+                        }
+                    };
                 // The loudest frame of the first 100 ms.
                 let jp = (j..(j + late_b).min(nfr)).max_by(|&a, &b| e[a].total_cmp(&e[b])).unwrap_or(j);
                 let tonal = !steady
@@ -742,13 +768,7 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
                 // 0.8 s on, which a noise floor that starts or changes does not) and is tonal
                 // on the 4× window.
                 let low_drum = !(steady || tonal || transient || file_start || ringing)
-                    && decay_at.iter().any(|&d| {
-                        let (a, b) = (j + d, j + d + DECAY_CHECK_FRAMES);
-                        b <= nfr
-                            && e[a..b].iter().sum::<f64>() / DECAY_CHECK_FRAMES as f64
-                                * 10f64.powf(opts.onset_db / 10.0)
-                                < e_on
-                    })
+                    && decays
                     && long_tonal_share(x, j * hop, LOW_TONAL_WINDOWS * tonal_len, &mut longer_fft) >= TONAL_SHARE;
                 if (tonal || transient || file_start || ringing || low_drum) && !steady {
                     let s = s_hint.unwrap_or_else(|| sample_onset(x, j, hop, frame));

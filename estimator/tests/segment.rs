@@ -954,3 +954,52 @@ fn a_soft_mallet_restrike_55_to_70_ms_later_is_found() {
     }
     assert!(missed.is_empty(), "{} of 20 missed: {missed:?}", missed.len());
 }
+
+/// A file that starts with a steady sound that is not its loudest (a mains hum or a room tone
+/// running from the first sample, as the black-box tester's files did): no impact at 0 (there
+/// was one at 0.001 s, whose undamped "modes" went into the fit and gave an undamped
+/// material); the strikes later are found. A soft strike that starts the file and decays is
+/// still an impact.
+#[test]
+fn a_hum_from_the_first_sample_is_not_a_strike() {
+    let mut g = Gen(41);
+    let fs = 48_000.0;
+    // Pure or with harmonics, with a noise floor or quantised to 16 bits with none.
+    for (hum_hz, level, harmonics, noise) in [
+        (50.0, 0.01, 1, 0.0),
+        (60.0, 0.02, 1, 0.0),
+        (50.0, 0.01, 3, 1e-5),
+        (50.0, 0.003, 3, 1e-5),
+        (60.0, 0.05, 1, 0.0),
+    ] {
+        let mut x: Vec<f64> = (0..(3.0 * fs) as usize)
+            .map(|i| {
+                let t = i as f64 / fs;
+                noise * g.normal()
+                    + (1..=harmonics)
+                        .map(|k| level / k as f64 * (std::f64::consts::TAU * hum_hz * k as f64 * t).sin())
+                        .sum::<f64>()
+            })
+            .collect();
+        for t0 in [0.5, 1.7] {
+            for &(f, d, a) in &[(700.0, 4.0, 0.5), (1830.0, 9.0, 0.2)] {
+                add_mode(&mut x, fs, t0, f, d, a);
+            }
+        }
+        if noise == 0.0 {
+            x.iter_mut().for_each(|v| *v = (*v * 32_768.0).round() / 32_768.0);
+        }
+        let s = segment(&x, fs);
+        let onsets: Vec<f64> = s.impacts.iter().map(|i| i.start as f64 / fs).collect();
+        assert_eq!(onsets.len(), 2, "{hum_hz} Hz at {level}: {onsets:?}");
+        assert!((onsets[0] - 0.5).abs() < 3e-3 && (onsets[1] - 1.7).abs() < 3e-3, "{onsets:?}");
+    }
+    // A soft strike at sample 0 (decay 3 s⁻¹: 2.6 dB in 0.2 s), a louder one at 1 s.
+    let mut x: Vec<f64> = (0..(2.5 * fs) as usize).map(|_| 1e-5 * g.normal()).collect();
+    add_mode(&mut x, fs, 0.0, 880.0, 3.0, 0.05);
+    add_mode(&mut x, fs, 1.0, 660.0, 5.0, 0.6);
+    let s = segment(&x, fs);
+    let onsets: Vec<f64> = s.impacts.iter().map(|i| i.start as f64 / fs).collect();
+    assert_eq!(onsets.len(), 2, "{onsets:?}");
+    assert!(onsets[0] < 2e-3 && (onsets[1] - 1.0).abs() < 3e-3, "{onsets:?}");
+}
