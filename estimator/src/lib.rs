@@ -310,6 +310,7 @@ pub fn extract_features(
 ) -> Result<FeaturesReport, EstimateError> {
     let mut report = FeaturesReport::default();
     let nfiles = files.len().max(1);
+    let mut first_silent = None;
     for (fi, path) in files.iter().enumerate() {
         if cancel.load(Ordering::Relaxed) {
             return Err(EstimateError::Cancelled);
@@ -323,6 +324,7 @@ pub fn extract_features(
             // A silent file among others is skipped like one with no impact in it.
             Err(e @ EstimateError::Silent { .. }) if files.len() > 1 => {
                 report.warnings.push(format!("{e}; skipped"));
+                first_silent.get_or_insert(e);
                 continue;
             }
             r => r?,
@@ -433,6 +435,10 @@ pub fn extract_features(
                 onset_s: s.onset_s,
                 reason: s.reason.clone(),
             });
+        }
+        // Every file read was silent: say why, not "no impacts found".
+        if let Some(e) = first_silent.filter(|_| report.files.is_empty()) {
+            return Err(e);
         }
         return Err(EstimateError::NoImpacts { files: files.len() });
     }

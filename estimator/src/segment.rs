@@ -283,10 +283,10 @@ const LOW_TONAL_WINDOWS: usize = 4;
 const DECAY_CHECK_S: [f64; 3] = [0.2, 0.4, 0.8];
 /// Frames averaged at each of [`DECAY_CHECK_S`] (25 ms).
 const DECAY_CHECK_FRAMES: usize = 10;
-/// A sound the file starts with that changes by less than this (dB of mean energy) in its
-/// first 0.2 s, and is not the file's loudest, is a steady sound (a hum, a room tone), not a
-/// strike. A ring that slow (decay rate under 0.6 s⁻¹) starting the file mid-ring has no attack
-/// in it anyway.
+/// A sound the file starts with that is not the file's loudest, whose mean energy 0.2 s on is
+/// within this (dB) of its first 25 ms's and has not fallen this much 0.4, 0.8 or 1.6 s on, is a
+/// steady sound (a hum, a room tone), not a strike. A ring that slow (every partial's decay
+/// rate under about 0.07 s⁻¹) at the file's start is dropped with it.
 const START_STEADY_DB: f64 = 1.0;
 
 /// Frames before a candidate (40 ms) that, all over the onset threshold and none `rise_db`
@@ -739,12 +739,19 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
                         // before to compare, it is a steady sound (a mains hum or a room tone
                         // running from the first sample, which gave an impact at 0.001 s whose
                         // undamped "modes" went into the fit) when its mean energy 0.2 s on is
-                        // within `START_STEADY_DB` of its first 50 ms's.
+                        // within `START_STEADY_DB` of its first frames' and it has not fallen
+                        // that much 0.4, 0.8 or 1.6 s on either (a singing bowl struck softly
+                        // at sample 0 falls 1–3 dB by then; a later, louder strike only rises).
                         j == 0 && {
-                            let mean = |a: usize| e[a..a + DECAY_CHECK_FRAMES].iter().sum::<f64>();
-                            let d = decay_at[0];
-                            d + DECAY_CHECK_FRAMES <= nfr
-                                && (10.0 * (mean(d) / mean(0).max(1e-300)).log10()).abs() < START_STEADY_DB
+                            let db = |a: usize| {
+                                let mean = |a: usize| e[a..a + DECAY_CHECK_FRAMES].iter().sum::<f64>();
+                                10.0 * (mean(a) / mean(0).max(1e-300)).log10()
+                            };
+                            let fits = |a: usize| a + DECAY_CHECK_FRAMES <= nfr;
+                            let at = |t: f64| (t * fs) as usize / hop;
+                            fits(at(0.2))
+                                && db(at(0.2)).abs() < START_STEADY_DB
+                                && [0.4, 0.8, 1.6].iter().all(|&t| !fits(at(t)) || db(at(t)) > -START_STEADY_DB)
                         }
                     };
                 // The loudest frame of the first 100 ms.

@@ -7,7 +7,7 @@
 //! than 4 × `MAX_SAMPLES` bytes = 256 MiB.
 
 use std::fs::File;
-use std::io::{self, Read as _};
+use std::io::{self, BufRead as _, Read as _};
 use std::path::{Path, PathBuf};
 
 use crate::{EstimateError, Silence};
@@ -93,7 +93,8 @@ fn parse_fmt(fmt: &[u8]) -> Result<Format, String> {
     let block_align = usize::from(u16_at(12));
     let bits = u16_at(14);
     let mut valid_bits = bits;
-    if tag == 0xFFFE {
+    let extensible = tag == 0xFFFE;
+    if extensible {
         if fmt.len() < 40 {
             return Err("the extensible fmt chunk is cut short".into());
         }
@@ -117,11 +118,18 @@ fn parse_fmt(fmt: &[u8]) -> Result<Format, String> {
         return Err("the file declares 0 bits per sample".into());
     }
     let bytes = usize::from(bits).div_ceil(8);
-    // Some writers pad every sample to a wider container than its bits need: block_align says.
-    let bytes = if block_align >= usize::from(channels) * bytes && block_align % usize::from(channels) == 0 {
-        block_align / usize::from(channels)
-    } else {
+    let ch = usize::from(channels);
+    // Some writers pad every sample to a wider container than its bits need (24 bits in 4
+    // bytes): block_align says. Anything else that disagrees would be decoded as noise.
+    let bytes = if block_align == ch * bytes {
         bytes
+    } else if block_align % ch == 0 && (extensible || (bits == 24 && block_align == 4 * ch)) && block_align > ch * bytes
+    {
+        block_align / ch
+    } else {
+        return Err(format!(
+            "its block size ({block_align} bytes) does not fit {channels} channel(s) of {bits}-bit samples"
+        ));
     };
     match (float, bytes) {
         (false, 1..=4) | (true, 4) | (true, 8) => {}
@@ -157,8 +165,8 @@ fn unset_data_len(len: u32) -> bool {
 struct WavData {
     format: Format,
     reader: io::BufReader<File>,
-    /// Bytes of samples to read.
-    len: u64,
+    /// Bytes of samples to read (`None`: to the end of the input, whose size is not known).
+    len: Option<u64>,
     /// Bytes the data chunk declares (`None`: unset, read to the end of the file).
     declared: Option<u64>,
 }
@@ -175,7 +183,8 @@ fn open_wav(path: &Path) -> Result<WavData, EstimateError> {
         return Err(EstimateError::Open { path: path.to_path_buf(), reason: "it is a folder, not a file".into() });
     }
     let file = File::open(path).map_err(open_err)?;
-    let size = meta.len();
+    // A pipe (`<(cat a.wav)`, /dev/stdin) has no size: it is read to its end.
+    let size = meta.is_file().then_some(meta.len());
     let mut r = io::BufReader::new(file);
     let mut head = [0u8; 12];
     r.read_exact(&mut head).map_err(|_| wav_err("the file is shorter than a WAV header".into()))?;
@@ -188,19 +197,12 @@ fn open_wav(path: &Path) -> Result<WavData, EstimateError> {
     }
     let mut pos = 12u64;
     let mut fmt: Option<Vec<u8>> = None;
-    // The byte after an odd-sized chunk, when it is not a zero pad byte but the first letter of
-    // the next chunk's id (buggy writers leave the pad out).
-    let mut carried: Option<u8> = None;
     let data_len = loop {
         let mut h = [0u8; 8];
-        let start = usize::from(carried.is_some());
-        if let Some(b) = carried.take() {
-            h[0] = b;
-        }
-        if r.read_exact(&mut h[start..]).is_err() {
+        if r.read_exact(&mut h).is_err() {
             return Err(wav_err(if fmt.is_none() { "no fmt chunk" } else { "no data chunk" }.into()));
         }
-        pos += 8 - start as u64;
+        pos += 8;
         let (id, len) = chunk_header(h);
         match &id {
             b"fmt " => {
@@ -212,7 +214,7 @@ fn open_wav(path: &Path) -> Result<WavData, EstimateError> {
                 pos += u64::from(len);
                 fmt = Some(body);
                 if len % 2 == 1 {
-                    carried = pad_or_id(&mut r, &mut pos);
+                    skip_pad(&mut r, &mut pos);
                 }
             }
             b"data" => {
@@ -224,36 +226,64 @@ fn open_wav(path: &Path) -> Result<WavData, EstimateError> {
             // Any other chunk: skip it and its pad byte.
             _ => {
                 let skip = u64::from(len);
-                if pos + skip > size {
+                if size.is_some_and(|size| pos + skip > size) {
                     let id = String::from_utf8_lossy(&id).trim().to_string();
                     return Err(wav_err(format!(
                         "no data chunk (a '{id}' chunk of {len} bytes at byte {} runs past the end of the file)",
                         pos - 8
                     )));
                 }
-                r.seek_relative(skip as i64).map_err(|e| wav_err(e.to_string()))?;
+                // Read past (a pipe cannot seek).
+                let skipped =
+                    io::copy(&mut (&mut r).take(skip), &mut io::sink()).map_err(|e| wav_err(e.to_string()))?;
+                if skipped < skip {
+                    return Err(wav_err("no data chunk".into()));
+                }
                 pos += skip;
                 if len % 2 == 1 {
-                    carried = pad_or_id(&mut r, &mut pos);
+                    skip_pad(&mut r, &mut pos);
                 }
             }
         }
     };
     let format = parse_fmt(&fmt.unwrap_or_default()).map_err(wav_err)?;
-    let left = size.saturating_sub(pos);
+    let left = size.map(|size| size.saturating_sub(pos));
     let declared = (!unset_data_len(data_len)).then_some(u64::from(data_len));
-    let len = declared.map_or(left, |d| d.min(left));
+    let len = match (declared, left) {
+        (Some(d), Some(l)) => Some(d.min(l)),
+        (d, l) => d.or(l),
+    };
     Ok(WavData { format, reader: r, len, declared })
 }
 
-/// Reads the pad byte after an odd-sized chunk: `None` if it is one (zero, as the RIFF spec
-/// writes it), else the byte, which is then the first of the next chunk's id (an ASCII letter,
-/// digit or space).
-fn pad_or_id(r: &mut impl io::Read, pos: &mut u64) -> Option<u8> {
-    let mut b = [0u8; 1];
-    r.read_exact(&mut b).ok()?;
-    *pos += 1;
-    (b[0] != 0 && (b[0].is_ascii_alphanumeric() || b[0] == b' ')).then_some(b[0])
+/// Steps over the pad byte after an odd-sized chunk (RIFF pads every odd-sized chunk with one
+/// byte), unless the writer left it out: the byte is then the first of the next chunk's id
+/// (the bytes after it cannot start an id, and it and the next three can). Looks ahead in the
+/// read buffer only; at a buffer's end it takes the byte as the pad.
+fn skip_pad(r: &mut io::BufReader<File>, pos: &mut u64) {
+    let id = |b: &[u8]| b[0].is_ascii_alphanumeric() && b.iter().all(|c| (0x20..=0x7e).contains(c));
+    let Ok(buf) = r.fill_buf() else {
+        return;
+    };
+    let unpadded = buf.len() >= 9 && buf[0] != 0 && !id(&buf[1..5]) && id(&buf[0..4]);
+    if !unpadded && !buf.is_empty() {
+        r.consume(1);
+        *pos += 1;
+    }
+}
+
+/// Reads until `buf` is full or the input ends; the bytes read.
+fn read_full(r: &mut impl io::Read, buf: &mut [u8]) -> io::Result<usize> {
+    let mut n = 0;
+    while n < buf.len() {
+        match r.read(&mut buf[n..]) {
+            Ok(0) => break,
+            Ok(k) => n += k,
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(n)
 }
 
 /// Reads a WAV file into a mono [`Recording`]; `channel` picks one channel (0-based), `None`
@@ -298,36 +328,55 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
     }
     let frame_bytes = channels * spec.bytes;
     let max_frames = ((MAX_SECONDS * f64::from(spec.sample_rate)) as usize).min(MAX_SAMPLES);
-    let total_frames = usize::try_from(len / frame_bytes as u64).unwrap_or(usize::MAX);
+    let total_frames = len.map(|len| usize::try_from(len / frame_bytes as u64).unwrap_or(usize::MAX));
     let mut warnings = Vec::new();
     let seconds = |frames: usize| frames as f64 / f64::from(spec.sample_rate);
-    if total_frames > max_frames {
+    if let Some(total) = total_frames.filter(|&t| t > max_frames) {
         warnings.push(format!(
             "{}: only the first {:.0} s of {:.0} s were analysed (length limit); split long sessions into several files",
             path.display(),
             seconds(max_frames),
-            seconds(total_frames)
+            seconds(total)
         ));
     }
-    let frames = total_frames.min(max_frames);
-    let mut mono = Vec::with_capacity(frames);
+    let frames = total_frames.unwrap_or(max_frames).min(max_frames);
+    // A pipe's length is unknown: grow as it is read.
+    let mut mono = Vec::with_capacity(if total_frames.is_some() { frames } else { frames.min(1 << 20) });
     let (mut clipped, mut seen, mut peak_any) = (0usize, 0usize, 0.0f64);
     // Whole frames at a time, 64 KiB or so per read.
     let per_read = (65_536 / frame_bytes).max(1);
     let mut buf = vec![0u8; per_read * frame_bytes];
     let mut done = 0usize;
     let mut short_read = None;
+    // Valid bits under the container: left-justified (low bits zero) as Microsoft's spec has
+    // them, or right-justified (sign-extended) as some writers put them (hound's 24-in-4): the
+    // first samples that are not zero tell, and right-justified ones are scaled up by the
+    // bits in between.
+    let pad_bits = if spec.float { 0 } else { 8 * spec.bytes as u32 - u32::from(spec.valid_bits) };
+    let mut justified: Option<f64> = (pad_bits == 0).then_some(1.0);
     while done < frames {
         let want = per_read.min(frames - done);
-        let bytes = &mut buf[..want * frame_bytes];
-        if let Err(e) = reader.read_exact(bytes) {
-            short_read = Some(e.to_string());
-            break;
+        let got = match read_full(&mut reader, &mut buf[..want * frame_bytes]) {
+            Ok(n) => n / frame_bytes,
+            Err(e) => {
+                short_read = Some(e.to_string());
+                0
+            }
+        };
+        if justified.is_none() {
+            let low = |b: &[u8]| b.iter().rev().fold(0u32, |a, &x| (a << 8) | u32::from(x)) & ((1 << pad_bits) - 1);
+            let samples = || buf[..got * frame_bytes].chunks_exact(spec.bytes);
+            if samples().any(|b| low(b) != 0) {
+                justified = Some(f64::from(1u32 << pad_bits));
+            } else if samples().any(|b| b.iter().any(|&x| x != 0)) {
+                justified = Some(1.0);
+            }
         }
-        for (f, frame) in bytes.chunks_exact(frame_bytes).enumerate() {
+        let gain = justified.unwrap_or(1.0);
+        for (f, frame) in buf[..got * frame_bytes].chunks_exact(frame_bytes).enumerate() {
             let mut acc = 0.0f64;
             for (ch, b) in frame.chunks_exact(spec.bytes).enumerate() {
-                let v = spec.decode(b);
+                let v = spec.decode(b) * gain;
                 if !v.is_finite() {
                     let frame = done + f;
                     return Err(EstimateError::NonFinite {
@@ -353,15 +402,29 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
                 mono.push((acc / channels as f64) as f32);
             }
         }
-        done += want;
+        done += got;
+        if got < want {
+            // The end of the input (of a pipe: its normal end).
+            if total_frames.is_some() && short_read.is_none() {
+                short_read = Some("the file ends there".into());
+            }
+            break;
+        }
     }
-    let cut_short = declared.is_some_and(|d| d > len) || short_read.is_some();
+    if total_frames.is_none() && done == max_frames {
+        warnings.push(format!(
+            "{}: only the first {:.0} s were analysed (length limit); split long sessions into several files",
+            path.display(),
+            seconds(max_frames)
+        ));
+    }
+    let cut_short = declared.is_some_and(|d| len.is_some_and(|len| d > len)) || short_read.is_some();
     if cut_short && !mono.is_empty() {
         warnings.push(format!(
             "{}: the data ends early ({} of {} bytes); {} samples were read, the file may be truncated",
             path.display(),
-            len,
-            declared.unwrap_or(len),
+            done * frame_bytes,
+            declared.or(len).unwrap_or(0),
             mono.len()
         ));
     }
@@ -573,6 +636,20 @@ mod tests {
         let data: Vec<u8> = x.iter().flat_map(|v| (((v * 8_388_608.0).round() as i32) << 8).to_le_bytes()).collect();
         let r = check_exact("ext24in32", &wav_bytes(&fmt_body(1, 1, 48_000, 32, Some(24)), &data, None), &x, 1e-6);
         assert_eq!(r.bits_per_sample, 24);
+        // The same right-justified (sign-extended, as hound writes 24 bits in 4 bytes), plain
+        // PCM and extensible.
+        let data: Vec<u8> = x.iter().flat_map(|v| ((v * 8_388_608.0).round() as i32).to_le_bytes()).collect();
+        let mut plain = fmt_body(1, 1, 48_000, 32, None);
+        plain[14] = 24;
+        check_exact("right24in32", &wav_bytes(&plain, &data, None), &x, 1e-6);
+        check_exact("ext-right24in32", &wav_bytes(&fmt_body(1, 1, 48_000, 32, Some(24)), &data, None), &x, 1e-6);
+        // A block size that fits no layout of the samples (16-bit mono in 3-byte blocks).
+        let mut odd = fmt_body(1, 1, 48_000, 16, None);
+        odd[12] = 3;
+        let p = scratch("odd-align", &wav_bytes(&odd, &[0; 300], None));
+        let e = load_wav(&p, None).unwrap_err().to_string();
+        let _ = std::fs::remove_file(p);
+        assert!(e.contains("block size (3 bytes)"), "{e}");
         // 20 valid bits in 24-bit containers.
         let data: Vec<u8> = x
             .iter()
@@ -651,5 +728,56 @@ mod tests {
         let _ = std::fs::remove_file(p);
         assert!(r.warnings.iter().any(|w| w.contains("wrong units")), "{:?}", r.warnings);
         assert!(!r.warnings.iter().any(|w| w.contains("clipping")), "{:?}", r.warnings);
+    }
+
+    #[test]
+    fn a_pad_byte_that_is_not_zero_is_still_a_pad_byte() {
+        let samples: Vec<i16> = (0..480).map(|i| (i * 53 % 4000) as i16 - 2000).collect();
+        let mut f = pcm16(48_000, &[(b"LIST", b"INFOINAM\x05\x00\x00\x00bells")], &samples);
+        // The odd LIST chunk's pad byte (after its 17 bytes), written as a letter or a space.
+        let pad = 12 + 24 + 8 + 17;
+        assert_eq!(f[pad], 0);
+        for b in [b'x', b' ', b'a'] {
+            f[pad] = b;
+            let p = scratch(&format!("pad-{b}"), &f);
+            let r = load_wav_exact(&p, None).unwrap_or_else(|e| panic!("pad {b}: {e}"));
+            let _ = std::fs::remove_file(p);
+            assert_eq!(r.samples.len(), 480);
+            assert!((f64::from(r.samples[7]) - f64::from(samples[7]) / 32_768.0).abs() < 1e-9);
+        }
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_pipe_is_read_to_its_end() {
+        let x = tone(48_000);
+        let data: Vec<u8> = x.iter().flat_map(|v| ((v * 32_767.0).round() as i16).to_le_bytes()).collect();
+        // An odd chunk before the data (skipped by reading: a pipe cannot seek).
+        let mut bytes = b"RIFF\0\0\0\0WAVE".to_vec();
+        bytes.extend_from_slice(b"fmt ");
+        let fmt = fmt_body(1, 1, 48_000, 16, None);
+        bytes.extend((fmt.len() as u32).to_le_bytes());
+        bytes.extend_from_slice(&fmt);
+        bytes.extend_from_slice(b"junk\x03\x00\x00\x00abc\x00");
+        bytes.extend_from_slice(b"data");
+        bytes.extend((data.len() as u32).to_le_bytes());
+        bytes.extend_from_slice(&data);
+        let fifo = std::env::temp_dir().join(format!("struck-wav-{}-pipe.wav", std::process::id()));
+        let _ = std::fs::remove_file(&fifo);
+        if !std::process::Command::new("mkfifo").arg(&fifo).status().is_ok_and(|s| s.success()) {
+            eprintln!("mkfifo is not available: skipped");
+            return;
+        }
+        let writer = {
+            let fifo = fifo.clone();
+            std::thread::spawn(move || std::fs::write(fifo, bytes).unwrap())
+        };
+        let r = load_wav_exact(&fifo, None).unwrap();
+        writer.join().unwrap();
+        let _ = std::fs::remove_file(&fifo);
+        assert_eq!(r.samples.len(), 48_000);
+        assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+        let worst = r.samples.iter().zip(&x).map(|(a, b)| (f64::from(*a) - b).abs()).fold(0.0, f64::max);
+        assert!(worst < 1e-4, "{worst}");
     }
 }

@@ -8,8 +8,8 @@
 //! inputs) before long work starts.
 //!
 //! A destination that is a link is followed: the file it points to is replaced and the link
-//! stays. A destination that is not a regular file (`/dev/null`, `/dev/stdout`, a named pipe,
-//! a terminal) is never replaced: the output is completed in a temporary file in the system's
+//! stays. A destination that is not a regular file (`/dev/null`, a named pipe, a terminal) or
+//! that names an open file descriptor (`/dev/stdout`, `/dev/fd/3`) is never replaced: the output is completed in a temporary file in the system's
 //! temporary folder and then copied into it, so writing to a device or a pipe works as a shell
 //! redirection does and a device's failure (`/dev/full`) is an error.
 
@@ -174,15 +174,26 @@ pub struct AtomicFile {
 /// Links followed at most (as the system's own limit).
 const MAX_LINKS: usize = 40;
 
-/// Where writing `dest` should go, and whether that is a stream (a device, a pipe or a
-/// socket, or a path under `/dev` or `/proc`, whose links are the system's) rather than a
-/// regular file. A link to an existing file resolves to that file; a dangling link to the path
-/// it names (the file is created there, as a shell redirection does).
+/// Whether `path` names an open file descriptor (`/dev/stdout`, `/dev/stderr`, `/dev/fd/N`,
+/// `/proc/…/fd/N`): the file behind it is the one the shell opened, written into, never
+/// replaced (renaming over what it resolves to would leave the shell writing to a deleted
+/// file).
+fn is_descriptor(path: &Path) -> bool {
+    let p = path.to_string_lossy();
+    matches!(p.as_ref(), "/dev/stdout" | "/dev/stderr")
+        || p.strip_prefix("/dev/fd/").is_some_and(|n| n.parse::<u32>().is_ok())
+        || (p.starts_with("/proc/") && path.parent().is_some_and(|f| f.ends_with("fd")))
+}
+
+/// Where writing `dest` should go, and whether that is a stream (a device, a pipe, a socket,
+/// or an open file descriptor) rather than a regular file. A link to an existing file resolves
+/// to that file; a dangling link to the path it names (the file is created there, as a shell
+/// redirection does).
 fn resolve_target(dest: &Path) -> (PathBuf, bool) {
-    let system = dest.is_absolute() && (dest.starts_with("/dev") || dest.starts_with("/proc"));
+    let descriptor = is_descriptor(dest);
     match fs::metadata(dest) {
         Ok(m) if !m.is_file() && !m.is_dir() => return (dest.to_path_buf(), true),
-        Ok(m) if m.is_file() && system => return (dest.to_path_buf(), true),
+        Ok(m) if m.is_file() && descriptor => return (dest.to_path_buf(), true),
         Ok(m) if m.is_file() => return (fs::canonicalize(dest).unwrap_or_else(|_| dest.to_path_buf()), false),
         Ok(_) => return (dest.to_path_buf(), false),
         Err(_) => {}
@@ -198,7 +209,7 @@ fn resolve_target(dest: &Path) -> (PathBuf, bool) {
             _ => break,
         }
     }
-    (path, system)
+    (path, false)
 }
 
 impl AtomicFile {
@@ -326,7 +337,16 @@ impl AtomicFile {
     /// only now: a pipe's reader sees the whole output or nothing).
     fn copy_into(mut tmp: File, target: &Path) -> io::Result<()> {
         tmp.seek(SeekFrom::Start(0))?;
-        // Appending: a file behind `/dev/stdout` keeps what the shell's `>>` put there first.
+        if same_file(target, Path::new("/dev/stdout")) {
+            // The process's own standard output: through its handle, so that what the command
+            // prints before and after lands in order (a second handle on a file behind it
+            // would write from its own position).
+            let mut out = io::stdout().lock();
+            out.flush()?;
+            io::copy(&mut tmp, &mut out)?;
+            return out.flush();
+        }
+        // Appending: a file behind a descriptor keeps what the shell's `>>` put there first.
         let mut out = OpenOptions::new().append(true).open(target)?;
         io::copy(&mut tmp, &mut out)?;
         out.flush()

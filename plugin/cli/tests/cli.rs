@@ -615,6 +615,20 @@ fn outputs_through_links_pipes_and_devices_are_written_into() {
         let e = error_line(&o);
         assert!(e.starts_with("cannot write to the standard output"), "{e}");
     }
+    // `--out /dev/stdout > file` with a summary printed after the bank: both land, in order (a
+    // second handle on the file wrote the bank from its own position, and the summary over it).
+    if std::path::Path::new("/dev/stdout").exists() {
+        let captured = dir.join("captured.txt");
+        let file = std::fs::File::create(&captured).unwrap();
+        let o = command(&dir, &["bank", "capture", rec_s, "--out", "/dev/stdout"]).stdout(file).output().unwrap();
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let text = std::fs::read_to_string(&captured).unwrap();
+        let end = text.rfind('}').expect("a JSON bank");
+        let bank: serde_json::Value = serde_json::from_str(&text[..=end]).unwrap_or_else(|e| panic!("{e}: {text}"));
+        assert!(bank["lambdas"].as_array().is_some_and(|l| !l.is_empty()), "{bank}");
+        assert!(!text[end + 1..].trim().is_empty(), "the summary after the bank is missing: {text}");
+        std::fs::remove_file(&captured).unwrap();
+    }
     let mut left = listing(&dir);
     left.retain(|n| n.starts_with('.'));
     assert!(left.is_empty(), "temporary files left: {left:?}");
