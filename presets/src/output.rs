@@ -9,9 +9,10 @@
 //!
 //! A destination that is a link is followed: the file it points to is replaced and the link
 //! stays. A destination that is not a regular file (`/dev/null`, a named pipe, a terminal) or
-//! that names an open file descriptor (`/dev/stdout`, `/dev/fd/3`) is never replaced: the output is completed in a temporary file in the system's
-//! temporary folder and then copied into it, so writing to a device or a pipe works as a shell
-//! redirection does and a device's failure (`/dev/full`) is an error.
+//! that names an open file descriptor (`/dev/stdout`, `/dev/fd/3`) is never replaced: the
+//! output is completed in a temporary file in the system's temporary folder and then copied
+//! into it, so writing to a device or a pipe works as a shell redirection does and a device's
+//! failure (`/dev/full`) is an error.
 
 use std::fs::{self, File, OpenOptions};
 use std::io::{self, BufWriter, Seek, SeekFrom, Write};
@@ -152,7 +153,8 @@ fn absolute(path: &Path) -> Option<PathBuf> {
 /// Distinguishes temporary files of one process.
 static COUNTER: AtomicU32 = AtomicU32::new(0);
 
-/// A file being written: a temporary file beside the destination, renamed over it by
+/// A file being written: a temporary file beside the destination (in the system's temporary
+/// folder for a stream, see the module's doc), renamed over it (copied into a stream) by
 /// [`commit`](Self::commit). Dropped without a commit (an error, a panic), the temporary file
 /// is removed and the destination is untouched.
 ///
@@ -162,9 +164,10 @@ pub struct AtomicFile {
     /// The destination as the user named it (for messages).
     dest: PathBuf,
     /// Where the output goes: `dest` with its links followed (a regular file, replaced by the
-    /// rename), or `dest` itself when it is a device or a pipe (written into on commit).
+    /// rename), or `dest` itself when it is a device, a pipe or a descriptor (written into on
+    /// commit).
     target: PathBuf,
-    /// The target is not a regular file: copy into it rather than rename over it.
+    /// The target is a stream ([`resolve_target`]): copy into it rather than rename over it.
     stream: bool,
     tmp: PathBuf,
     /// `None` only once committed.
