@@ -480,6 +480,11 @@ struct Voice {
     pending: Option<f32>,
     start: u64,
     energy: f32,
+    /// |y|² summed over the modes while a free span stored them back (see [`render_span`]);
+    /// `energy_fresh` when that sum is of the state now (the voice was free to the end of
+    /// the last span): a control tick then takes it instead of summing the bank again.
+    energy_run: f32,
+    energy_fresh: bool,
     dirty: bool,
     bank: ResonatorBank,
     slot_of_mode: Vec<u16>,
@@ -538,6 +543,8 @@ impl Voice {
             pending: None,
             start: 0,
             energy: 0.0,
+            energy_run: 0.0,
+            energy_fresh: false,
             dirty: false,
             bank: ResonatorBank::new(max_modes),
             slot_of_mode: vec![NO_SLOT; max_modes],
@@ -589,6 +596,7 @@ impl Voice {
         self.pending = None;
         self.noise_left = 0;
         self.energy = 0.0;
+        self.energy_fresh = false;
         self.lasting = false;
         self.speed = None;
         self.input_heard = false;
@@ -824,10 +832,11 @@ fn render_voices(
 /// [`render_voices`] over a span in which no voice changes between forced and free. Free
 /// voices run their whole kernel groups in place and their remaining modes packed lane by
 /// lane into one [`VectorBatch`] shared with the next voices (full lanes and four independent
-/// chains per kernel group however few modes each voice has); a voice in contact is rendered
-/// on its own ([`render_voice`]) after the batch before it has run. The order of the additions
-/// into each lane is a fixed function of the voices' mode counts: the same at a sample
-/// whatever the block size.
+/// chains per kernel group however few modes each voice has), run when it is full and at the
+/// span's end (so only the span's last group is part-filled); a voice in contact is rendered
+/// on its own ([`render_voice`]). The order of the additions into each lane is a fixed
+/// function of the voices' mode counts and forcing: the same at a sample whatever the block
+/// size.
 fn render_span(
     voices: &mut [Voice],
     live: &[usize],
@@ -837,29 +846,37 @@ fn render_span(
     env: ContactEnv,
 ) {
     debug_assert!(batch.is_empty());
+    // States come back from the batch in slot order, each voice's after its in-place groups:
+    // their |y|² summed on the way is the voice's energy for the next control tick.
+    let store = |voices: &mut [Voice], v: usize, k: usize, re: &[f32], im: &[f32]| {
+        let voice = &mut voices[v];
+        voice.energy_run = voice.bank.store_modes_energy(k, re, im, voice.energy_run);
+    };
     for &v in live {
         if voices[v].forced() {
-            batch.run(lanes, |v, k, re, im| voices[v].bank.store_modes(k, re, im));
+            voices[v].energy_fresh = false;
             render_voice(&mut voices[v], buf, lanes, &env);
             continue;
         }
-        // Whole kernel groups run in place (after the modes already waiting); the rest wait
-        // in the batch for the next voices'.
-        let len = voices[v].bank.len();
+        // Whole kernel groups run in place; the rest wait in the batch for the next voices'.
+        // (The batch holds only other voices' modes: each voice is in `live` once.)
+        let voice = &mut voices[v];
+        let len = voice.bank.len();
         let whole = len / (BATCH_VECTORS * LANES) * BATCH_VECTORS;
         if whole > 0 {
-            batch.run(lanes, |v, k, re, im| voices[v].bank.store_modes(k, re, im));
-            voices[v].bank.process_first_vectors_lanes(whole, lanes);
+            voice.bank.process_first_vectors_lanes(whole, lanes);
         }
+        voice.energy_run = voice.bank.energy_first(whole * LANES);
+        voice.energy_fresh = true;
         let mut first = whole * LANES;
         while first < len {
             first += batch.push_modes(v, &voices[v].bank, first, len - first);
             if batch.is_full() {
-                batch.run(lanes, |v, k, re, im| voices[v].bank.store_modes(k, re, im));
+                batch.run(lanes, |v, k, re, im| store(voices, v, k, re, im));
             }
         }
     }
-    batch.run(lanes, |v, k, re, im| voices[v].bank.store_modes(k, re, im));
+    batch.run(lanes, |v, k, re, im| store(voices, v, k, re, im));
 }
 
 /// Renders `voice` into the lane accumulator `lanes` ([`LANES`] floats per sample, at most one
@@ -1568,6 +1585,8 @@ impl Engine {
     /// each rings with its gain at the strike point times the pulse's spectrum at its
     /// frequency, and the waveform ramps up over the contact.
     fn strike(&mut self, v: usize, velocity: f32) {
+        // The strike changes the states: the next tick sums them again unless a free span has.
+        self.voices[v].energy_fresh = false;
         let p = self.params;
         let damping = self.effective_damping();
         let support = self.effective_support();
@@ -1795,7 +1814,8 @@ impl Engine {
                 self.contact_tick(v);
             }
             let voice = &mut self.voices[v];
-            voice.energy = voice.bank.energy();
+            debug_assert!(!voice.energy_fresh || voice.energy_run.to_bits() == voice.bank.energy().to_bits());
+            voice.energy = if voice.energy_fresh { voice.energy_run } else { voice.bank.energy() };
             if voice.pending.is_none() && !voice.forced() && voice.energy < SILENCE_ENERGY {
                 let note = voice.note;
                 voice.clear();
@@ -2290,6 +2310,47 @@ mod tests {
             let same = out.iter().zip(&reference).all(|(a, b)| a.to_bits() == b.to_bits());
             assert!(same, "block {block} differs from block 512");
         }
+    }
+
+    /// The energy a free voice's states sum to on their way back from the batch (in-place
+    /// groups, then ranges split across full batches, beside voices in contact) is bit for bit
+    /// the bank's own sum at every control tick, so voices end and are stolen exactly as when
+    /// the tick summed every bank again.
+    #[test]
+    fn energy_summed_on_the_way_back_is_the_banks() {
+        // Gains falling as k^-fall (a flat one keeps its 150 modes above the quality cut).
+        let object = |n: usize, f0: f64, fall: f32| {
+            let lambdas: Vec<f64> = (1..=n).map(|k| (2.0 * PI * f0 * (k as f64).powf(1.3)).powi(2)).collect();
+            ObjectModes::new(lambdas, &[(0..n).map(|k| (1.0 + k as f32).powf(-fall)).collect()])
+        };
+        let objects =
+            vec![object(3, 300.0, 1.0), object(11, 200.0, 1.0), object(45, 90.0, 0.5), object(150, 25.0, 0.0)];
+        let mut e = Engine::new(objects, 32, 48_000.0);
+        e.set_params(SoundParams { hardness: 0.2, noise: 0.3, ..SoundParams::default() });
+        e.reset();
+        let (mut fresh, mut batched, mut in_place) = (0, 0, 0);
+        let mut out = [0.0f32; CONTROL_INTERVAL];
+        let group = BATCH_VECTORS * LANES;
+        for block in 0..600 {
+            if block % 10 == 0 && block < 320 {
+                e.set_object(block / 10 % 4);
+                let strike = Strike { velocity: 0.7, position: 0.3, lambda_factor: 1.0 };
+                e.note_on(NoteId { voice_id: None, channel: 0, key: 30 + block as u8 / 10 }, strike);
+            }
+            e.render(&mut out);
+            let waiting = e.voices.iter().filter(|v| v.active && !v.forced()).map(|v| v.bank.len() % group);
+            batched = batched.max(waiting.sum::<usize>());
+            for v in e.voices.iter().filter(|v| v.active && v.energy_fresh) {
+                assert_eq!(v.energy_run.to_bits(), v.bank.energy().to_bits(), "block {block}");
+                fresh += 1;
+                in_place += usize::from(v.bank.len() >= group);
+            }
+        }
+        assert!(batched > crate::resonator::BATCH_LANES, "the batch fills and splits a voice's range: {batched}");
+        assert!(
+            fresh > 1000 && in_place > 100,
+            "free voices' sums were taken: {fresh}, {in_place} with groups in place"
+        );
     }
 
     /// Controls that do not change cost nothing (issue 13 part 4): ringing voices under

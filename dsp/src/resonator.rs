@@ -230,8 +230,25 @@ impl ResonatorBank {
     /// Sum of |y|² over all modes: an upper bound of the squared output amplitude's scale,
     /// used to end silent voices.
     pub fn energy(&self) -> f32 {
-        let n = self.len;
-        self.re[..n].iter().zip(&self.im[..n]).map(|(r, i)| r * r + i * i).sum()
+        self.energy_first(self.len)
+    }
+
+    /// Sum of |y|² over the first `count` slots, in slot order: the start of
+    /// [`energy`](Self::energy)'s sum, which [`store_modes_energy`](Self::store_modes_energy)
+    /// continues bit for bit.
+    pub fn energy_first(&self, count: usize) -> f32 {
+        let n = count.min(self.len);
+        add_energy(0.0, &self.re[..n], &self.im[..n])
+    }
+
+    /// [`store_modes`](Self::store_modes) adding each stored mode's |y|² to `energy` in slot
+    /// order; returns the sum. Storing a bank's slots in order after
+    /// [`energy_first`](Self::energy_first) of the slots before gives bit for bit
+    /// [`energy`](Self::energy), without a second pass over the states.
+    pub fn store_modes_energy(&mut self, first: usize, re: &[f32], im: &[f32], energy: f32) -> f32 {
+        self.store_modes(first, re, im);
+        let c = re.len().min(im.len());
+        add_energy(energy, &re[..c], &im[..c])
     }
 
     /// Advances every mode by `out.len()` samples (at most [`MAX_KERNEL_BLOCK`]) with no
@@ -366,10 +383,12 @@ impl ResonatorBank {
     }
 }
 
-/// Modes of several banks advanced together: up to [`BATCH_VECTORS`] × [`LANES`] free-running
-/// modes, whatever bank they come from, packed lane by lane into one kernel group, so that
-/// voices of a few modes fill the kernel's lanes and its independent chains instead of each
-/// running a part-empty vector alone (a single vector's recurrence is latency-bound).
+/// Modes of several banks advanced together: up to [`BATCH_LANES`] free-running modes,
+/// whatever bank they come from, packed lane by lane into full kernel groups, so that voices
+/// of a few modes fill the kernel's lanes and its independent chains instead of each running
+/// a part-empty vector alone (a single vector's recurrence is latency-bound). The batch holds
+/// many groups, so that only its very last group is part-filled, and that one joins the group
+/// before it when they make 5 or 6 vectors (see `avx2::run`).
 ///
 /// Each mode's state advances exactly as in its own bank (the recurrence is per mode), so the
 /// states handed back are bit for bit the bank's own. The lane a mode adds into depends on
@@ -380,29 +399,32 @@ impl ResonatorBank {
 /// Realtime-safe (fixed-size arrays).
 #[derive(Clone, Debug)]
 pub struct VectorBatch {
-    re: [f32; BATCH_VECTORS * LANES],
-    im: [f32; BATCH_VECTORS * LANES],
-    pr: [f32; BATCH_VECTORS * LANES],
-    pi: [f32; BATCH_VECTORS * LANES],
+    re: [f32; BATCH_LANES],
+    im: [f32; BATCH_LANES],
+    pr: [f32; BATCH_LANES],
+    pi: [f32; BATCH_LANES],
     /// (owner, first slot in its bank, first lane in the batch, modes) of each pushed range;
     /// the owner is the caller's.
-    from: [(usize, usize, usize, usize); BATCH_VECTORS * LANES],
+    from: [(u32, u32, u32, u32); BATCH_LANES],
     ranges: usize,
     /// Lanes filled.
     len: usize,
     avx2: bool,
 }
 
-/// Vectors a [`VectorBatch`] holds: the AVX2 kernel's group size.
+/// Vectors of one kernel group (the AVX2 kernel's usual group size): the engine runs a
+/// voice's whole groups in place and packs only the rest into a [`VectorBatch`].
 pub const BATCH_VECTORS: usize = 4;
+/// Modes a [`VectorBatch`] holds (8 kernel groups).
+pub const BATCH_LANES: usize = 8 * BATCH_VECTORS * LANES;
 
 impl VectorBatch {
     /// An empty batch run by the AVX2 kernel if `avx2` and the CPU has AVX2 and FMA
     /// ([`avx2_available`], cached after [`ResonatorBank::new`]'s first call).
     pub fn new(avx2: bool) -> Self {
-        let z = [0.0; BATCH_VECTORS * LANES];
+        let z = [0.0; BATCH_LANES];
         let avx2 = avx2 && avx2_available();
-        let from = [(0, 0, 0, 0); BATCH_VECTORS * LANES];
+        let from = [(0, 0, 0, 0); BATCH_LANES];
         VectorBatch { re: z, im: z, pr: z, pi: z, from, ranges: 0, len: 0, avx2 }
     }
 
@@ -413,7 +435,7 @@ impl VectorBatch {
 
     /// Whether the batch is full (run it).
     pub fn is_full(&self) -> bool {
-        self.len == BATCH_VECTORS * LANES
+        self.len == BATCH_LANES
     }
 
     /// Adds vector `k` of `bank` (state and pole of its [`LANES`] slots), remembering `owner`,
@@ -427,7 +449,7 @@ impl VectorBatch {
     /// as many as there is room for; returns how many were taken (run the batch when it is
     /// full, then push the rest).
     pub fn push_modes(&mut self, owner: usize, bank: &ResonatorBank, first: usize, count: usize) -> usize {
-        let c = count.min(BATCH_VECTORS * LANES - self.len).min(bank.capacity().saturating_sub(first));
+        let c = count.min(BATCH_LANES - self.len).min(bank.capacity().saturating_sub(first));
         if c == 0 {
             return 0;
         }
@@ -444,7 +466,8 @@ impl VectorBatch {
             pr[j] = src.2[j];
             pi[j] = src.3[j];
         }
-        self.from[self.ranges] = (owner, first, d, c);
+        // Lossless: the batch holds BATCH_LANES (< 2³²) modes; owners are voice indices.
+        self.from[self.ranges] = (owner as u32, first as u32, d as u32, c as u32);
         self.ranges += 1;
         self.len += c;
         c
@@ -479,12 +502,22 @@ impl VectorBatch {
                 portable::run(re, im, pr, pi, None, acc, n);
             }
             for &(owner, first, d, c) in &self.from[..self.ranges] {
-                store(owner, first, &self.re[d..d + c], &self.im[d..d + c]);
+                let (d, c) = (d as usize, c as usize);
+                store(owner as usize, first as usize, &self.re[d..d + c], &self.im[d..d + c]);
             }
         }
         self.len = 0;
         self.ranges = 0;
     }
+}
+
+/// `e` plus |y|² of each mode in order (one sum for [`ResonatorBank::energy`] and its parts).
+#[inline]
+fn add_energy(mut e: f32, re: &[f32], im: &[f32]) -> f32 {
+    for (r, i) in re.iter().zip(im) {
+        e += r * r + i * i;
+    }
+    e
 }
 
 /// Adds the lane sums of each sample's accumulator (`acc`: [`LANES`] floats per sample) into
@@ -643,10 +676,17 @@ mod avx2 {
         let len = re.len();
         let mut g = 0;
         while g < len {
-            let vecs = ((len - g) / LANES).min(GROUP / LANES);
+            let left = (len - g) / LANES;
+            // A last group of 1 or 2 vectors is latency-bound (each sample waits for the
+            // previous one's multiply and FMA: as long as a whole group's throughput), so the
+            // last 5 or 6 vectors run as one wider group instead of 4 + 1 or 4 + 2. Each lane
+            // sum still adds the vectors in the same order: bit for bit the same output.
+            let vecs = if input.is_none() && (left == 5 || left == 6) { left } else { left.min(GROUP / LANES) };
             // SAFETY: all indices below stay inside the slices (checked by the loop bounds).
             unsafe {
                 match vecs {
+                    6 => wide_group::<6>(re, im, pr, pi, acc, n, g),
+                    5 => wide_group::<5>(re, im, pr, pi, acc, n, g),
                     4 => group::<4>(re, im, pr, pi, input, acc, n, g),
                     3 => group::<3>(re, im, pr, pi, input, acc, n, g),
                     2 => group::<2>(re, im, pr, pi, input, acc, n, g),
@@ -654,6 +694,56 @@ mod avx2 {
                 }
             }
             g += vecs * LANES;
+        }
+    }
+
+    /// [`group`] without input for 5 or 6 vectors: the states stay in registers, the poles
+    /// are memory operands (16 registers hold no more), the operations and their order are
+    /// [`group`]'s.
+    ///
+    /// # Safety
+    /// As [`group`].
+    #[target_feature(enable = "avx2,fma")]
+    #[allow(clippy::needless_range_loop)]
+    unsafe fn wide_group<const V: usize>(
+        re: &mut [f32],
+        im: &mut [f32],
+        pr: &[f32],
+        pi: &[f32],
+        acc: &mut [f32],
+        n: usize,
+        g: usize,
+    ) {
+        // SAFETY (whole body): the caller guarantees g + V·LANES ≤ len and acc ≥ n·LANES.
+        unsafe {
+            let mut r = [_mm256_setzero_ps(); V];
+            let mut i = [_mm256_setzero_ps(); V];
+            for v in 0..V {
+                let o = g + v * LANES;
+                r[v] = _mm256_loadu_ps(re.as_ptr().add(o));
+                i[v] = _mm256_loadu_ps(im.as_ptr().add(o));
+            }
+            let (prp, pip) = (pr.as_ptr().add(g), pi.as_ptr().add(g));
+            let accp = acc.as_mut_ptr();
+            for s in 0..n {
+                let ap = accp.add(s * LANES);
+                let mut a = _mm256_loadu_ps(ap);
+                for v in 0..V {
+                    let cr = _mm256_loadu_ps(prp.add(v * LANES));
+                    let ci = _mm256_loadu_ps(pip.add(v * LANES));
+                    let nr = _mm256_fmsub_ps(cr, r[v], _mm256_mul_ps(ci, i[v]));
+                    let ni = _mm256_fmadd_ps(cr, i[v], _mm256_mul_ps(ci, r[v]));
+                    r[v] = nr;
+                    i[v] = ni;
+                    a = _mm256_add_ps(a, ni);
+                }
+                _mm256_storeu_ps(ap, a);
+            }
+            for v in 0..V {
+                let o = g + v * LANES;
+                _mm256_storeu_ps(re.as_mut_ptr().add(o), r[v]);
+                _mm256_storeu_ps(im.as_mut_ptr().add(o), i[v]);
+            }
         }
     }
 
@@ -911,7 +1001,9 @@ mod tests {
     /// either kernel, over several blocks.
     #[test]
     fn modes_packed_across_banks_advance_exactly_as_in_their_banks() {
-        let sizes = [3usize, 10, 17, 6, 9, 1, 13];
+        // 295 modes: one full batch, the rest (39: 5 vectors, one wide group) in a second run.
+        let sizes: Vec<usize> = [3usize, 10, 17, 6, 9, 1, 13].repeat(5);
+        assert!(sizes.iter().sum::<usize>() > BATCH_LANES);
         for avx2 in [false, avx2_available()] {
             let (mut own, mut packed) = twin_banks(&sizes, avx2);
             for block in [64usize, 17, 64, 5] {
@@ -932,7 +1024,7 @@ mod tests {
                     }
                 }
                 batch.run(&mut lanes_packed, |o, k, re, im| states.push((o, k, re.to_vec(), im.to_vec())));
-                assert_eq!(runs, 1, "59 modes: one full batch, the rest in a second run");
+                assert_eq!(runs, 1, "one full batch, the rest in a second run");
                 assert!(states.len() > sizes.len(), "a range was split across the two runs");
                 for (o, k, re, im) in &states {
                     packed[*o].store_modes(*k, re, im);
@@ -1021,29 +1113,37 @@ mod tests {
         }
     }
 
+    /// Every grouping of the AVX2 kernel (1 to 4 vectors, and the wide groups of 5 and 6 that
+    /// end a bank of 5, 6, 9, 10, 13 or 14 vectors) against the portable kernel's one vector
+    /// at a time: bit for bit.
     #[test]
     fn portable_and_simd_kernels_agree() {
         let fs = 44_100.0;
-        let mut a = ResonatorBank::new(100);
-        for k in 0..100 {
-            let s = a.push(ModeCoeffs::new(1.0 + k as f64, 300.0 + 900.0 * k as f64, fs)).unwrap();
-            a.excite(s, 1.0 / (1.0 + k as f32));
-        }
-        let mut b = a.clone();
-        let mut out_a = vec![0.0f32; 64];
-        let mut out_b = vec![0.0f32; 64];
-        a.process(&mut out_a);
-        let padded = b.len.div_ceil(LANES) * LANES;
-        let mut acc = vec![0.0f32; 64 * LANES];
-        portable::run(&mut b.re[..padded], &mut b.im[..padded], &b.pr[..padded], &b.pi[..padded], None, &mut acc, 64);
-        reduce_lanes(&acc, &mut out_b);
-        // Bit for bit: the same operations in the same order, each FMA the portable
-        // kernel's `mul_add` (cr·r − ci·i a fused multiply-subtract of the rounded ci·i).
-        for (x, y) in out_a.iter().zip(&out_b) {
-            assert_eq!(x.to_bits(), y.to_bits(), "{x} vs {y}");
-        }
-        for k in 0..a.len {
-            assert_eq!((a.re[k].to_bits(), a.im[k].to_bits()), (b.re[k].to_bits(), b.im[k].to_bits()), "mode {k}");
+        for modes in [5usize, 12, 20, 32, 33, 41, 48, 72, 80, 100, 112, 130] {
+            let mut a = ResonatorBank::new(modes);
+            for k in 0..modes {
+                let s = a.push(ModeCoeffs::new(1.0 + k as f64, 300.0 + 900.0 * k as f64, fs)).unwrap();
+                a.excite(s, 1.0 / (1.0 + k as f32));
+            }
+            let mut b = a.clone();
+            let mut out_a = vec![0.0f32; 64];
+            let mut out_b = vec![0.0f32; 64];
+            a.process(&mut out_a);
+            let padded = b.len.div_ceil(LANES) * LANES;
+            let mut acc = vec![0.0f32; 64 * LANES];
+            let (re, im, pr, pi) = (&mut b.re[..padded], &mut b.im[..padded], &b.pr[..padded], &b.pi[..padded]);
+            portable::run(re, im, pr, pi, None, &mut acc, 64);
+            reduce_lanes(&acc, &mut out_b);
+            assert!(out_b.iter().any(|&y| y.abs() > 0.01), "{modes} modes sound");
+            // Bit for bit: the same operations in the same order, each FMA the portable
+            // kernel's `mul_add` (cr·r − ci·i a fused multiply-subtract of the rounded ci·i).
+            for (x, y) in out_a.iter().zip(&out_b) {
+                assert_eq!(x.to_bits(), y.to_bits(), "{modes} modes: {x} vs {y}");
+            }
+            for k in 0..a.len {
+                let (sa, sb) = ((a.re[k].to_bits(), a.im[k].to_bits()), (b.re[k].to_bits(), b.im[k].to_bits()));
+                assert_eq!(sa, sb, "{modes} modes: mode {k}");
+            }
         }
     }
 
