@@ -128,7 +128,8 @@ pub fn check_not_input(path: &Path, inputs: &[&Path]) -> Result<(), OutputError>
     }
 }
 
-/// Checks that `outputs` are distinct files: `--out x --report x` would keep only one.
+/// Checks that `outputs` are distinct files: `--out x --report x` would keep only one. The
+/// null device may be given for several (each output is discarded, as asked).
 ///
 /// # Errors
 /// [`OutputError::Twice`] naming the repeated path.
@@ -136,12 +137,29 @@ pub fn check_distinct(outputs: &[&Path]) -> Result<(), OutputError> {
     for (i, a) in outputs.iter().enumerate() {
         for b in &outputs[i + 1..] {
             let same = a == b || same_file(a, b) || matches!((absolute(a), absolute(b)), (Some(x), Some(y)) if x == y);
-            if same {
+            // The null device discards what each output writes: nothing is lost.
+            if same && !is_null_device(a) {
                 return Err(OutputError::Twice { path: b.to_path_buf() });
             }
         }
     }
     Ok(())
+}
+
+/// Whether `path` is the system's null device (`/dev/null` through any spelling or link).
+fn is_null_device(path: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::{FileTypeExt, MetadataExt};
+        match (fs::metadata(path), fs::metadata("/dev/null")) {
+            (Ok(m), Ok(null)) => m.file_type().is_char_device() && m.rdev() == null.rdev(),
+            _ => false,
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        path.to_str().is_some_and(|p| p.eq_ignore_ascii_case("NUL"))
+    }
 }
 
 /// `path` with its folder canonicalised (the file itself need not exist).
@@ -479,6 +497,17 @@ mod tests {
         assert!(!dir.join("fine.json").exists());
         assert!(check_distinct(&[&dir.join("a.json"), &dir.join("./a.json")]).is_err());
         assert!(check_distinct(&[&dir.join("a.json"), &dir.join("b.json")]).is_ok());
+        // The null device discards both outputs, as asked; a link to it is the same device.
+        #[cfg(unix)]
+        {
+            let null = Path::new("/dev/null");
+            assert!(check_distinct(&[null, null]).is_ok());
+            let link = dir.join("null-link");
+            std::os::unix::fs::symlink(null, &link).unwrap();
+            assert!(check_distinct(&[null, &link]).is_ok());
+            fs::remove_file(&link).unwrap();
+            assert!(check_distinct(&[&dir.join("a.json"), null, &dir.join("a.json")]).is_err());
+        }
         assert_eq!(others(&dir, "").len(), 2, "only in.wav and ro.json remain");
         let mut p = fs::metadata(&ro).unwrap().permissions();
         #[allow(clippy::permissions_set_readonly_false)]
