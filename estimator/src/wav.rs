@@ -247,13 +247,57 @@ fn open_wav(path: &Path) -> Result<WavData, EstimateError> {
         }
     };
     let format = parse_fmt(&fmt.unwrap_or_default()).map_err(wav_err)?;
-    let left = size.map(|size| size.saturating_sub(pos));
     let declared = (!unset_data_len(data_len)).then_some(u64::from(data_len));
+    // Samples of unset size end where chunks written after them (LIST, id3, cue, …) begin.
+    let end = match (declared, size) {
+        (None, Some(size)) => trailing_chunks_start(path, pos, size).unwrap_or(size),
+        _ => size.unwrap_or(u64::MAX),
+    };
+    let left = size.map(|_| end.saturating_sub(pos));
     let len = match (declared, left) {
         (Some(d), Some(l)) => Some(d.min(l)),
         (d, l) => d.or(l),
     };
     Ok(WavData { format, reader: r, len, declared })
+}
+
+/// Chunk ids written after the samples by recorders and editors (metadata, markers, loops).
+const TRAILING_IDS: [&[u8; 4]; 24] = [
+    b"LIST", b"id3 ", b"ID3 ", b"cue ", b"smpl", b"inst", b"bext", b"iXML", b"axml", b"acid", b"fact", b"JUNK",
+    b"junk", b"PAD ", b"_PMX", b"cart", b"umid", b"DISP", b"PEAK", b"labl", b"note", b"ltxt", b"plst", b"SyLp",
+];
+
+/// Most bytes searched for chunks after samples of unset size (the end of the file).
+const TRAILING_SEARCH: u64 = 16 << 20;
+
+/// Where chunks written after samples of unset size begin, in a file of `size` bytes whose
+/// samples start at byte `data_start`: the first offset in the file's last 16 MiB where a chain
+/// of known chunks ([`TRAILING_IDS`], each with its declared size and pad byte, the last pad
+/// optional) ends exactly at the end of the file. Samples that happen to spell an id are not
+/// taken for one: their "size" would also have to land exactly on the next chunk or the end.
+/// `None` if there is none (the samples run to the end) or the file cannot be read again.
+fn trailing_chunks_start(path: &Path, data_start: u64, size: u64) -> Option<u64> {
+    use std::io::{Seek as _, SeekFrom};
+    let from = data_start.max(size.saturating_sub(TRAILING_SEARCH));
+    let mut file = File::open(path).ok()?;
+    file.seek(SeekFrom::Start(from)).ok()?;
+    let mut tail = Vec::with_capacity(usize::try_from(size - from).ok()?);
+    file.take(size - from).read_to_end(&mut tail).ok()?;
+    let known = |at: usize| tail.get(at..at + 4).is_some_and(|id| TRAILING_IDS.iter().any(|k| k[..] == *id));
+    // Whether a chain of known chunks starting at `at` ends exactly at the end.
+    let chains = |mut at: usize| {
+        while known(at) {
+            let Some(h) = tail.get(at..at + 8) else { return false };
+            let len = u32::from_le_bytes([h[4], h[5], h[6], h[7]]) as usize;
+            let next = at + 8 + len;
+            if next == tail.len() || (len % 2 == 1 && next + 1 == tail.len()) {
+                return true;
+            }
+            at = if len % 2 == 1 && !known(next) { next + 1 } else { next };
+        }
+        false
+    };
+    (0..tail.len().saturating_sub(7)).find(|&at| chains(at)).map(|at| from + at as u64)
 }
 
 /// Steps over the pad byte after an odd-sized chunk (RIFF pads every odd-sized chunk with one
@@ -678,6 +722,28 @@ mod tests {
             let r = check_exact(name, &wav_bytes(&fmt, &data, Some(declared)), &x, 1e-4);
             assert!(r.warnings.is_empty(), "{name}: {:?}", r.warnings);
         }
+        // Chunks written after samples of unset size (as a recorder adds its metadata on
+        // stopping) end the samples: an odd-sized LIST with its pad, then an id3 without one.
+        let mut list = b"LIST".to_vec();
+        list.extend(13u32.to_le_bytes());
+        list.extend_from_slice(b"INFOISFT\x01\0\0\0x\0");
+        let mut id3 = b"id3 ".to_vec();
+        id3.extend(5u32.to_le_bytes());
+        id3.extend_from_slice(b"ID3\x04\0");
+        for (name, tail) in [("list", list.clone()), ("list-id3", [list.clone(), id3.clone()].concat()), ("id3", id3)] {
+            for declared in [u32::MAX, 0] {
+                let bytes = [wav_bytes(&fmt, &data, Some(declared)), tail.clone()].concat();
+                check_exact(&format!("trailing-{name}-{declared}"), &bytes, &x, 1e-4);
+            }
+        }
+        // Samples that spell a chunk id are samples: "LIST" with a size that lands nowhere.
+        let mut spelled = data.clone();
+        spelled[100..108].copy_from_slice(b"LIST\x10\0\0\0");
+        let bytes = wav_bytes(&fmt, &spelled, Some(u32::MAX));
+        let p = scratch("spelled-list", &bytes);
+        let r = load_wav_exact(&p, None).unwrap();
+        let _ = std::fs::remove_file(p);
+        assert_eq!(r.samples.len(), x.len());
         let r = check_exact("overlong", &wav_bytes(&fmt, &data, Some(2 * data.len() as u32)), &x, 1e-4);
         assert!(r.warnings.iter().any(|w| w.contains("truncated")), "{:?}", r.warnings);
     }
