@@ -560,7 +560,7 @@ fn lm_fit_multi(
                 // Keep ln d in a sane range and 0 ≤ ω ≤ π fs.
                 // (A mode at exactly Nyquist in sine phase is identically zero: keep away.)
                 q[4 * m + 1] = q[4 * m + 1].clamp(-9.0, (0.25 * ev.fs).ln());
-                q[4 * m] = q[4 * m].abs().min(0.995 * std::f64::consts::PI * ev.fs);
+                q[4 * m] = q[4 * m].abs().min(0.999 * std::f64::consts::PI * ev.fs);
             }
             let c = cost_of(&q);
             if c.is_finite() && c <= cost {
@@ -1084,6 +1084,9 @@ impl<'a> Search<'a> {
     fn into_fit(self, noise_var: f64) -> ImpactFit {
         let (opts, fs, n) = (self.opts, self.fs, self.r.len());
         let local_noise = LocalNoise::new(&self.r, fs);
+        // Above 0.49 fs at 44.1 kHz and up lies only the converter's anti-alias band (over
+        // 21.6 kHz); at low rates (8 kHz: over 3,920 Hz) real modes lie there: up to 0.499 fs.
+        let top_hz = (0.49 * fs).max((0.499 * fs).min(20_000.0));
         let duration = n as f64 / fs;
         let mut features: Vec<Feature> = self
             .modes
@@ -1104,7 +1107,7 @@ impl<'a> Search<'a> {
             })
             .filter(|f| {
                 f.freq_hz >= opts.min_freq_hz
-                    && f.freq_hz < 0.49 * fs
+                    && f.freq_hz < top_hz
                     && f.decay_per_s >= opts.min_decay_per_s
                     && f.decay_per_s <= opts.max_decay_per_s
                     && (noise_var <= 0.0

@@ -101,3 +101,24 @@ fn a_two_stage_partial_is_one_feature_with_its_late_decay() {
     assert_eq!(q.len(), 1);
     assert!((q[0].decay_per_s / 9.8 - 1.0).abs() < 0.02 && q[0].single_exponential > 0.99, "{:?}", q[0]);
 }
+
+/// A mode just below Nyquist at a low sample rate (8 kHz: 3,950 and 3,990 Hz, 0.494 and
+/// 0.499 of the rate; 16 kHz: 7,980 Hz) is found at its frequency and decay. They were cut at
+/// 0.49 of the rate (3,920 Hz), a limit meant for the anti-alias band of 44.1 kHz and up.
+#[test]
+fn modes_just_below_nyquist_at_low_rates_are_found() {
+    use estimator::features::extract_impact;
+    use estimator::synth::render;
+    use estimator::ExtractOptions;
+    for (fs, f_top) in [(8_000.0, 3_950.0), (8_000.0, 3_990.0), (16_000.0, 7_980.0)] {
+        let modes = [(500.0, 5.0, 0.4), (f_top, 8.0, 0.3)];
+        let x: Vec<f32> = render(&modes, fs, 2 * fs as usize).iter().map(|&v| v as f32).collect();
+        let fit = extract_impact(&x, fs, 0.0, &ExtractOptions::default(), &AtomicBool::new(false)).unwrap();
+        for &(f, d, _) in &modes {
+            let m = fit.features.iter().find(|m| (m.freq_hz / f).log2().abs() * 1200.0 < 1.0);
+            let m = m.unwrap_or_else(|| panic!("{fs} Hz: {f} Hz not found in {:?}", fit.features));
+            assert!((m.decay_per_s / d - 1.0).abs() < 0.01, "{fs} Hz: {f} Hz decays {} not {d}", m.decay_per_s);
+        }
+        assert_eq!(fit.features.len(), 2, "{fs} Hz: {:?}", fit.features);
+    }
+}
