@@ -143,6 +143,10 @@ pub struct ExtractOptions {
     pub max_fit_error: f64,
     /// Back-fitting sweeps after the greedy pass.
     pub backfit_passes: usize,
+    /// Features whose initial amplitude is under this (full scale ±1) are dropped: the
+    /// analysis sets it per file to the quantisation step of integer samples (a mode that
+    /// never spans one step leaves only the quantiser's error pattern, not a decay). 0: none.
+    pub min_amplitude: f64,
 }
 
 impl Default for ExtractOptions {
@@ -158,6 +162,7 @@ impl Default for ExtractOptions {
             target_explained: 1.0 - 1e-7,
             max_fit_error: 0.5,
             backfit_passes: 1,
+            min_amplitude: 0.0,
         }
     }
 }
@@ -1117,7 +1122,7 @@ impl<'a> Search<'a> {
             .collect();
         let amax = features.iter().fold(0.0f64, |m, f| m.max(f.amplitude));
         let amin = amax * 10f64.powf(opts.min_rel_amplitude_db / 20.0);
-        features.retain(|f| f.amplitude >= amin);
+        features.retain(|f| f.amplitude >= amin && f.amplitude >= opts.min_amplitude);
         let (mut features, mut components) = group_partials(features, duration);
         features.sort_by(|a, b| b.amplitude.total_cmp(&a.amplitude));
         components.sort_by(|a, b| b.amplitude.total_cmp(&a.amplitude));

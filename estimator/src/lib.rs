@@ -286,6 +286,24 @@ fn support_of(impacts: &[ImpactFeatures], fit: &FitResult) -> Option<f64> {
     Some((median / std::f64::consts::LN_2).min(MAX_SUPPORT_C))
 }
 
+/// The step between the file's sample values, full scale ±1: 2^(1−bits) (1/128 at 8 bits).
+/// Float files count their mantissa's 24 or 53 bits as their bits, or more: a negligible step.
+fn quantisation_step(rec: &wav::Recording) -> f64 {
+    2f64.powi(1 - i32::from(rec.bits_per_sample.clamp(1, 64)))
+}
+
+/// The noise the file's integer samples carry at the least (per sample, full scale ±1): the
+/// quantisation error of a step q = 2^(1−bits), q²/12 (Widrow & Kollár, *Quantization Noise*,
+/// 2008, ch. 4), over the channels averaged into the mono mix. At 8 bits (q²/12 = 5·10⁻⁶,
+/// −53 dB) it sets the floor a feature must clear: without it a file of digital silence
+/// around the strike reads as noiseless and the quantisation error of the ringing as modes.
+/// Float files (24 bits of mantissa or more) give a floor far under any recording's noise.
+fn quantisation_var(rec: &wav::Recording, channel: Option<usize>) -> f64 {
+    let q = quantisation_step(rec);
+    let mixed = if channel.is_some() { 1.0 } else { f64::from(rec.channels.max(1)) };
+    q * q / 12.0 / mixed
+}
+
 /// Reads a WAV file to mono. See [`wav::load_wav`].
 ///
 /// # Errors
@@ -339,13 +357,18 @@ pub fn extract_features(
                 reason: reason.clone(),
             });
         }
+        let extract = ExtractOptions {
+            min_amplitude: opts.extract.min_amplitude.max(quantisation_step(&rec)),
+            ..opts.extract.clone()
+        };
         let nimp = seg.impacts.len().max(1);
         let mut used = 0;
         for (ii, s) in seg.impacts.iter().enumerate() {
             if cancel.load(Ordering::Relaxed) {
                 return Err(EstimateError::Cancelled);
             }
-            let fit = features::extract_impact(&rec.samples[s.start..s.end], fs, s.noise_var, &opts.extract, cancel)?;
+            let noise_var = s.noise_var.max(quantisation_var(&rec, opts.channel));
+            let fit = features::extract_impact(&rec.samples[s.start..s.end], fs, noise_var, &extract, cancel)?;
             let at = s.start as f64 / fs;
             if !fit.repaired_clicks.is_empty() {
                 let times: Vec<String> = fit

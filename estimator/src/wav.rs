@@ -513,6 +513,17 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
             20.0 * peak.log10()
         ));
     }
+    // Integer samples that use few steps of their scale: the quantiser's error is then a
+    // large part of the ring (modes under one step are dropped by the extraction).
+    let step = 2f64.powi(1 - i32::from(spec.valid_bits));
+    if analysis && !spec.float && peak > 0.0 && peak < 32.0 * step {
+        warnings.push(format!(
+            "{}: its peak is only {:.0} steps of its {}-bit scale; modes under one step are lost and the quietest decays are unreliable: record or export at more bits or a higher level",
+            path.display(),
+            peak / step,
+            spec.valid_bits
+        ));
+    }
     // Remove the DC offset: a constant would otherwise show up as a zero-frequency "mode".
     if analysis && mean != 0.0 {
         for v in &mut mono {
