@@ -58,7 +58,31 @@ fn extraction(c: &mut Criterion) {
     g.bench_function("30-mode 1 s impact at 48 kHz, 40 dB SNR", |b| {
         b.iter(|| estimator::features::extract_impact(black_box(&x32), fs, noise_var, &opts, &cancel).unwrap())
     });
+    // A roll: strikes of one five-mode object every 25–40 ms for 2 s (merged into impacts
+    // whose peaks are no single damped sinusoids: most fits are rejected).
+    let roll_modes = [(523.0, 4.0), (1400.0, 9.0), (2700.0, 15.0), (4460.0, 24.0), (6600.0, 35.0)];
+    let mut roll = vec![0.0; 96_000];
+    let mut t = 0.1;
+    while t < 1.9 {
+        let at = (t * fs) as usize;
+        let gain = 0.5 + 0.5 * rng.uniform();
+        let modes: Vec<(f64, f64, f64)> =
+            roll_modes.iter().enumerate().map(|(k, &(f, d))| (f, d, gain * 0.2 / (k + 1) as f64)).collect();
+        for (o, v) in roll[at..].iter_mut().zip(render(&modes, fs, 96_000 - at)) {
+            *o += v;
+        }
+        t += 0.025 + 0.015 * rng.uniform();
+    }
+    add_noise(&mut roll, 60.0, 96_000, &mut rng);
+    let path = std::env::temp_dir().join(format!("struck-bench-roll-{}.wav", std::process::id()));
+    estimator::synth::write_wav_f32(&path, &roll, 48_000).unwrap();
+    let files = vec![path.clone()];
+    let all = estimator::Options::default();
+    g.bench_function("features of a 2 s roll, strikes 25-40 ms apart (48 kHz file)", |b| {
+        b.iter(|| estimator::extract_features(black_box(&files), &all, &|_| {}, &cancel).unwrap())
+    });
     g.finish();
+    let _ = std::fs::remove_file(path);
 }
 
 /// The whole pipeline (read, segment, extract, fit) on one WAV of 20 taps at 48 kHz.
