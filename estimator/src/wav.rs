@@ -250,7 +250,14 @@ fn open_wav(path: &Path) -> Result<WavData, EstimateError> {
     let declared = (!unset_data_len(data_len)).then_some(u64::from(data_len));
     // Samples of unset size end where chunks written after them (LIST, id3, cue, …) begin.
     let end = match (declared, size) {
-        (None, Some(size)) => trailing_chunks_start(path, pos, size).unwrap_or(size),
+        (None, Some(size)) => match trailing_chunks_start(path, pos, size) {
+            // One-byte frames (8-bit mono) are the only ones a pad byte can complete: an odd
+            // count of them is followed by a zero pad byte (RIFF pads odd-sized chunks), which
+            // would read as a sample at full scale, −1.0. Wider frames drop the partial frame.
+            Some((at, Some(0))) if format.channels == 1 && format.bytes == 1 && (at - pos) % 2 == 0 => at - 1,
+            Some((at, _)) => at,
+            None => size,
+        },
         _ => size.unwrap_or(u64::MAX),
     };
     let left = size.map(|_| end.saturating_sub(pos));
@@ -275,29 +282,36 @@ const TRAILING_SEARCH: u64 = 16 << 20;
 /// of known chunks ([`TRAILING_IDS`], each with its declared size and pad byte, the last pad
 /// optional) ends exactly at the end of the file. Samples that happen to spell an id are not
 /// taken for one: their "size" would also have to land exactly on the next chunk or the end.
-/// `None` if there is none (the samples run to the end) or the file cannot be read again.
-fn trailing_chunks_start(path: &Path, data_start: u64, size: u64) -> Option<u64> {
+/// With the byte before it, if it is after the samples' start. `None` if there is none (the
+/// samples run to the end) or the file cannot be read again.
+fn trailing_chunks_start(path: &Path, data_start: u64, size: u64) -> Option<(u64, Option<u8>)> {
     use std::io::{Seek as _, SeekFrom};
     let from = data_start.max(size.saturating_sub(TRAILING_SEARCH));
     let mut file = File::open(path).ok()?;
     file.seek(SeekFrom::Start(from)).ok()?;
     let mut tail = Vec::with_capacity(usize::try_from(size - from).ok()?);
     file.take(size - from).read_to_end(&mut tail).ok()?;
+    let n = tail.len();
     let known = |at: usize| tail.get(at..at + 4).is_some_and(|id| TRAILING_IDS.iter().any(|k| k[..] == *id));
-    // Whether a chain of known chunks starting at `at` ends exactly at the end.
-    let chains = |mut at: usize| {
-        while known(at) {
-            let Some(h) = tail.get(at..at + 8) else { return false };
-            let len = u32::from_le_bytes([h[4], h[5], h[6], h[7]]) as usize;
-            let next = at + 8 + len;
-            if next == tail.len() || (len % 2 == 1 && next + 1 == tail.len()) {
-                return true;
-            }
-            at = if len % 2 == 1 && !known(next) { next + 1 } else { next };
+    // chains[at]: a chain of known chunks starting at `at` ends exactly at the end. Worked out
+    // from the end, each offset once (a walk from every offset was quadratic in a tail of
+    // many small chunks that misses the end).
+    let mut chains = vec![false; n];
+    for at in (0..n.saturating_sub(7)).rev() {
+        if !known(at) {
+            continue;
         }
-        false
-    };
-    (0..tail.len().saturating_sub(7)).find(|&at| chains(at)).map(|at| from + at as u64)
+        let len = u32::from_le_bytes([tail[at + 4], tail[at + 5], tail[at + 6], tail[at + 7]]) as usize;
+        let next = at + 8 + len;
+        chains[at] = if next == n || (len % 2 == 1 && next + 1 == n) {
+            true
+        } else {
+            let next = if len % 2 == 1 && !known(next) { next + 1 } else { next };
+            next < n && chains[next]
+        };
+    }
+    let at = chains.iter().position(|&c| c)?;
+    Some((from + at as u64, at.checked_sub(1).map(|b| tail[b])))
 }
 
 /// Steps over the pad byte after an odd-sized chunk (RIFF pads every odd-sized chunk with one
@@ -755,6 +769,23 @@ mod tests {
         let r = load_wav_exact(&p, None).unwrap();
         let _ = std::fs::remove_file(p);
         assert_eq!(r.samples.len(), x.len());
+        // 8-bit mono, an odd count of samples: the data's pad byte before the LIST is no sample.
+        let odd = &x[..4799];
+        let data8: Vec<u8> = odd.iter().map(|v| (128.0 + v * 127.0).round() as u8).collect();
+        let bytes =
+            [wav_bytes(&fmt_body(1, 1, 48_000, 8, None), &data8, Some(u32::MAX)), vec![0], list.clone()].concat();
+        check_exact("trailing-after-pad-8-bit", &bytes, odd, 1.0 / 100.0);
+        // 65,536 empty JUNK chunks that miss the end by two bytes: samples, and the search is
+        // linear (a walk from every offset took minutes).
+        let junk: Vec<u8> = b"JUNK\0\0\0\0".repeat(1 << 16);
+        let mut tail_data = data.clone();
+        tail_data.extend_from_slice(&junk);
+        tail_data.extend_from_slice(&[0, 0]);
+        let bytes = wav_bytes(&fmt, &tail_data, Some(u32::MAX));
+        let p = scratch("junk-misses-the-end", &bytes);
+        let r = load_wav_exact(&p, None).unwrap();
+        let _ = std::fs::remove_file(p);
+        assert_eq!(r.samples.len(), tail_data.len() / 2);
         let r = check_exact("overlong", &wav_bytes(&fmt, &data, Some(2 * data.len() as u32)), &x, 1e-4);
         assert!(r.warnings.iter().any(|w| w.contains("truncated")), "{:?}", r.warnings);
     }
