@@ -286,21 +286,26 @@ fn support_of(impacts: &[ImpactFeatures], fit: &FitResult) -> Option<f64> {
     Some((median / std::f64::consts::LN_2).min(MAX_SUPPORT_C))
 }
 
-/// The step between the file's sample values, full scale ±1: 2^(1−bits) (1/128 at 8 bits).
-/// Float files count their mantissa's 24 or 53 bits as their bits, or more: a negligible step.
-fn quantisation_step(rec: &wav::Recording) -> f64 {
-    2f64.powi(1 - i32::from(rec.bits_per_sample.clamp(1, 64)))
+/// The step between the analysed signal's values, full scale ±1: 2^(1−bits) of the file's
+/// samples (1/128 at 8 bits), over the channels averaged into the mono mix (the mean of N
+/// channels moves in steps of q/N: a mode in one channel of a stereo file is half as loud in
+/// the mix, and so is its step). Float files count at their container's 32 or 64 bits: a
+/// negligible step.
+fn quantisation_step(rec: &wav::Recording, channel: Option<usize>) -> f64 {
+    let mixed = if channel.is_some() { 1.0 } else { f64::from(rec.channels.max(1)) };
+    2f64.powi(1 - i32::from(rec.bits_per_sample.clamp(1, 64))) / mixed
 }
 
 /// The noise the file's integer samples carry at the least (per sample, full scale ±1): the
 /// quantisation error of a step q = 2^(1−bits), q²/12 (Widrow & Kollár, *Quantization Noise*,
-/// 2008, ch. 4), over the channels averaged into the mono mix. At 8 bits (q²/12 = 5·10⁻⁶,
-/// −53 dB) it sets the floor a feature must clear: without it a file of digital silence
-/// around the strike reads as noiseless and the quantisation error of the ringing as modes.
-/// Float files (24 bits of mantissa or more) give a floor far under any recording's noise.
+/// 2008, ch. 4), over N channels averaged into the mono mix: q²/12/N for independent errors
+/// (for identical channels it is N times more; the one-step amplitude floor covers those).
+/// At 8 bits (q²/12 = 5·10⁻⁶, −53 dB) it sets the floor a feature must clear: without it a
+/// file of digital silence around the strike reads as noiseless and the quantisation error
+/// of the ringing as modes. Float files give a floor far under any recording's noise.
 fn quantisation_var(rec: &wav::Recording, channel: Option<usize>) -> f64 {
-    let q = quantisation_step(rec);
     let mixed = if channel.is_some() { 1.0 } else { f64::from(rec.channels.max(1)) };
+    let q = quantisation_step(rec, channel) * mixed;
     q * q / 12.0 / mixed
 }
 
@@ -358,7 +363,7 @@ pub fn extract_features(
             });
         }
         let extract = ExtractOptions {
-            min_amplitude: opts.extract.min_amplitude.max(quantisation_step(&rec)),
+            min_amplitude: opts.extract.min_amplitude.max(quantisation_step(&rec, opts.channel)),
             ..opts.extract.clone()
         };
         let nimp = seg.impacts.len().max(1);
