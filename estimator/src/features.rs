@@ -490,6 +490,9 @@ fn project_amplitude(ev: &ModelEval, target: &[C64], k0: usize, omega: f64, d: f
     (C64::new(b[0], b[1]), cost.max(0.0))
 }
 
+/// The fits' bound on a mode's decay rate, as a fraction of the sample rate (s⁻¹ per Hz).
+const MAX_DECAY_OF_RATE: f64 = 0.25;
+
 /// Levenberg–Marquardt on (ω, ln d, Re B, Im B) of one or more modes jointly against
 /// `target` (bins k0..). Returns the fitted modes and the final cost Σ|target − model|².
 /// `max_it` bounds the iterations; it stops after three accepted steps gaining < `rtol`.
@@ -580,7 +583,7 @@ fn lm_fit_multi(
             for m in 0..km {
                 // Keep ln d in a sane range and 0 ≤ ω ≤ π fs.
                 // (A mode at exactly Nyquist in sine phase is identically zero: keep away.)
-                q[4 * m + 1] = q[4 * m + 1].clamp(-9.0, (0.25 * ev.fs).ln());
+                q[4 * m + 1] = q[4 * m + 1].clamp(-9.0, (MAX_DECAY_OF_RATE * ev.fs).ln());
                 q[4 * m] = q[4 * m].abs().min(0.999 * std::f64::consts::PI * ev.fs);
             }
             let c = cost_of(&q);
@@ -1132,6 +1135,9 @@ impl<'a> Search<'a> {
                     && f.freq_hz < top_hz
                     && f.decay_per_s >= opts.min_decay_per_s
                     && f.decay_per_s <= opts.max_decay_per_s
+                    // Pinned at the fit's bound on d (fs/4: 2,000 s⁻¹ at 8 kHz, under
+                    // max_decay_per_s at low rates): a click's broadband burst, not a mode.
+                    && f.decay_per_s < 0.999 * MAX_DECAY_OF_RATE * fs
                     && (noise_var <= 0.0
                         || f.amplitude * f.amplitude * fs / (4.0 * f.decay_per_s * noise_var)
                             >= 10f64.powf(opts.min_feature_snr_db / 10.0))

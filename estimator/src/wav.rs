@@ -250,14 +250,19 @@ fn open_wav(path: &Path) -> Result<WavData, EstimateError> {
     let declared = (!unset_data_len(data_len)).then_some(u64::from(data_len));
     // Samples of unset size end where chunks written after them (LIST, id3, cue, …) begin.
     let end = match (declared, size) {
-        (None, Some(size)) => match trailing_chunks_start(path, pos, size) {
+        (None, Some(size)) => {
+            let (end, before) = trailing_chunks_start(path, pos, size);
             // One-byte frames (8-bit mono) are the only ones a pad byte can complete: an odd
-            // count of them is followed by a zero pad byte (RIFF pads odd-sized chunks), which
-            // would read as a sample at full scale, −1.0. Wider frames drop the partial frame.
-            Some((at, Some(0))) if format.channels == 1 && format.bytes == 1 && (at - pos) % 2 == 0 => at - 1,
-            Some((at, _)) => at,
-            None => size,
-        },
+            // count of them is followed by a zero pad byte (RIFF pads odd-sized chunks, before
+            // the chunks after it or at the end), which would read as a sample at full scale,
+            // −1.0. Wider frames drop the partial frame.
+            let pad = format.channels == 1 && format.bytes == 1 && (end - pos) % 2 == 0 && before == Some(0);
+            if pad {
+                end - 1
+            } else {
+                end
+            }
+        }
         _ => size.unwrap_or(u64::MAX),
     };
     let left = size.map(|_| end.saturating_sub(pos));
@@ -268,10 +273,12 @@ fn open_wav(path: &Path) -> Result<WavData, EstimateError> {
     Ok(WavData { format, reader: r, len, declared })
 }
 
-/// Chunk ids written after the samples by recorders and editors (metadata, markers, loops).
-const TRAILING_IDS: [&[u8; 4]; 24] = [
+/// Chunk ids written after the samples by recorders and editors (metadata, markers, loops;
+/// matched in either case).
+const TRAILING_IDS: [&[u8; 4]; 36] = [
     b"LIST", b"id3 ", b"ID3 ", b"cue ", b"smpl", b"inst", b"bext", b"iXML", b"axml", b"acid", b"fact", b"JUNK",
-    b"junk", b"PAD ", b"_PMX", b"cart", b"umid", b"DISP", b"PEAK", b"labl", b"note", b"ltxt", b"plst", b"SyLp",
+    b"PAD ", b"_PMX", b"cart", b"umid", b"DISP", b"PEAK", b"labl", b"note", b"ltxt", b"plst", b"SyLp", b"afsp",
+    b"minf", b"elm1", b"regn", b"ovwf", b"levl", b"link", b"chna", b"adtl", b"FLLR", b"DGDA", b"ResU", b"LGWV",
 ];
 
 /// Most bytes searched for chunks after samples of unset size (the end of the file).
@@ -282,17 +289,23 @@ const TRAILING_SEARCH: u64 = 16 << 20;
 /// of known chunks ([`TRAILING_IDS`], each with its declared size and pad byte, the last pad
 /// optional) ends exactly at the end of the file. Samples that happen to spell an id are not
 /// taken for one: their "size" would also have to land exactly on the next chunk or the end.
-/// With the byte before it, if it is after the samples' start. `None` if there is none (the
-/// samples run to the end) or the file cannot be read again.
-fn trailing_chunks_start(path: &Path, data_start: u64, size: u64) -> Option<(u64, Option<u8>)> {
+/// The end of the samples (the file's end if there is no chain, or if the file cannot be
+/// read again) and the last byte before it, if the search read it.
+fn trailing_chunks_start(path: &Path, data_start: u64, size: u64) -> (u64, Option<u8>) {
     use std::io::{Seek as _, SeekFrom};
     let from = data_start.max(size.saturating_sub(TRAILING_SEARCH));
-    let mut file = File::open(path).ok()?;
-    file.seek(SeekFrom::Start(from)).ok()?;
-    let mut tail = Vec::with_capacity(usize::try_from(size - from).ok()?);
-    file.take(size - from).read_to_end(&mut tail).ok()?;
+    let mut tail = Vec::new();
+    let read = File::open(path).and_then(|mut file| {
+        file.seek(SeekFrom::Start(from))?;
+        file.take(size - from).read_to_end(&mut tail)
+    });
+    if read.is_err() {
+        return (size, None);
+    }
     let n = tail.len();
-    let known = |at: usize| tail.get(at..at + 4).is_some_and(|id| TRAILING_IDS.iter().any(|k| k[..] == *id));
+    // Ids as written or in the other case (`list`, `junk`: writers differ).
+    let known =
+        |at: usize| tail.get(at..at + 4).is_some_and(|id| TRAILING_IDS.iter().any(|k| k.eq_ignore_ascii_case(id)));
     // chains[at]: a chain of known chunks starting at `at` ends exactly at the end. Worked out
     // from the end, each offset once (a walk from every offset was quadratic in a tail of
     // many small chunks that misses the end).
@@ -310,8 +323,8 @@ fn trailing_chunks_start(path: &Path, data_start: u64, size: u64) -> Option<(u64
             next < n && chains[next]
         };
     }
-    let at = chains.iter().position(|&c| c)?;
-    Some((from + at as u64, at.checked_sub(1).map(|b| tail[b])))
+    let at = chains.iter().position(|&c| c).unwrap_or(n);
+    (from + at as u64, at.checked_sub(1).map(|b| tail[b]))
 }
 
 /// Steps over the pad byte after an odd-sized chunk (RIFF pads every odd-sized chunk with one
@@ -528,13 +541,14 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
         ));
     }
     // Integer samples that use few steps of their scale: the quantiser's error is then a
-    // large part of the ring (modes under one step are dropped by the extraction).
+    // large part of the ring (modes under one step are dropped by the extraction). Counted
+    // in the loudest channel (a silent channel halves the mix, not the steps recorded).
     let step = 2f64.powi(1 - i32::from(spec.valid_bits));
-    if analysis && !spec.float && peak > 0.0 && peak < 32.0 * step {
+    if analysis && !spec.float && peak_any > 0.0 && peak_any < 32.0 * step {
         warnings.push(format!(
             "{}: its peak is only {:.0} steps of its {}-bit scale; modes under one step are lost and the quietest decays are unreliable: record or export at more bits or a higher level",
             path.display(),
-            peak / step,
+            peak_any / step,
             spec.valid_bits
         ));
     }
@@ -775,6 +789,17 @@ mod tests {
         let bytes =
             [wav_bytes(&fmt_body(1, 1, 48_000, 8, None), &data8, Some(u32::MAX)), vec![0], list.clone()].concat();
         check_exact("trailing-after-pad-8-bit", &bytes, odd, 1.0 / 100.0);
+        // … and at the end of the file, with no chunk after it.
+        let bytes = [wav_bytes(&fmt_body(1, 1, 48_000, 8, None), &data8, Some(0)), vec![0]].concat();
+        check_exact("pad-at-the-end-8-bit", &bytes, odd, 1.0 / 100.0);
+        // Ids in the other case and less common ones, odd-sized without their pad byte.
+        for id in [b"list", b"afsp", b"Junk"] {
+            let mut chunk = id.to_vec();
+            chunk.extend(5u32.to_le_bytes());
+            chunk.extend_from_slice(b"abcde");
+            let bytes = [wav_bytes(&fmt, &data, Some(u32::MAX)), chunk].concat();
+            check_exact(&format!("trailing-{}", String::from_utf8_lossy(id)), &bytes, &x, 1e-4);
+        }
         // 65,536 empty JUNK chunks that miss the end by two bytes: samples, and the search is
         // linear (a walk from every offset took minutes).
         let junk: Vec<u8> = b"JUNK\0\0\0\0".repeat(1 << 16);

@@ -121,4 +121,18 @@ fn modes_just_below_nyquist_at_low_rates_are_found() {
         }
         assert_eq!(fit.features.len(), 2, "{fs} Hz: {:?}", fit.features);
     }
+    // A contact click at 8 kHz (+0.5 then −0.3 on the strike's first two samples): no feature
+    // sits at the fit's bound on the decay (fs/4 = 2,000 s⁻¹), where the click's burst was
+    // fitted as "modes" (1,813 and 3,255 Hz at d = 2,000 before).
+    let fs = 8_000.0;
+    let modes = [(300.0, 6.0, 0.3), (1000.0, 9.0, 0.2)];
+    let mut x: Vec<f32> = render(&modes, fs, 12_000).iter().map(|&v| v as f32).collect();
+    x[0] += 0.5;
+    x[1] -= 0.3;
+    let fit = extract_impact(&x, fs, 0.0, &ExtractOptions::default(), &AtomicBool::new(false)).unwrap();
+    assert!(fit.features.iter().all(|m| m.decay_per_s < 0.999 * fs / 4.0), "{:?}", fit.features);
+    for &(f, d, _) in &modes {
+        let m = fit.features.iter().find(|m| (m.freq_hz / f).log2().abs() * 1200.0 < 1.0).expect("the mode is found");
+        assert!((m.decay_per_s / d - 1.0).abs() < 0.01, "{f} Hz decays {}", m.decay_per_s);
+    }
 }

@@ -329,6 +329,13 @@ fn eight_bit_quantisation_is_not_modes() {
         assert!(found.iter().any(|m| (m.freq_hz / f).log2().abs() * 1200.0 < 1.0), "stereo: {f} Hz not in {found:?}");
     }
     assert_eq!(found.len(), modes.len(), "stereo: {found:?}");
+    // Loud in its channel (58 steps), half that in the mix: no warning about steps.
+    let x: Vec<Vec<f64>> = ring.iter().map(|v| vec![v * 0.45 / peak, 0.0]).collect();
+    let p = tmp("eight-bit-left-loud");
+    write_int(&p, 8, 2, fs, &x);
+    let rep =
+        extract_features(std::slice::from_ref(&p), &Options::default(), &|_| {}, &AtomicBool::new(false)).unwrap();
+    assert!(!rep.warnings.iter().any(|w| w.contains("steps of its 8-bit scale")), "{:?}", rep.warnings);
     // A strike six steps high says that its quietest modes are lost.
     let x: Vec<Vec<f64>> = ring.iter().map(|v| vec![v * 0.05 / peak]).collect();
     let p = tmp("eight-bit-quiet");
