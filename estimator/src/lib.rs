@@ -286,27 +286,20 @@ fn support_of(impacts: &[ImpactFeatures], fit: &FitResult) -> Option<f64> {
     Some((median / std::f64::consts::LN_2).min(MAX_SUPPORT_C))
 }
 
-/// The step between the analysed signal's values, full scale ±1: 2^(1−bits) of the file's
-/// samples (1/128 at 8 bits), over the channels averaged into the mono mix (the mean of N
-/// channels moves in steps of q/N: a mode in one channel of a stereo file is half as loud in
-/// the mix, and so is its step). Float files count at their container's 32 or 64 bits: a
-/// negligible step.
-fn quantisation_step(rec: &wav::Recording, channel: Option<usize>) -> f64 {
+/// The quantisation of the analysed signal (full scale ±1): its step and the least noise
+/// power per sample it carries. The file's step is q = 2^(1−bits) ([`wav::quantisation_step`];
+/// 1/128 at 8 bits; float files count at their container's 32 or 64 bits: negligible); the
+/// mean of N channels moves in steps of q/N (a mode in one channel of a stereo file is half as
+/// loud in the mix, and so is its step). The error is q²/12 per sample (Widrow & Kollár,
+/// *Quantization Noise*, 2008, ch. 4), q²/12/N in the mix for independent errors (for
+/// identical channels N times more; the one-step amplitude floor covers those). At 8 bits
+/// (q²/12 = 5·10⁻⁶, −53 dB) it sets the floor a feature must clear: without it a file of
+/// digital silence around the strike reads as noiseless and the quantisation error of the
+/// ringing as modes.
+fn quantisation(rec: &wav::Recording, channel: Option<usize>) -> (f64, f64) {
     let mixed = if channel.is_some() { 1.0 } else { f64::from(rec.channels.max(1)) };
-    2f64.powi(1 - i32::from(rec.bits_per_sample.clamp(1, 64))) / mixed
-}
-
-/// The noise the file's integer samples carry at the least (per sample, full scale ±1): the
-/// quantisation error of a step q = 2^(1−bits), q²/12 (Widrow & Kollár, *Quantization Noise*,
-/// 2008, ch. 4), over N channels averaged into the mono mix: q²/12/N for independent errors
-/// (for identical channels it is N times more; the one-step amplitude floor covers those).
-/// At 8 bits (q²/12 = 5·10⁻⁶, −53 dB) it sets the floor a feature must clear: without it a
-/// file of digital silence around the strike reads as noiseless and the quantisation error
-/// of the ringing as modes. Float files give a floor far under any recording's noise.
-fn quantisation_var(rec: &wav::Recording, channel: Option<usize>) -> f64 {
-    let mixed = if channel.is_some() { 1.0 } else { f64::from(rec.channels.max(1)) };
-    let q = quantisation_step(rec, channel) * mixed;
-    q * q / 12.0 / mixed
+    let q = wav::quantisation_step(rec.bits_per_sample);
+    (q / mixed, q * q / 12.0 / mixed)
 }
 
 /// Reads a WAV file to mono. See [`wav::load_wav`].
@@ -362,17 +355,16 @@ pub fn extract_features(
                 reason: reason.clone(),
             });
         }
-        let extract = ExtractOptions {
-            min_amplitude: opts.extract.min_amplitude.max(quantisation_step(&rec, opts.channel)),
-            ..opts.extract.clone()
-        };
+        let (quant_step, quant_var) = quantisation(&rec, opts.channel);
+        let extract =
+            ExtractOptions { min_amplitude: opts.extract.min_amplitude.max(quant_step), ..opts.extract.clone() };
         let nimp = seg.impacts.len().max(1);
         let mut used = 0;
         for (ii, s) in seg.impacts.iter().enumerate() {
             if cancel.load(Ordering::Relaxed) {
                 return Err(EstimateError::Cancelled);
             }
-            let noise_var = s.noise_var.max(quantisation_var(&rec, opts.channel));
+            let noise_var = s.noise_var.max(quant_var);
             let fit = features::extract_impact(&rec.samples[s.start..s.end], fs, noise_var, &extract, cancel)?;
             let at = s.start as f64 / fs;
             if !fit.repaired_clicks.is_empty() {

@@ -12,6 +12,11 @@ use std::path::{Path, PathBuf};
 
 use crate::{EstimateError, Silence};
 
+/// The step between integer sample values of `bits` bits, full scale ±1: 2^(1−bits).
+pub fn quantisation_step(bits: u16) -> f64 {
+    2f64.powi(1 - i32::from(bits.clamp(1, 64)))
+}
+
 /// Longest recording read, in seconds (15 minutes). Longer files are truncated with a warning.
 pub const MAX_SECONDS: f64 = 900.0;
 /// Most mono samples kept per file (64 Mi samples, 256 MiB of `f32`; 5.8 min at 192 kHz).
@@ -543,7 +548,7 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
     // Integer samples that use few steps of their scale: the quantiser's error is then a
     // large part of the ring (modes under one step are dropped by the extraction). Counted
     // in the loudest channel (a silent channel halves the mix, not the steps recorded).
-    let step = 2f64.powi(1 - i32::from(spec.valid_bits));
+    let step = quantisation_step(spec.valid_bits);
     if analysis && !spec.float && peak_any > 0.0 && peak_any < 32.0 * step {
         warnings.push(format!(
             "{}: its peak is only {:.0} steps of its {}-bit scale; modes under one step are lost and the quietest decays are unreliable: record or export at more bits or a higher level",
