@@ -302,6 +302,10 @@ fn quantisation(rec: &wav::Recording, channel: Option<usize>) -> (f64, f64) {
     (q / mixed, q * q / 12.0 / mixed)
 }
 
+/// Strikes inside impacts (`Segmentation::restrikes`) each get a warning up to this many per
+/// file; more (a roll) get one line.
+const MAX_RESTRIKE_WARNINGS: usize = 3;
+
 /// Reads a WAV file to mono. See [`wav::load_wav`].
 ///
 /// # Errors
@@ -422,12 +426,43 @@ pub fn extract_features(
                 if seg.noise_steps.len() > 5 { ", …" } else { "" }
             ));
         }
-        for &(at, onset) in &seg.restrikes {
+        if seg.restrikes.len() <= MAX_RESTRIKE_WARNINGS {
+            for &(at, onset) in &seg.restrikes {
+                let after = at.saturating_sub(onset) as f64 / fs;
+                report.warnings.push(if after < opts.segment.min_gap_s {
+                    format!(
+                        "{name}: a second strike {:.0} ms after the one at {:.3} s, inside the {:.0} ms minimum gap between taps, is analysed with it (a bounce or a flam: the two strikes' decays mix); leave more time between taps",
+                        1e3 * after,
+                        onset as f64 / fs,
+                        1e3 * opts.segment.min_gap_s
+                    )
+                } else {
+                    format!(
+                        "{name}: a second strike {:.0} ms after the one at {:.3} s is analysed with it (too soon after another strike to be cut: the strikes' decays mix); leave more time between taps",
+                        1e3 * after,
+                        onset as f64 / fs
+                    )
+                });
+            }
+        } else {
+            // A roll or a tremolo: one line. The spacing is each strike's distance from the
+            // strike before it (an onset or another of these).
+            let mut events: Vec<usize> = seg.impacts.iter().map(|i| i.start).collect();
+            events.extend(seg.restrikes.iter().map(|r| r.0));
+            events.sort_unstable();
+            let spacing: Vec<f64> = seg
+                .restrikes
+                .iter()
+                .filter_map(|&(at, _)| events.iter().rev().find(|&&e| e < at).map(|&e| (at - e) as f64 / fs))
+                .collect();
+            let (lo, hi) = spacing.iter().fold((f64::INFINITY, 0.0f64), |(a, b), &v| (a.min(v), b.max(v)));
             report.warnings.push(format!(
-                "{name}: a second strike {:.0} ms after the one at {:.3} s, inside the {:.0} ms minimum gap between taps, is analysed with it (a bounce or a flam: the two strikes' decays mix); leave more time between taps",
-                1e3 * at.saturating_sub(onset) as f64 / fs,
-                onset as f64 / fs,
-                1e3 * opts.segment.min_gap_s
+                "{name}: {} strikes fell inside impacts and are analysed with them (a roll or a tremolo: strikes {:.0}–{:.0} ms apart, from {:.2} s to {:.2} s; their decays mix); leave more time between taps",
+                seg.restrikes.len(),
+                1e3 * lo,
+                1e3 * hi,
+                seg.restrikes[0].0 as f64 / fs,
+                seg.restrikes[seg.restrikes.len() - 1].0 as f64 / fs
             ));
         }
         if seg.impacts.is_empty() {

@@ -955,6 +955,41 @@ fn a_soft_mallet_restrike_55_to_70_ms_later_is_found() {
     assert!(missed.is_empty(), "{} of 20 missed: {missed:?}", missed.len());
 }
 
+/// The same soft mallet 45–55 ms after the first strike, at the end of the minimum gap (a
+/// known limit until stop 32: one impact, no warning; the in-gap rule needs a broad rise):
+/// now an impact of its own or reported inside the first, within 2 ms.
+#[test]
+fn a_soft_mallet_restrike_at_the_end_of_the_gap_is_cut_or_reported() {
+    let fs = 48_000.0;
+    let t0 = 0.2;
+    let mut missed = Vec::new();
+    for (k, lag) in [0.045, 0.048, 0.05, 0.052, 0.055].into_iter().enumerate() {
+        for force2 in [1.0, 3.0] {
+            let mut g = Gen(2400 + 2 * k as u64 + force2 as u64);
+            let mut x = vec![0.0; ((t0 + lag + 0.4) * fs) as usize];
+            soft_bell_strike(&mut x, fs, t0, 1.0, 0.003, 1.0, false);
+            soft_bell_strike(&mut x, fs, t0 + lag, force2, 0.003, 1.0, false);
+            let peak = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            for v in x.iter_mut() {
+                *v = 0.3 * *v / peak + 1e-5 * g.normal();
+            }
+            let seg = segment(&x, fs);
+            let onsets: Vec<f64> = seg.impacts.iter().map(|i| i.start as f64 / fs).collect();
+            let again: Vec<f64> = seg.restrikes.iter().map(|r| r.0 as f64 / fs).collect();
+            eprintln!("{force2}x, {lag} s later: {onsets:?}, reported {again:?}");
+            let second = match (onsets.len(), again.len()) {
+                (2, 0) => onsets[1],
+                (1, 1) => again[0],
+                _ => f64::NAN,
+            };
+            if !((onsets[0] - t0).abs() < 2e-3 && (second - t0 - lag).abs() < 2e-3) {
+                missed.push((force2, lag, onsets, again));
+            }
+        }
+    }
+    assert!(missed.is_empty(), "{} of 10 missed: {missed:?}", missed.len());
+}
+
 /// A file that starts with a steady sound that is not its loudest (a mains hum or a room tone
 /// running from the first sample, as the black-box tester's files did): no impact at 0 (there
 /// was one at 0.001 s, whose undamped "modes" went into the fit and gave an undamped
@@ -1014,4 +1049,123 @@ fn a_hum_from_the_first_sample_is_not_a_strike() {
     let onsets: Vec<f64> = s.impacts.iter().map(|i| i.start as f64 / fs).collect();
     assert_eq!(onsets.len(), 2, "{onsets:?}");
     assert!(onsets[0] < 2e-3 && (onsets[1] - 1.0).abs() < 3e-3, "{onsets:?}");
+}
+
+/// The roll tests' objects: the black-box tester's seven partials (220–4,100 Hz), a bell, a
+/// glass. (Hz, s⁻¹, amplitude.)
+const ROLL_OBJECTS: [&[(f64, f64, f64)]; 3] = [
+    &[
+        (220.0, 3.0, 1.0),
+        (530.0, 3.6, 0.8),
+        (910.0, 4.7, 0.65),
+        (1400.0, 7.0, 0.55),
+        (2100.0, 12.0, 0.45),
+        (2950.0, 20.0, 0.4),
+        (4100.0, 36.0, 0.35),
+    ],
+    &[(420.0, 2.0, 1.0), (1003.0, 5.0, 0.8), (1770.0, 9.0, 0.6), (2630.0, 14.0, 0.5), (3900.0, 20.0, 0.4)],
+    &[(880.0, 1.5, 1.0), (2410.0, 4.0, 0.5), (4550.0, 8.0, 0.3)],
+];
+
+/// `n` strikes of `modes` `spacing` s apart from 0.05 s on at 44.1 kHz, each 0.7–1.4 times
+/// the first's force (impulses: partials in sine phase), in white noise `noise` times the
+/// first strike's peak. Returns the samples and the strike times.
+fn roll(modes: &[(f64, f64, f64)], n: usize, spacing: f64, noise: f64, g: &mut Gen) -> (Vec<f64>, Vec<f64>) {
+    let fs = 44_100.0;
+    let t0 = 0.05;
+    let mut x = vec![0.0; ((t0 + n as f64 * spacing + 0.3) * fs) as usize];
+    let times: Vec<f64> = (0..n).map(|k| t0 + k as f64 * spacing).collect();
+    for &t in &times {
+        let force = 0.7 + 0.7 * g.u();
+        for &(f, d, a) in modes {
+            add_mode(&mut x, fs, t, f, d, 0.01 * force * a);
+        }
+    }
+    let first_peak = x[..((t0 + 0.01) * fs) as usize].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    for v in x.iter_mut() {
+        *v += noise * first_peak * g.normal();
+    }
+    (x, times)
+}
+
+/// A roll: one object struck again and again while it rings, 55–150 ms apart, each strike
+/// 0.7–1.4 times the first's force, in white noise 40–43 dB under the first strike's peak
+/// (the black-box tester's `roll100`: from the third strike on, all merged into one 2.35 s
+/// impact whose "modes" were a comb 10 Hz apart, and no warning). Once the ring builds up a
+/// strike adds only 2–5 dB, so only the ring predictor can see it: with 24 consecutive
+/// regressors it predicted these rings no better than zero. Every strike must be an impact
+/// starting within 2 ms of it or, where it lowered the energy (a strike in antiphase to the
+/// ring: the onsets' search needs the energy to rise), be reported inside the impact it falls
+/// in, within 2 ms; at least 125 of the 144 are impacts (129 measured).
+#[test]
+fn every_strike_of_a_roll_is_found() {
+    let fs = 44_100.0;
+    let mut missed = Vec::new();
+    let (mut cut, mut strikes) = (0, 0);
+    let mut runs = 0;
+    for (o, modes) in ROLL_OBJECTS.iter().enumerate() {
+        for &spacing in &[0.055, 0.07, 0.1, 0.15] {
+            runs += 1;
+            let mut g = Gen(5100 + 10 * o as u64 + (spacing * 1000.0) as u64);
+            let n = 12;
+            let (x, times) = roll(modes, n, spacing, if runs % 2 == 0 { 0.01 } else { 0.007 }, &mut g);
+            let seg = segment(&x, fs);
+            let mut events: Vec<f64> = seg.impacts.iter().map(|i| i.start as f64 / fs).collect();
+            events.extend(seg.restrikes.iter().map(|r| r.0 as f64 / fs));
+            events.sort_by(f64::total_cmp);
+            let ok = events.len() == n && events.iter().zip(&times).all(|(a, b)| (a - b).abs() < 2e-3);
+            eprintln!(
+                "object {o}, {spacing} s apart: {} impacts, {} reported, {events:.3?}",
+                seg.impacts.len(),
+                seg.restrikes.len()
+            );
+            cut += seg.impacts.len();
+            strikes += n;
+            if !ok {
+                missed.push((o, spacing, seg.impacts.len(), seg.restrikes.len()));
+            }
+        }
+    }
+    assert!(missed.is_empty(), "{} of {runs} rolls not cut or reported at every strike: {missed:?}", missed.len());
+    assert!(cut >= 125, "{cut} of {strikes} strikes are impacts of their own");
+}
+
+/// A roll faster than the 50 ms minimum gap (strikes 25–45 ms apart): the impacts hold two
+/// or more strikes each (the black-box tester's `roll25` and `roll40`: impacts 80–100 ms
+/// long, no warning). Every strike is now an onset or reported inside the impact it falls in,
+/// within 2 ms; the features report says it in one line. (No strike is reported twice, and
+/// none where there was none: a single strike of each object reports nothing.)
+#[test]
+fn every_strike_of_a_fast_roll_is_cut_or_reported() {
+    let fs = 44_100.0;
+    let mut bad = Vec::new();
+    for (o, modes) in ROLL_OBJECTS.iter().enumerate() {
+        for &spacing in &[0.025, 0.03, 0.04, 0.045] {
+            let mut g = Gen(6100 + 10 * o as u64 + (spacing * 1000.0) as u64);
+            let n = 16;
+            let (x, times) = roll(modes, n, spacing, 0.007, &mut g);
+            let seg = segment(&x, fs);
+            let mut events: Vec<f64> = seg.impacts.iter().map(|i| i.start as f64 / fs).collect();
+            events.extend(seg.restrikes.iter().map(|r| r.0 as f64 / fs));
+            events.sort_by(f64::total_cmp);
+            let ok = events.len() == n && events.iter().zip(&times).all(|(a, b)| (a - b).abs() < 2e-3);
+            eprintln!(
+                "object {o}, {spacing} s apart: {} impacts, {} reported, {events:.3?}",
+                seg.impacts.len(),
+                seg.restrikes.len()
+            );
+            if !ok {
+                bad.push((o, spacing, seg.impacts.len(), seg.restrikes.len()));
+            }
+        }
+        let (x, _) = roll(modes, 1, 1.0, 0.007, &mut Gen(6000 + o as u64));
+        let seg = segment(&x, fs);
+        assert!(seg.impacts.len() == 1 && seg.restrikes.is_empty(), "object {o} struck once: {seg:?}");
+    }
+    assert!(bad.is_empty(), "strikes not cut or reported (object, spacing, impacts, reported): {bad:?}");
+    let (x, _) = roll(ROLL_OBJECTS[1], 16, 0.03, 0.007, &mut Gen(6200));
+    let r = features(&write("roll30", &x, 44_100)).unwrap();
+    let w: Vec<_> = r.warnings.iter().filter(|w| w.contains("strikes fell inside impacts")).collect();
+    assert_eq!(w.len(), 1, "{:?}", r.warnings);
+    assert!(w[0].contains("a roll") && w[0].contains("30–30 ms apart"), "{}", w[0]);
 }
