@@ -438,7 +438,7 @@ pub fn extract_features(
                     )
                 } else {
                     format!(
-                        "{name}: a second strike {:.0} ms after the one at {:.3} s is analysed with it (too soon after another strike to be cut: the strikes' decays mix); leave more time between taps",
+                        "{name}: a strike {:.0} ms after the onset at {:.3} s is analysed with that impact (it was not cut: the strikes' decays mix); leave more time between taps",
                         1e3 * after,
                         onset as f64 / fs
                     )
@@ -457,7 +457,7 @@ pub fn extract_features(
                 .collect();
             let (lo, hi) = spacing.iter().fold((f64::INFINITY, 0.0f64), |(a, b), &v| (a.min(v), b.max(v)));
             report.warnings.push(format!(
-                "{name}: {} strikes fell inside impacts and are analysed with them (a roll or a tremolo: strikes {:.0}–{:.0} ms apart, from {:.2} s to {:.2} s; their decays mix); leave more time between taps",
+                "{name}: {} strikes fell inside impacts and are analysed with them (a roll, a tremolo or bounces: each {:.0}–{:.0} ms after the strike before it, from {:.2} s to {:.2} s; their decays mix); leave more time between taps",
                 seg.restrikes.len(),
                 1e3 * lo,
                 1e3 * hi,

@@ -56,11 +56,8 @@
 //!   the energy rise 0.5 dB, and the ring's loudest frame lie 10 ms before those 20 ms (a
 //!   sample library's glitch does not raise the energy, an attack still building is not
 //!   past its peak); the onset is the first sample whose error is 15 dB over the ring's.
-//!   Without a rise of the energy (a strike in antiphase to the ring takes energy from it; on
-//!   a ring that a roll built up, a strike adds 2–5 dB) the error must jump 20 dB over a ring
-//!   predicted to 1 % of its energy, to −30 dB of the frame's, leave the object ringing, and be
-//!   spread over its first samples, not in one or two (a loop's splice in a sampled marimba
-//!   jumps 10–16 dB to −34 dB of the frame; a two-sample pulse is not spread).
+//!   (A strike that does not raise the energy, in antiphase to the ring, is not cut here, but
+//!   may be reported: the last rule below.)
 //!   What the predictor cannot follow is what a modal model leaves in its residual (the
 //!   contact, a new excitation), as in Ren et al. 2013's residual (§6.1), here run forward in
 //!   time.
@@ -83,9 +80,14 @@
 //!   [`Segmentation::restrikes`] (a mallet's bounce, a flam) when it falls inside an
 //!   analysed impact: its decays then mix two strikes.
 //! - Last, each analysed impact is searched for strikes that were neither cut nor reported
-//!   (a roll 25–45 ms apart, inside the gap; or strikes whose ring before gave the predictor
-//!   no 20 ms to train on): the predictor's clear-strike rule above, trained on 8 ms, from
-//!   23 ms after the onset on. They are reported in [`Segmentation::restrikes`] too.
+//!   (a roll 25–45 ms apart, inside the gap; strikes whose ring before gave the predictor no
+//!   20 ms to train on; strikes that lowered the energy), with the predictor trained on 8 ms,
+//!   from 23 ms after the onset on, energy or not: its error must jump 20 dB over a ring
+//!   predicted to 1 % of its energy, to −30 dB of the frame's (a loop's splice in a sampled
+//!   marimba jumps 10–16 dB to −34 dB of the frame), leave the object ringing, be spread over
+//!   its first samples (a two-sample pulse is not) and settle once the predictor's regressors
+//!   have passed it (a fade-out does not). They are reported in
+//!   [`Segmentation::restrikes`] too.
 
 use realfft::num_complex::Complex64 as C64;
 use realfft::RealFftPlanner;
@@ -331,6 +333,9 @@ const LP_RING_PREDICTED: f64 = 0.01;
 const LP_NEW_SHARE: f64 = 0.001;
 /// ... and no sample of its first `ahead` carries more than this share of their error.
 const LP_PEAK_SHARE: f64 = 0.25;
+/// ... and the error settles to this share of its burst once the regressors have passed the
+/// strike (`RingPredictor::settles`).
+const LP_SETTLED: f64 = 0.1;
 /// Training of the search for strikes inside an impact (`strikes_within`), s: a roll's
 /// strikes 25 ms apart leave 8 ms of ring, with the regressors' reach, between them (and 4
 /// samples per coefficient at least: 12 ms at 8 kHz).
@@ -553,6 +558,22 @@ impl<'a> RingPredictor<'a> {
         }
     }
 
+    /// Whether the error settles after a strike at `s` (the fitted coefficients): over a frame
+    /// from a hop after the regressors have all passed `s`, the mean squared error is under
+    /// `LP_SETTLED` of the mean over the `ahead` samples from `s`. What a strike leaves is a
+    /// ring of the same partials, which the predictor follows again once its regressors hold
+    /// it; a fade (a sample's tail faded out over 50 ms) keeps changing the envelope, and the
+    /// error stays. False when the file ends first.
+    fn settles(&self, s: usize) -> bool {
+        let a = s + self.reach + self.hop;
+        if a + self.frame > self.x.len() {
+            return false;
+        }
+        let burst = (s..s + self.offsets[0]).map(|i| self.error_at(i).powi(2)).sum::<f64>() / self.offsets[0] as f64;
+        let later = (a..a + self.frame).map(|i| self.error_at(i).powi(2)).sum::<f64>() / self.frame as f64;
+        later <= LP_SETTLED * burst
+    }
+
     /// Prediction error at sample `i` with the fitted coefficients.
     fn error_at(&self, i: usize) -> f64 {
         let pred: f64 = self.coef.iter().zip(&self.offsets).map(|(c, &o)| c * f64::from(self.x[i - o])).sum();
@@ -635,12 +656,13 @@ fn rings_again(
 /// The decision of [`rings_again`] and of the search for strikes inside an impact
 /// ([`strikes_within`]): frames `j` and `j + 1` against the ring's frames `ring_from..j − 1`
 /// (the largest prediction error, all with `train` samples), the energy of frames `j ..= j + 3`
-/// against that of frames `rise_from..j − 1`. The error must jump `LP_JUMP_DB` while the
-/// energy rose `LP_ENERGY_RISE_DB`, or, energy or not (a strike in antiphase to the ring takes
-/// energy from it; one on a ring that built up over a roll adds 2–5 dB), jump
-/// `LP_CLEAR_JUMP_DB` over a ring predicted to `LP_RING_PREDICTED` of its energy, to
-/// `LP_NEW_SHARE` of the frame's, and spread over the samples (`LP_PEAK_SHARE`). `within`
-/// (the search inside an impact): clear strikes only. Returns the strike's first sample.
+/// against that of frames `rise_from..j − 1`. Onsets (`within` false): the error must jump
+/// `LP_JUMP_DB` while the energy rose `LP_ENERGY_RISE_DB`. Strikes inside an impact (`within`):
+/// energy or not (a strike in antiphase to the ring takes energy from it; one on a ring that
+/// built up over a roll adds 2–5 dB), a clear jump: `LP_CLEAR_JUMP_DB` over a ring predicted
+/// to `LP_RING_PREDICTED` of its energy, to `LP_NEW_SHARE` of the frame's, spread over the
+/// samples (`LP_PEAK_SHARE`) and settling (`RingPredictor::settles`). Returns the strike's
+/// first sample.
 ///
 /// A component of the ring that stops is as clear to the predictor as one that starts: the
 /// black-box tester's `s60` (strikes 60 ms apart, each rendered for 1 s and cut there) reports
@@ -694,7 +716,7 @@ fn lp_strike(
         // `ahead` samples from its first, before any regressor holds it, the error is the
         // new sound itself, which a strike spreads over them (its partials' sines), whereas
         // a glitch (a two-sample pulse, a splice) puts it in a few samples.
-        Some(s) if !rose => (pred.peak_share(s) <= LP_PEAK_SHARE).then_some(s),
+        Some(s) if !rose => (pred.peak_share(s) <= LP_PEAK_SHARE && pred.settles(s)).then_some(s),
         Some(s) => Some(s),
         None => Some(sample_onset(pred.x, j, pred.hop, pred.frame)),
     }
@@ -719,6 +741,12 @@ fn strikes_within(pred: &mut RingPredictor, e: &[f64], start: usize, end: usize,
         // before the ring's frames (a slow attack's end is no strike).
         let loudest = (last / hop..j - 2).max_by(|&a, &b| e[a].total_cmp(&e[b])).unwrap_or(j);
         if loudest + 5 <= j && pred.train_start(j - 3, train).is_some_and(|t0| t0 >= last + frame) {
+            // Every frame from j − 3 to j + 1 in time order (frame j − 1 too, which the
+            // decision does not use): each fit then moves the window one hop from the last,
+            // the covariance's cheap update, not a rebuild.
+            for jj in j - 3..=j + 1 {
+                let _ = pred.error(jj, train);
+            }
             if let Some(s) = lp_strike(pred, e, j, train, j - 3, j - 3, true) {
                 if s > last + frame && s < end && !known.iter().any(|&k| k.abs_diff(s) < 2 * frame) {
                     found.push(s);

@@ -955,6 +955,46 @@ fn a_soft_mallet_restrike_55_to_70_ms_later_is_found() {
     assert!(missed.is_empty(), "{} of 20 missed: {missed:?}", missed.len());
 }
 
+/// A single strike whose sample was faded out over its last 50 ms (linear or raised cosine,
+/// into digital silence or noise 70 dB down, as sample-library tails are): one impact, and no
+/// strike reported where the fade begins (a reviewer's files: 26 of 120 reported one before
+/// the predictor's error had to settle after a strike). Bell partials; 16-bit.
+#[test]
+fn a_faded_tail_is_no_strike() {
+    let fs = 44_100.0;
+    let mut bad = Vec::new();
+    for (k, &len) in [0.3, 0.5, 1.0].iter().enumerate() {
+        for cosine in [false, true] {
+            for noise in [0.0, 0.5 * 10f64.powf(-70.0 / 20.0)] {
+                let mut g = Gen(7000 + 4 * k as u64 + 2 * u64::from(cosine) + u64::from(noise > 0.0));
+                let mut h = vec![0.0; (len * fs) as usize];
+                for &(f, d, a) in ROLL_OBJECTS[1] {
+                    add_mode(&mut h, fs, 0.0, f, d, a);
+                }
+                let (n, m) = (h.len(), (0.05 * fs) as usize);
+                for i in 0..m {
+                    let u = i as f64 / m as f64;
+                    h[n - m + i] *= if cosine { 0.5 + 0.5 * (std::f64::consts::PI * u).cos() } else { 1.0 - u };
+                }
+                let peak = h.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+                let mut x = vec![0.0; ((0.1 + len + 0.5) * fs) as usize];
+                let i0 = (0.1 * fs) as usize;
+                for (i, v) in h.iter().enumerate() {
+                    x[i0 + i] = 0.5 * v / peak;
+                }
+                for v in x.iter_mut() {
+                    *v = ((*v + noise * g.normal()) * 32_768.0).round() / 32_768.0;
+                }
+                let seg = segment(&x, fs);
+                if seg.impacts.len() != 1 || !seg.restrikes.is_empty() {
+                    bad.push((len, cosine, noise, seg.impacts.len(), seg.restrikes.clone()));
+                }
+            }
+        }
+    }
+    assert!(bad.is_empty(), "(length, cosine, noise, impacts, reported): {bad:?}");
+}
+
 /// The same soft mallet 45–55 ms after the first strike, at the end of the minimum gap (a
 /// known limit until stop 32: one impact, no warning; the in-gap rule needs a broad rise):
 /// now an impact of its own or reported inside the first, within 2 ms.
@@ -1167,5 +1207,5 @@ fn every_strike_of_a_fast_roll_is_cut_or_reported() {
     let r = features(&write("roll30", &x, 44_100)).unwrap();
     let w: Vec<_> = r.warnings.iter().filter(|w| w.contains("strikes fell inside impacts")).collect();
     assert_eq!(w.len(), 1, "{:?}", r.warnings);
-    assert!(w[0].contains("a roll") && w[0].contains("30–30 ms apart"), "{}", w[0]);
+    assert!(w[0].contains("a roll") && w[0].contains("each 30–30 ms after the strike before it"), "{}", w[0]);
 }
