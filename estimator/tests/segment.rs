@@ -1128,6 +1128,15 @@ fn roll(modes: &[(f64, f64, f64)], n: usize, spacing: f64, noise: f64, g: &mut G
     (x, times)
 }
 
+/// Whether every strike of `times` is an onset or a reported strike of `seg`, within 2 ms, and
+/// nothing else is.
+fn every_strike_accounted(seg: &estimator::segment::Segmentation, times: &[f64], fs: f64) -> bool {
+    let mut events: Vec<f64> = seg.impacts.iter().map(|i| i.start as f64 / fs).collect();
+    events.extend(seg.restrikes.iter().map(|r| r.0 as f64 / fs));
+    events.sort_by(f64::total_cmp);
+    events.len() == times.len() && events.iter().zip(times).all(|(a, b)| (a - b).abs() < 2e-3)
+}
+
 /// A roll: one object struck again and again while it rings, 55–150 ms apart, each strike
 /// 0.7–1.4 times the first's force, in white noise 40–43 dB under the first strike's peak
 /// (the black-box tester's `roll100`: from the third strike on, all merged into one 2.35 s
@@ -1150,15 +1159,8 @@ fn every_strike_of_a_roll_is_found() {
             let n = 12;
             let (x, times) = roll(modes, n, spacing, if runs % 2 == 0 { 0.01 } else { 0.007 }, &mut g);
             let seg = segment(&x, fs);
-            let mut events: Vec<f64> = seg.impacts.iter().map(|i| i.start as f64 / fs).collect();
-            events.extend(seg.restrikes.iter().map(|r| r.0 as f64 / fs));
-            events.sort_by(f64::total_cmp);
-            let ok = events.len() == n && events.iter().zip(&times).all(|(a, b)| (a - b).abs() < 2e-3);
-            eprintln!(
-                "object {o}, {spacing} s apart: {} impacts, {} reported, {events:.3?}",
-                seg.impacts.len(),
-                seg.restrikes.len()
-            );
+            let ok = every_strike_accounted(&seg, &times, fs);
+            eprintln!("object {o}, {spacing} s apart: {} impacts, {} reported", seg.impacts.len(), seg.restrikes.len());
             cut += seg.impacts.len();
             strikes += n;
             if !ok {
@@ -1185,15 +1187,8 @@ fn every_strike_of_a_fast_roll_is_cut_or_reported() {
             let n = 16;
             let (x, times) = roll(modes, n, spacing, 0.007, &mut g);
             let seg = segment(&x, fs);
-            let mut events: Vec<f64> = seg.impacts.iter().map(|i| i.start as f64 / fs).collect();
-            events.extend(seg.restrikes.iter().map(|r| r.0 as f64 / fs));
-            events.sort_by(f64::total_cmp);
-            let ok = events.len() == n && events.iter().zip(&times).all(|(a, b)| (a - b).abs() < 2e-3);
-            eprintln!(
-                "object {o}, {spacing} s apart: {} impacts, {} reported, {events:.3?}",
-                seg.impacts.len(),
-                seg.restrikes.len()
-            );
+            let ok = every_strike_accounted(&seg, &times, fs);
+            eprintln!("object {o}, {spacing} s apart: {} impacts, {} reported", seg.impacts.len(), seg.restrikes.len());
             if !ok {
                 bad.push((o, spacing, seg.impacts.len(), seg.restrikes.len()));
             }
