@@ -257,7 +257,7 @@ pub fn repair_clicks(r: &mut [f64], noise_var: f64) -> Vec<usize> {
     // digital silence with a dither far under one step leaves a tail of zeros and lone ±1
     // steps, whose local scale and noise are 0. The step is the smallest nonzero change
     // between samples (one LSB in a 16-bit file; far under any spike in a float one).
-    let step = r.windows(2).map(|w| (w[1] - w[0]).abs()).filter(|&d| d > 0.0).fold(f64::INFINITY, f64::min);
+    let step = crate::segment::smallest_step(r);
     let least = (CLICK_MIN_REL * r.iter().fold(0.0f64, |m, v| m.max(v.abs()))).max(CLICK_MIN_STEPS * step);
     let mut out = Vec::new();
     for i in CLICK_ISOLATION..n - CLICK_ISOLATION {

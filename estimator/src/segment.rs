@@ -407,7 +407,7 @@ impl<'a> RingPredictor<'a> {
             let u = k as f64 / (LP_ORDER - 1) as f64;
             *o = ahead + 1 + k + (spread * u * u).round() as usize;
         }
-        let q = x.windows(2).map(|w| f64::from((w[1] - w[0]).abs())).filter(|&d| d > 0.0).fold(f64::INFINITY, f64::min);
+        let q = smallest_step(x);
         Self {
             x,
             hop,
@@ -609,6 +609,13 @@ impl<'a> RingPredictor<'a> {
         let a = jf * self.hop;
         (a..(a + 2 * self.hop + self.frame).min(self.x.len())).find(|&i| self.error_at(i).powi(2) > level)
     }
+}
+
+/// The smallest nonzero change between neighbouring samples: one quantisation step of an
+/// integer file (far under any signal in a float one), infinite for a constant signal. Used
+/// by the ring predictor's floor and by the click repair (`features::repair_clicks`).
+pub(crate) fn smallest_step<T: Copy + Into<f64>>(x: &[T]) -> f64 {
+    x.windows(2).map(|w| (w[1].into() - w[0].into()).abs()).filter(|&d| d > 0.0).fold(f64::INFINITY, f64::min)
 }
 
 /// Sample-accurate start of an onset found at frame `j`: the first sample that exceeds the
