@@ -234,21 +234,11 @@ impl ResonatorBank {
     }
 
     /// Sum of |y|² over the first `count` slots, in slot order: the start of
-    /// [`energy`](Self::energy)'s sum, which [`store_modes_energy`](Self::store_modes_energy)
+    /// [`energy`](Self::energy)'s sum, which [`add_energy`] over the next slots' states
     /// continues bit for bit.
     pub fn energy_first(&self, count: usize) -> f32 {
         let n = count.min(self.len);
         add_energy(0.0, &self.re[..n], &self.im[..n])
-    }
-
-    /// [`store_modes`](Self::store_modes) adding each stored mode's |y|² to `energy` in slot
-    /// order; returns the sum. Storing a bank's slots in order after
-    /// [`energy_first`](Self::energy_first) of the slots before gives bit for bit
-    /// [`energy`](Self::energy), without a second pass over the states.
-    pub fn store_modes_energy(&mut self, first: usize, re: &[f32], im: &[f32], energy: f32) -> f32 {
-        self.store_modes(first, re, im);
-        let c = re.len().min(im.len());
-        add_energy(energy, &re[..c], &im[..c])
     }
 
     /// Advances every mode by `out.len()` samples (at most [`MAX_KERNEL_BLOCK`]) with no
@@ -477,47 +467,152 @@ impl VectorBatch {
     /// [`MAX_KERNEL_BLOCK`]) adding into the lane accumulator `acc`, then hands each pushed
     /// range's new state back through `store(owner, first, re, im)` and empties the batch.
     pub fn run(&mut self, acc: &mut [f32], mut store: impl FnMut(usize, usize, &[f32], &[f32])) {
+        self.advance(acc);
+        for (owner, first, re, im) in self.ranges() {
+            store(owner, first, re, im);
+        }
+        self.clear();
+    }
+
+    /// Advances the pushed modes by `acc.len() / LANES` samples (at most
+    /// [`MAX_KERNEL_BLOCK`]) adding into the lane accumulator `acc`; the batch keeps them
+    /// (their states are then [`ranges`](Self::ranges)', not their banks').
+    pub fn advance(&mut self, acc: &mut [f32]) {
         let n = (acc.len() / LANES).min(MAX_KERNEL_BLOCK);
         let m = self.len.div_ceil(LANES) * LANES;
-        if m > 0 && n > 0 {
-            // The lanes after the last range run silent: zero state and pole add +0.
-            for a in [&mut self.re, &mut self.im, &mut self.pr, &mut self.pi] {
-                a[self.len..m].fill(0.0);
-            }
-            let acc = &mut acc[..n * LANES];
-            let (re, im, pr, pi) = (&mut self.re[..m], &mut self.im[..m], &self.pr[..m], &self.pi[..m]);
-            #[cfg(target_arch = "x86_64")]
-            let done = if self.avx2 {
-                // SAFETY: `avx2` is only set where AVX2 and FMA were detected (`new` checks
-                // `avx2_available`); the slices hold `m` floats, a multiple of LANES, and `acc`
-                // holds n × LANES.
-                unsafe { avx2::run(re, im, pr, pi, None, acc, n) };
-                true
-            } else {
-                false
-            };
-            #[cfg(not(target_arch = "x86_64"))]
-            let done = false;
-            if !done {
-                portable::run(re, im, pr, pi, None, acc, n);
-            }
-            for &(owner, first, d, c) in &self.from[..self.ranges] {
-                let (d, c) = (d as usize, c as usize);
-                store(owner as usize, first as usize, &self.re[d..d + c], &self.im[d..d + c]);
-            }
+        if m == 0 || n == 0 {
+            return;
         }
+        // The lanes after the last range run silent: zero state and pole add +0.
+        for a in [&mut self.re, &mut self.im, &mut self.pr, &mut self.pi] {
+            a[self.len..m].fill(0.0);
+        }
+        let acc = &mut acc[..n * LANES];
+        let (re, im, pr, pi) = (&mut self.re[..m], &mut self.im[..m], &self.pr[..m], &self.pi[..m]);
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `avx2` is only set where AVX2 and FMA were detected (`new` checks
+            // `avx2_available`); the slices hold `m` floats, a multiple of LANES, and `acc`
+            // holds n × LANES.
+            unsafe { avx2::run(re, im, pr, pi, None, acc, n) };
+            return;
+        }
+        portable::run(re, im, pr, pi, None, acc, n);
+    }
+
+    /// Each pushed range in push order: (owner, first slot in its bank, state re, state im).
+    pub fn ranges(&self) -> impl Iterator<Item = (usize, usize, &[f32], &[f32])> + '_ {
+        self.from[..self.ranges].iter().map(|&(owner, first, d, c)| {
+            let (d, c) = (d as usize, c as usize);
+            (owner as usize, first as usize, &self.re[d..d + c], &self.im[d..d + c])
+        })
+    }
+
+    /// Empties the batch (the states it held are dropped).
+    pub fn clear(&mut self) {
         self.len = 0;
         self.ranges = 0;
     }
 }
 
+/// [`VectorBatch`]es filled in turn, each run at the end of a span, for a set of modes that
+/// outgrows one batch; allocated once, for a fixed number of modes. The engine keeps the free
+/// voices' modes here between spans (see `dsp::engine`). Realtime-safe after
+/// [`new`](Self::new).
+#[derive(Clone, Debug)]
+pub struct BatchSet {
+    batches: Vec<VectorBatch>,
+    /// Batches holding modes (the last one maybe part-filled).
+    used: usize,
+}
+
+impl BatchSet {
+    /// Room for `modes` modes, run by the AVX2 kernel if `avx2` and the CPU has it. Allocates.
+    pub fn new(modes: usize, avx2: bool) -> Self {
+        let batches = (0..modes.div_ceil(BATCH_LANES).max(1)).map(|_| VectorBatch::new(avx2)).collect();
+        BatchSet { batches, used: 0 }
+    }
+
+    /// Whether its batches run the AVX2 kernel.
+    pub fn uses_avx2(&self) -> bool {
+        self.batches[0].avx2
+    }
+
+    /// How many modes it holds at most.
+    pub fn capacity(&self) -> usize {
+        self.batches.len() * BATCH_LANES
+    }
+
+    /// Whether no mode is held.
+    pub fn is_empty(&self) -> bool {
+        self.used == 0
+    }
+
+    /// Adds slots `first..first + count` of `bank` after the modes held, filling batch after
+    /// batch; returns how many were taken (fewer than `count` only when the set is full).
+    pub fn push_modes(&mut self, owner: usize, bank: &ResonatorBank, first: usize, count: usize) -> usize {
+        let mut taken = 0;
+        while taken < count {
+            let Some(batch) = self.batches.get_mut(self.used.saturating_sub(1)) else { break };
+            if self.used == 0 || batch.is_full() {
+                if self.used == self.batches.len() {
+                    break;
+                }
+                self.used += 1;
+                continue;
+            }
+            let c = batch.push_modes(owner, bank, first + taken, count - taken);
+            if c == 0 {
+                break;
+            }
+            taken += c;
+        }
+        taken
+    }
+
+    /// Advances every held mode by `acc.len() / LANES` samples adding into `acc`, batch after
+    /// batch (see [`VectorBatch::advance`]).
+    pub fn advance(&mut self, acc: &mut [f32]) {
+        for batch in &mut self.batches[..self.used] {
+            batch.advance(acc);
+        }
+    }
+
+    /// Each pushed range in push order (see [`VectorBatch::ranges`]).
+    pub fn ranges(&self) -> impl Iterator<Item = (usize, usize, &[f32], &[f32])> + '_ {
+        self.batches[..self.used].iter().flat_map(VectorBatch::ranges)
+    }
+
+    /// Drops every held mode.
+    pub fn clear(&mut self) {
+        for batch in &mut self.batches[..self.used] {
+            batch.clear();
+        }
+        self.used = 0;
+    }
+}
+
 /// `e` plus |y|² of each mode in order (one sum for [`ResonatorBank::energy`] and its parts).
 #[inline]
-fn add_energy(mut e: f32, re: &[f32], im: &[f32]) -> f32 {
+pub fn add_energy(mut e: f32, re: &[f32], im: &[f32]) -> f32 {
     for (r, i) in re.iter().zip(im) {
         e += r * r + i * i;
     }
     e
+}
+
+/// [`reduce_lanes`] by the AVX2 kernel (eight samples at a time, the same additions in the
+/// same order: bit for bit the same sums) where `avx2` and the CPU has it. Realtime-safe.
+#[inline]
+pub fn reduce_lanes_with(acc: &[f32], out: &mut [f32], avx2: bool) {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 && avx2_available() {
+        // SAFETY: AVX2 was detected at run time.
+        unsafe { avx2::reduce_lanes(acc, out) };
+        return;
+    }
+    let _ = avx2;
+    reduce_lanes(acc, out);
 }
 
 /// Adds the lane sums of each sample's accumulator (`acc`: [`LANES`] floats per sample) into
@@ -656,6 +751,40 @@ mod portable {
 mod avx2 {
     use super::{GROUP, LANES};
     use std::arch::x86_64::*;
+
+    /// [`super::reduce_lanes`] eight samples at a time: each sample's halves added (lane k +
+    /// lane k + 4), then neighbours twice by horizontal adds, so every sum is
+    /// ((a0 + a4) + (a1 + a5)) + ((a2 + a6) + (a3 + a7)) as in the portable loop.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn reduce_lanes(acc: &[f32], out: &mut [f32]) {
+        let n = out.len().min(acc.len() / LANES);
+        let mut s = 0;
+        // SAFETY (whole body): every load reads acc[(s + k)·LANES..][..LANES] with s + 8 ≤ n,
+        // every store out[s..s + 8].
+        unsafe {
+            let order = _mm256_setr_epi32(0, 4, 1, 5, 2, 6, 3, 7);
+            while s + 8 <= n {
+                let p = acc.as_ptr().add(s * LANES);
+                let row = |k: usize| _mm256_loadu_ps(p.add(k * LANES));
+                // Two samples' (a0 + a4, a1 + a5, a2 + a6, a3 + a7), one per 128-bit half.
+                let halves = |a: __m256, b: __m256| {
+                    _mm256_add_ps(_mm256_permute2f128_ps::<0x20>(a, b), _mm256_permute2f128_ps::<0x31>(a, b))
+                };
+                let (b01, b23) = (halves(row(0), row(1)), halves(row(2), row(3)));
+                let (b45, b67) = (halves(row(4), row(5)), halves(row(6), row(7)));
+                // Sums of samples 0, 2, 4, 6 in the low half, 1, 3, 5, 7 in the high half.
+                let h = _mm256_hadd_ps(_mm256_hadd_ps(b01, b23), _mm256_hadd_ps(b45, b67));
+                let sums = _mm256_permutevar8x32_ps(h, order);
+                let o = out.as_mut_ptr().add(s);
+                _mm256_storeu_ps(o, _mm256_add_ps(_mm256_loadu_ps(o), sums));
+                s += 8;
+            }
+        }
+        super::reduce_lanes(&acc[s * LANES..], &mut out[s..]);
+    }
 
     /// Time-blocked AVX2/FMA kernel: up to 4 vectors (32 modes) of state stay in registers
     /// across the block's samples; the pole coefficients are memory operands.
@@ -1042,6 +1171,29 @@ mod tests {
                     assert!((a - b).abs() <= 1e-6 * peak.max(1.0), "avx2 {avx2}, block {block}: {a} vs {b}");
                 }
             }
+        }
+    }
+
+    /// The AVX2 lane reduction gives bit for bit the portable one's sums (any length, tails
+    /// of 1–7 samples, sums that cancel, huge and tiny values).
+    #[test]
+    fn lane_reductions_agree() {
+        let mut x = 0x1234_5678u32;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            let m = (x >> 8) as f32 / (1u32 << 24) as f32 - 0.5;
+            m * [1.0, 1e-30, 1e30, 3.0][(x & 3) as usize]
+        };
+        for n in [0usize, 1, 7, 8, 9, 37, 64] {
+            let acc: Vec<f32> = (0..n * LANES).map(|_| next()).collect();
+            let start: Vec<f32> = (0..n).map(|_| next()).collect();
+            let (mut portable, mut simd) = (start.clone(), start.clone());
+            reduce_lanes(&acc, &mut portable);
+            reduce_lanes_with(&acc, &mut simd, true);
+            let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&portable), bits(&simd), "{n} samples");
         }
     }
 
