@@ -15,7 +15,8 @@ use crate::resonator::{
 };
 use std::f64::consts::PI;
 
-/// Samples between control ticks (voice end checks, per-voice dirty rebuilds).
+/// Samples between control ticks (per-voice dirty rebuilds, lasting contacts; voice end
+/// checks every [`ENERGY_TICKS`]).
 pub const CONTROL_INTERVAL: usize = MAX_KERNEL_BLOCK;
 /// Control ticks between global coefficient rebuilds while a parameter glides.
 pub const REBUILD_TICKS: u64 = 4;
@@ -818,6 +819,10 @@ fn render_voices(
         // Over each span every voice stays forced or free: it ends where the first forced
         // voice's pulse and burst end (a sample fixed by the clock, not by the block size),
         // so a voice's modes take the same lanes at a given sample whatever the blocks.
+        #[cfg(test)]
+        if resident.never_hold {
+            resident.flush(voices);
+        }
         let (left, held) = resident.scan(voices, live);
         let m = left.unwrap_or(n).min(n - i);
         render_span(
@@ -850,6 +855,9 @@ struct Resident {
     groups_len: usize,
     /// The batches hold the modes of the voices in `key`.
     valid: bool,
+    /// Tests: store everything back before every span (the output must not change).
+    #[cfg(test)]
+    never_hold: bool,
 }
 
 impl Resident {
@@ -864,6 +872,8 @@ impl Resident {
             groups: vec![0; voices],
             groups_len: 0,
             valid: false,
+            #[cfg(test)]
+            never_hold: false,
         }
     }
 
@@ -1510,8 +1520,6 @@ impl Engine {
     /// Starts (or re-strikes) a note. The strike itself happens at the start of the next
     /// `render`, after any per-note modulation sent at the same time. Realtime-safe.
     pub fn note_on(&mut self, note: NoteId, strike: Strike) {
-        // A stolen voice is cleared: its states come back from the batches first.
-        self.flush_resident();
         let pool = &self.voices[..self.pool];
         let v = if let Some(i) = pool.iter().position(|v| v.matches(&note)) {
             i
@@ -1527,6 +1535,8 @@ impl Engine {
                 .unwrap_or(0);
             let stolen = self.voices[i].note;
             self.push_terminated(stolen, self.rendered_in_call);
+            // Its states come back from the batches first.
+            self.flush_resident();
             self.voices[i].clear();
             i
         };
@@ -1623,9 +1633,11 @@ impl Engine {
 
     /// Stops a note at once. Realtime-safe.
     pub fn choke(&mut self, note: NoteId) {
-        self.flush_resident();
         for i in 0..self.voices.len() {
             if self.voices[i].matches(&note) {
+                if self.voices[i].held_from != usize::MAX {
+                    self.flush_resident();
+                }
                 let n = self.voices[i].note;
                 self.voices[i].clear();
                 self.live_stale = true;
@@ -2001,8 +2013,12 @@ impl Engine {
         if !self.input_on || (self.voices[v].lasting && self.voices[v].object == self.object) {
             return;
         }
-        // Voices move and are cleared: their states come back from the batches first.
-        self.flush_resident();
+        // The input voice moves or is cleared: if it rings freely, its states (and the other
+        // held voices') come back from the batches first. (The voice it is swapped with is
+        // inactive, so holds nothing.)
+        if self.voices[v].held_from != usize::MAX {
+            self.flush_resident();
+        }
         if self.voices[v].active {
             // Still ringing (another object, or audio in turned off and on): it rings out in a
             // free voice rather than being cut; with none free, it is cut.
@@ -2446,57 +2462,136 @@ mod tests {
         }
     }
 
-    /// Holding the free voices' modes in the batches between spans changes nothing: the
-    /// output is bit for bit that of an engine that stores them back and packs them again
-    /// before every block (blocks of 64 and 37 samples, voices starting, ending, retriggered
-    /// and released, objects of 3, 11, 40 and 70 modes).
+    /// Holding the free voices' modes in the batches between spans changes nothing: under
+    /// random events (strikes on objects of 3–100 modes, so that voices run whole groups in
+    /// place and the held modes fill more than one batch; releases, chokes, pressure, steals,
+    /// parameter changes and glides, lasting contacts, audio in, resets) and random block
+    /// sizes, the output, the voices' ends and the reported voices, modes and tail are bit for
+    /// bit those of an engine that stores every held state back before every span.
     #[test]
     fn held_modes_render_as_modes_packed_again() {
-        let object = |n: usize, f0: f64| {
-            let lambdas: Vec<f64> = (1..=n).map(|k| (2.0 * PI * f0 * (k as f64).powf(1.3)).powi(2)).collect();
-            ObjectModes::new(lambdas, &[(0..n).map(|k| 1.0 / (1.0 + k as f32)).collect()])
-        };
-        let render = |block: usize, repack: bool| -> (Vec<f32>, usize) {
-            let objects = vec![object(3, 300.0), object(11, 200.0), object(40, 90.0), object(70, 60.0)];
-            let mut e = Engine::new(objects, 12, 48_000.0);
-            e.set_params(SoundParams { hardness: 0.2, noise: 0.3, release_damping: 30.0, ..SoundParams::default() });
+        #[derive(Debug, PartialEq)]
+        struct Run {
+            out: Vec<u32>,
+            ended: Vec<(u64, u8, u8)>,
+            probes: Vec<(usize, usize, u32)>,
+            held: usize,
+            in_place: usize,
+        }
+        fn xorshift(mut x: u32) -> impl FnMut() -> u32 {
+            move || {
+                x ^= x << 13;
+                x ^= x >> 17;
+                x ^= x << 5;
+                x
+            }
+        }
+        let run = |seed: u32, never_hold: bool, block_seed: u32| -> Run {
+            let object = |n: usize, f0: f64| {
+                let lambdas: Vec<f64> = (1..=n).map(|k| (2.0 * PI * f0 * (k as f64).powf(1.3)).powi(2)).collect();
+                let a: Vec<f32> = (0..n).map(|k| 1.0 / (1.0 + k as f32)).collect();
+                let b: Vec<f32> =
+                    (0..n).map(|k| if k % 2 == 0 { 0.5 } else { -0.7 } / (1.0 + 0.3 * k as f32)).collect();
+                ObjectModes::new(lambdas, &[a, b])
+            };
+            let objects: Vec<ObjectModes> = [(3, 300.0), (11, 200.0), (33, 120.0), (40, 90.0), (70, 60.0), (100, 40.0)]
+                .map(|(n, f)| object(n, f))
+                .into();
+            let count = objects.len();
+            let mut e = Engine::new(objects, 24, 48_000.0);
+            e.resident.never_hold = never_hold;
+            let mut p = SoundParams { hardness: 0.2, noise: 0.3, release_damping: 30.0, ..SoundParams::default() };
+            e.set_params(p);
             e.reset();
-            let total = 30_000;
-            // (sample, object, key, on): strikes, retriggers (key 40 + i % 9) and releases.
-            let events: Vec<(usize, usize, u8, bool)> =
-                (0..40).map(|i| (i * 733 % 28_000, i % 4, 40 + (i % 9) as u8, i % 5 != 4)).collect();
-            let (mut out, mut pos, mut held_blocks) = (vec![0.0f32; total], 0, 0);
+            let (mut rnd, mut brnd) = (xorshift(seed | 1), xorshift(block_seed | 1));
+            let total = 40_000;
+            let input: Vec<f32> =
+                (0..total).map(|i| if (i / 3000) % 2 == 0 { (i as f32 * 0.05).sin() * 0.3 } else { 0.0 }).collect();
+            let mut r = Run { out: vec![], ended: vec![], probes: vec![], held: 0, in_place: 0 };
+            let mut out = vec![0.0f32; total];
+            let mut pos = 0;
             while pos < total {
-                for &(at, obj, key, on) in &events {
-                    if at == pos {
-                        let note = NoteId { voice_id: None, channel: 0, key };
-                        if on {
-                            e.set_object(obj);
-                            e.note_on(note, Strike { velocity: 0.7, position: 0.3, lambda_factor: 1.0 });
-                        } else {
-                            e.note_off(note);
+                for _ in 0..rnd() % 3 {
+                    let note = NoteId { voice_id: None, channel: (rnd() % 2) as u8, key: 40 + (rnd() % 12) as u8 };
+                    let unit = |x: u32| (x % 100) as f32 / 100.0;
+                    match rnd() % 40 {
+                        0..=11 => {
+                            e.set_object(rnd() as usize % count);
+                            let strike = Strike {
+                                velocity: unit(rnd()) + 0.05,
+                                position: unit(rnd()),
+                                lambda_factor: 1.0 + f64::from(rnd() % 3) * 0.1,
+                            };
+                            e.note_on(note, strike);
                         }
+                        12..=17 => e.note_off(note),
+                        18..=19 => e.choke(note),
+                        20..=22 => e.set_pressure(note, unit(rnd())),
+                        23 => e.set_channel_pressure(note.channel, unit(rnd())),
+                        24..=28 => {
+                            match rnd() % 7 {
+                                0 => {
+                                    let kinds =
+                                        [Excitation::Strike, Excitation::Scrape, Excitation::Roll, Excitation::Slide];
+                                    p.contact.excitation = kinds[(rnd() % 4) as usize];
+                                }
+                                1 => p.release_damping = f64::from(rnd() % 100),
+                                2 => p.decay_scale = 0.5 + f64::from(rnd() % 100) / 50.0,
+                                3 => p.size = 0.8 + f64::from(rnd() % 40) / 100.0,
+                                4 => p.support_c = f64::from(rnd() % 10),
+                                5 => p.noise = (rnd() % 10) as f32 / 10.0,
+                                _ => p.recorded_support = !p.recorded_support,
+                            }
+                            e.set_params(p);
+                        }
+                        29 => {
+                            let extra: Vec<f64> = (0..50).map(|i| f64::from(i % 7)).collect();
+                            let object = (rnd() % 2 == 0).then(|| rnd() as usize % count);
+                            e.set_recorded_support(object, &extra);
+                        }
+                        30..=31 => e.set_audio_input(rnd() % 2 == 0, unit(rnd())),
+                        32 if rnd() % 10 == 0 => e.reset(),
+                        33 => e.set_note_position(note, unit(rnd())),
+                        34 => e.set_wheel_speed((rnd() % 2 == 0).then(|| f64::from(unit(rnd())))),
+                        35 => e.set_note_speed(note, f64::from(unit(rnd()))),
+                        _ => {}
                     }
                 }
-                if repack {
-                    e.flush_resident();
+                r.probes.push((e.active_voices(), e.active_modes(), e.tail_samples(1_000_000)));
+                let next = (pos + 1 + (rnd() % 900) as usize).min(total);
+                while pos < next {
+                    let b = (1 + (brnd() % 150) as usize).min(next - pos);
+                    e.render_input(&input[pos..pos + b], &mut out[pos..pos + b]);
+                    e.drain_terminated(|t| {
+                        r.ended.push((pos as u64 + u64::from(t.offset), t.note.channel, t.note.key))
+                    });
+                    let held = e.voices.iter().filter(|v| v.held_from != usize::MAX);
+                    r.held = r.held.max(held.clone().map(|v| v.bank.len() - v.held_from).sum());
+                    r.in_place = r.in_place.max(held.filter(|v| v.held_from > 0).count());
+                    pos += b;
                 }
-                held_blocks += usize::from(e.resident.valid);
-                let next = events.iter().map(|&(at, ..)| at).filter(|&at| at > pos).min().unwrap_or(total);
-                let n = block.min(next - pos).min(total - pos);
-                e.render(&mut out[pos..pos + n]);
-                pos += n;
             }
-            (out, held_blocks)
+            r.out = out.iter().map(|x| x.to_bits()).collect();
+            r
         };
-        for block in [64, 37] {
-            let (held, held_blocks) = render(block, false);
-            let (repacked, none) = render(block, true);
-            assert!(held.iter().any(|x| x.abs() > 1e-3), "the notes sound");
-            assert!(held_blocks > 200 && none == 0, "blocks rendered from held modes: {held_blocks}");
-            let same = held.iter().zip(&repacked).all(|(a, b)| a.to_bits() == b.to_bits());
-            assert!(same, "block {block}: held modes differ from modes packed again");
+        let (mut held, mut in_place) = (0, 0);
+        for seed in 1..=16u32 {
+            let a = run(seed * 7919, false, seed);
+            let mut b = run(seed * 7919, true, seed + 1000);
+            assert!(a.out.iter().any(|&x| f32::from_bits(x).abs() > 1e-4), "seed {seed}: silent");
+            (held, in_place) = (held.max(a.held), in_place.max(a.in_place));
+            (b.held, b.in_place) = (a.held, a.in_place);
+            if a != b {
+                let first = a.out.iter().zip(&b.out).position(|(x, y)| x != y);
+                let probe = a.probes.iter().zip(&b.probes).position(|(x, y)| x != y);
+                panic!(
+                    "seed {seed}: output first differs at {first:?}, probes at {probe:?}, ends equal {}",
+                    a.ended == b.ended
+                );
+            }
         }
+        assert!(held > crate::resonator::BATCH_LANES, "the held modes fill more than a batch: {held}");
+        assert!(in_place > 2, "voices with whole groups in place were held: {in_place}");
     }
 
     /// The energy an energy tick sums for each voice (its bank's slots, then its ranges held
