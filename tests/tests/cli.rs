@@ -172,6 +172,7 @@ fn bank_build_from_an_obj_surface_then_render_it() {
         mesh: Some(mesh),
         scale: None,
         mesher: None,
+        no_remesh: false,
         modes: 12,
         max_freq: None,
         material: MaterialArgs { young: 200e9, density: 7850.0, poisson: 0.3 },

@@ -85,6 +85,10 @@ pub enum BankCommand {
         /// is thin-walled, else voxels), shell (through the wall, or an error) or voxel.
         #[arg(long, requires = "mesh")]
         mesher: Option<String>,
+        /// Refuse a .msh mesh whose sparse factor would exceed the build's memory limit
+        /// (default: solve its boundary surface meshed again within the budget, with a warning).
+        #[arg(long, requires = "mesh")]
+        no_remesh: bool,
         /// Number of modes (above the six rigid ones).
         #[arg(long, default_value_t = 100)]
         modes: usize,
@@ -505,6 +509,7 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
             mesh,
             scale,
             mesher,
+            no_remesh,
             modes,
             max_freq,
             material,
@@ -550,7 +555,13 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
                 (None, Some(path)) => {
                     let mesher =
                         SurfaceMesher::parse(mesher.as_deref().unwrap_or("auto")).map_err(|e| e.to_string())?;
-                    let iopts = ImportOptions { scale: scale.unwrap_or(1.0), resolution, snap: true, mesher };
+                    let iopts = ImportOptions {
+                        scale: scale.unwrap_or(1.0),
+                        resolution,
+                        snap: true,
+                        mesher,
+                        remesh_over_budget: !no_remesh,
+                    };
                     let show = progress();
                     let imported =
                         import_mesh_file(&path, &iopts, &show).map_err(|e| format!("{}: {e}", path.display()))?;

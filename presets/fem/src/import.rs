@@ -40,11 +40,21 @@ pub struct ImportOptions {
     pub snap: bool,
     /// How a surface becomes tetrahedra.
     pub mesher: SurfaceMesher,
+    /// A tetrahedral mesh whose sparse factor would exceed the build's limit
+    /// ([`super::eigen::MAX_FACTOR_BYTES`]) is solved on its boundary surface meshed again
+    /// within the budget (with a warning) instead of being refused.
+    pub remesh_over_budget: bool,
 }
 
 impl Default for ImportOptions {
     fn default() -> Self {
-        ImportOptions { scale: 1.0, resolution: None, snap: true, mesher: SurfaceMesher::Auto }
+        ImportOptions {
+            scale: 1.0,
+            resolution: None,
+            snap: true,
+            mesher: SurfaceMesher::Auto,
+            remesh_over_budget: true,
+        }
     }
 }
 
@@ -147,13 +157,39 @@ pub fn import_mesh_file(
         MeshFileKind::Gmsh => {
             let text = String::from_utf8_lossy(&bytes);
             let mut mesh = super::read_gmsh(&text)?;
+            drop(bytes);
+            check_one_body(&mesh)?;
+            // Over the factor's limit the build would refuse the mesh: its surface, meshed
+            // again by the DOF budget, gives a bank instead (the estimate is skipped for
+            // meshes far under the limit: it costs a symbolic analysis).
+            if opts.remesh_over_budget && 3 * mesh.nodes.len() > OVER_BUDGET_MIN_DOFS {
+                let bytes = super::eigen::factor_bytes_estimate(&mesh)?;
+                let limit = super::eigen::MAX_FACTOR_BYTES as f64;
+                if bytes > limit {
+                    let dofs = 3 * mesh.nodes.len();
+                    let surface = boundary_surface(&mesh);
+                    let triangles = surface.triangles.len();
+                    drop(mesh);
+                    let mut imported = import_surface(surface, "Gmsh mesh's boundary", opts, progress)?;
+                    imported.warnings.insert(
+                        0,
+                        format!(
+                            "the mesh's {dofs} DOFs would need a {:.2} GiB sparse factor, over the build's {:.2} GiB limit: its boundary ({triangles} triangles) was meshed again within the budget and the modes are that mesh's (see the error estimate); --no-remesh refuses such a mesh instead",
+                            bytes / f64::from(1 << 30),
+                            limit / f64::from(1 << 30)
+                        ),
+                    );
+                    imported.summary =
+                        format!("Gmsh tetrahedral mesh of {dofs} DOFs over the budget: {}", imported.summary);
+                    return Ok(imported);
+                }
+            }
             for p in &mut mesh.nodes {
                 for c in p.iter_mut() {
                     *c *= opts.scale;
                 }
             }
             let summary = format!("Gmsh tetrahedral mesh, scale {}", opts.scale);
-            check_one_body(&mesh)?;
             let (lo, hi) = mesh.bounds();
             let warnings = units_warning(extent(lo, hi), opts.scale).into_iter().collect();
             Ok(ImportedMesh { mesh, surface: None, warnings, summary })
@@ -367,27 +403,54 @@ pub fn import_surface(
     Ok(ImportedMesh { mesh, surface: Some(surface), warnings, summary })
 }
 
-/// Corner nodes on the boundary of `mesh`.
-fn boundary_corners(mesh: &TetMesh) -> Vec<u32> {
-    let mut count: HashMap<[u32; 3], u32> = HashMap::with_capacity(mesh.tets.len() * 2);
+/// Tetrahedral meshes under this many DOFs are never over the factor's limit (the budget's
+/// meshes of ≈ 100,000 DOFs take under 1.5 GiB): no estimate is made for them.
+const OVER_BUDGET_MIN_DOFS: usize = 120_000;
+
+/// The boundary faces of `mesh` (corner nodes; faces of one element only), each oriented
+/// outward (counter-clockwise seen from outside, the element's fourth corner behind it).
+fn boundary_faces(mesh: &TetMesh) -> Vec<[u32; 3]> {
+    let mut faces: HashMap<[u32; 3], ([u32; 3], u32)> = HashMap::with_capacity(mesh.tets.len() * 2);
     for t in &mesh.tets {
         for opp in 0..4 {
-            let mut key = [0u32; 3];
-            let mut k = 0;
-            for (c, &node) in t[..4].iter().enumerate() {
-                if c != opp {
-                    key[k] = node;
-                    k += 1;
-                }
-            }
+            // Corners 0–3 are positively oriented, so each face below, as listed, has the
+            // opposite corner on its inner side.
+            let f = match opp {
+                0 => [t[1], t[2], t[3]],
+                1 => [t[0], t[3], t[2]],
+                2 => [t[0], t[1], t[3]],
+                _ => [t[0], t[2], t[1]],
+            };
+            let mut key = f;
             key.sort_unstable();
-            *count.entry(key).or_insert(0) += 1;
+            faces.entry(key).or_insert((f, 0)).1 += 1;
         }
     }
-    let mut nodes: Vec<u32> = count.into_iter().filter(|&(_, n)| n == 1).flat_map(|(f, _)| f).collect();
+    let mut out: Vec<[u32; 3]> = faces.into_values().filter(|&(_, n)| n == 1).map(|(f, _)| f).collect();
+    out.sort_unstable();
+    out
+}
+
+/// Corner nodes on the boundary of `mesh`.
+fn boundary_corners(mesh: &TetMesh) -> Vec<u32> {
+    let mut nodes: Vec<u32> = boundary_faces(mesh).into_iter().flatten().collect();
     nodes.sort_unstable();
     nodes.dedup();
     nodes
+}
+
+/// The closed surface bounding `mesh`: its boundary faces (flat triangles on the corner
+/// nodes) with the vertices they use, numbered in node order.
+pub fn boundary_surface(mesh: &TetMesh) -> TriSurface {
+    let faces = boundary_faces(mesh);
+    let mut index = vec![u32::MAX; mesh.corners.max(mesh.nodes.len())];
+    let mut vertices = Vec::new();
+    for &n in boundary_corners(mesh).iter() {
+        index[n as usize] = vertices.len() as u32;
+        vertices.push(mesh.nodes[n as usize]);
+    }
+    let triangles = faces.iter().map(|f| f.map(|n| index[n as usize])).collect();
+    TriSurface { vertices, triangles }
 }
 
 fn dist2(a: [f64; 3], b: [f64; 3]) -> f64 {
@@ -593,6 +656,28 @@ fn build(
 mod tests {
     use super::*;
     use crate::{mesh_shape, Shape};
+
+    /// The boundary of a meshed bowl or block is a closed surface, oriented outward as it
+    /// comes (the checks flip nothing), enclosing the mesh's volume, with every boundary
+    /// corner and no interior node.
+    #[test]
+    fn a_meshs_boundary_is_the_closed_surface_of_its_volume() {
+        for (shape, res) in [
+            (Shape::Bowl { radius: 0.08, wall: 0.004 }, 16),
+            (Shape::Block { length: 0.05, width: 0.04, height: 0.03 }, 6),
+        ] {
+            let mesh = mesh_shape(&shape, res).unwrap();
+            let mut surface = boundary_surface(&mesh);
+            let enclosed = surface.signed_volume();
+            assert!((enclosed / mesh.volume() - 1.0).abs() < 1e-9, "{enclosed} vs {}", mesh.volume());
+            let report = check_surface(&mut surface).unwrap();
+            assert_eq!(report.flipped, 0, "{:?}", report.warnings);
+            assert_eq!(surface.vertices.len(), boundary_corners(&mesh).len());
+            if matches!(shape, Shape::Block { .. }) {
+                assert!(surface.vertices.len() < mesh.corners, "interior corners are left out");
+            }
+        }
+    }
 
     #[test]
     fn a_meshed_bar_imported_as_a_mesh_gives_the_same_modes() {
