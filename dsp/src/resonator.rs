@@ -116,16 +116,8 @@ impl ResonatorBank {
         if m == 0 || n == 0 {
             return;
         }
-        let acc = &mut lanes[..n * LANES];
         let (re, im, pr, pi) = (&mut self.re[..m], &mut self.im[..m], &self.pr[..m], &self.pi[..m]);
-        #[cfg(target_arch = "x86_64")]
-        if self.avx2 {
-            // SAFETY: AVX2 and FMA were detected at run time (`ResonatorBank::new`); the slices
-            // hold `m` floats, a multiple of LANES, and `acc` holds n × LANES.
-            unsafe { avx2::run(re, im, pr, pi, None, acc, n) };
-            return;
-        }
-        portable::run(re, im, pr, pi, None, acc, n);
+        run_free(self.avx2, [re, im], [pr, pi], &mut lanes[..n * LANES], n);
     }
 
     /// Sets the state of the slots from `first` on (what a [`VectorBatch`] hands back).
@@ -487,17 +479,8 @@ impl VectorBatch {
         for a in [&mut self.re, &mut self.im, &mut self.pr, &mut self.pi] {
             a[self.len..m].fill(0.0);
         }
-        let acc = &mut acc[..n * LANES];
         let (re, im, pr, pi) = (&mut self.re[..m], &mut self.im[..m], &self.pr[..m], &self.pi[..m]);
-        #[cfg(target_arch = "x86_64")]
-        if self.avx2 {
-            // SAFETY: `avx2` is only set where AVX2 and FMA were detected (`new` checks
-            // `avx2_available`); the slices hold `m` floats, a multiple of LANES, and `acc`
-            // holds n × LANES.
-            unsafe { avx2::run(re, im, pr, pi, None, acc, n) };
-            return;
-        }
-        portable::run(re, im, pr, pi, None, acc, n);
+        run_free(self.avx2, [re, im], [pr, pi], &mut acc[..n * LANES], n);
     }
 
     /// Each pushed range in push order: (owner, first slot in its bank, state re, state im).
@@ -590,6 +573,24 @@ impl BatchSet {
         }
         self.used = 0;
     }
+}
+
+/// The free kernel over states `y` and poles `p` (equal lengths, a multiple of [`LANES`]) for
+/// `n` samples into `acc` (n × [`LANES`]): the AVX2 one when `avx2`, which callers set only
+/// where [`avx2_available`] (`ResonatorBank::new`, `VectorBatch::new`).
+#[inline]
+fn run_free(avx2: bool, y: [&mut [f32]; 2], p: [&[f32]; 2], acc: &mut [f32], n: usize) {
+    let [re, im] = y;
+    let [pr, pi] = p;
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: AVX2 and FMA were detected at run time (the callers' flag); the slices hold
+        // equal multiples of LANES floats and `acc` holds n × LANES (callers slice it so).
+        unsafe { avx2::run(re, im, pr, pi, None, acc, n) };
+        return;
+    }
+    let _ = avx2;
+    portable::run(re, im, pr, pi, None, acc, n);
 }
 
 /// `e` plus |y|² of each mode in order (one sum for [`ResonatorBank::energy`] and its parts).
