@@ -573,8 +573,15 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
                     let source = path
                         .file_name()
                         .map_or_else(|| path.display().to_string(), |f| f.to_string_lossy().into_owned());
-                    build_bank_from_import(&id, &name, &source, &imported, &material, &opts, &show)
-                        .map_err(|e| e.to_string())?
+                    build_bank_from_import(&id, &name, &source, &imported, &material, &opts, &show).map_err(|e| {
+                        let e = e.to_string();
+                        let too_large = e.contains("too large") || e.contains("corner vertices is over the limit");
+                        if no_remesh && too_large && imported.surface.is_none() {
+                            format!("{e}; without --no-remesh its boundary is remeshed within the budget")
+                        } else {
+                            e
+                        }
+                    })?
                 }
                 _ => return Err("give either --shape with --dims, or --mesh".into()),
             };

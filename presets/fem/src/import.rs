@@ -176,22 +176,32 @@ fn import_mesh_file_within(
             // meshes far under the limit: it costs a symbolic analysis).
             if opts.remesh_over_budget && 3 * mesh.nodes.len() > min_dofs {
                 let bytes = super::eigen::factor_bytes_estimate(&mesh)?;
-                if bytes > limit {
-                    let dofs = 3 * mesh.nodes.len();
+                // The build also refuses more corner vertices than MAX_IMPORT_VERTICES.
+                if bytes > limit || mesh.corners > MAX_IMPORT_VERTICES {
+                    let (dofs, corners) = (3 * mesh.nodes.len(), mesh.corners);
                     let surface = boundary_surface(&mesh);
                     let triangles = surface.triangles.len();
                     drop(mesh);
-                    let mut imported = import_surface(surface, "Gmsh mesh's boundary", opts, progress)?;
+                    let mut imported = import_surface(surface, "its boundary", opts, progress)?;
+                    let why = if bytes > limit {
+                        format!(
+                            "{dofs} DOFs would need a {:.2} GiB sparse factor, over the build's {:.2} GiB limit",
+                            bytes / f64::from(1 << 30),
+                            limit / f64::from(1 << 30)
+                        )
+                    } else {
+                        format!("{corners} corner vertices are over the build's limit of {MAX_IMPORT_VERTICES}")
+                    };
                     imported.warnings.insert(
                         0,
                         format!(
-                            "the mesh's {dofs} DOFs would need a {:.2} GiB sparse factor, over the build's {:.2} GiB limit: its boundary ({triangles} triangles) was meshed again within the budget and the modes are that mesh's, not the file's (the summary says how it was meshed); --no-remesh refuses such a mesh instead",
-                            bytes / f64::from(1 << 30),
-                            limit / f64::from(1 << 30)
+                            "the mesh's {why}: it was remeshed from its boundary ({triangles} triangles) within the budget, so the modes are those of the new mesh, not of the file's (the summary says how it was meshed); --no-remesh refuses such a mesh instead"
                         ),
                     );
-                    imported.summary =
-                        format!("Gmsh tetrahedral mesh of {dofs} DOFs over the budget: {}", imported.summary);
+                    imported.summary = format!(
+                        "Gmsh tetrahedral mesh of {corners} corner vertices and {dofs} DOFs, over the build's budget, remeshed from {}",
+                        imported.summary
+                    );
                     return Ok(imported);
                 }
             }
@@ -722,7 +732,8 @@ mod tests {
         )
         .unwrap();
         std::fs::remove_file(&path).unwrap();
-        assert!(remeshed.warnings[0].contains("over the build's"), "{:?}", remeshed.warnings);
+        assert!(remeshed.warnings[0].contains("over the build's") && remeshed.warnings[0].contains("remeshed"));
+        assert!(remeshed.summary.contains("remeshed from its boundary surface of"), "{}", remeshed.summary);
         assert!(remeshed.summary.contains("thin-walled"), "{}", remeshed.summary);
         assert!(as_given.warnings.is_empty() && as_given.summary.starts_with("Gmsh tetrahedral mesh,"));
         let glass = Material { young: 63e9, density: 2500.0, poisson: 0.22 };
