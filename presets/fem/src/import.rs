@@ -192,10 +192,14 @@ fn import_mesh_file_within(
                     } else {
                         format!("{corners} corner vertices are over the build's limit of {MAX_IMPORT_VERTICES}")
                     };
+                    let how = match opts.resolution {
+                        Some(r) => format!("at --resolution {r}"),
+                        None => "within the budget".to_string(),
+                    };
                     imported.warnings.insert(
                         0,
                         format!(
-                            "the mesh's {why}: it was remeshed from its boundary ({triangles} triangles) within the budget, so the modes are those of the new mesh, not of the file's (the summary says how it was meshed); --no-remesh refuses such a mesh instead"
+                            "the mesh's {why}: it was remeshed from its boundary ({triangles} triangles) {how}, so the modes are those of the new mesh, not of the file's (the summary says how it was meshed); --no-remesh refuses such a mesh instead"
                         ),
                     );
                     imported.summary = format!(
