@@ -850,9 +850,6 @@ struct Resident {
     /// (voice, modes) of each free voice in `live` order when the batches were filled.
     key: Vec<(u32, u32)>,
     key_len: usize,
-    /// Those of them with whole kernel groups (run in place), in `live` order.
-    groups: Vec<u32>,
-    groups_len: usize,
     /// The batches hold the modes of the voices in `key`.
     valid: bool,
     /// Tests: store everything back before every span (the output must not change).
@@ -869,8 +866,6 @@ impl Resident {
             set: BatchSet::new(voices * per_voice, true),
             key: vec![(0, 0); voices],
             key_len: 0,
-            groups: vec![0; voices],
-            groups_len: 0,
             valid: false,
             #[cfg(test)]
             never_hold: false,
@@ -890,7 +885,6 @@ impl Resident {
         }
         self.set.clear();
         self.key_len = 0;
-        self.groups_len = 0;
         self.valid = false;
     }
 
@@ -943,10 +937,11 @@ fn render_span(
     if held && !layout.forced {
         // The same free voices as in the last span, and no other: only the in-place groups
         // and the batches run (in the order of the full walk below).
-        for &v in &resident.groups[..resident.groups_len] {
-            let voice = &mut voices[v as usize];
-            let whole = voice.bank.len() / (BATCH_VECTORS * LANES) * BATCH_VECTORS;
-            voice.bank.process_first_vectors_lanes(whole, lanes);
+        for &(v, len) in &resident.key[..resident.key_len] {
+            let whole = len as usize / (BATCH_VECTORS * LANES) * BATCH_VECTORS;
+            if whole > 0 {
+                voices[v as usize].bank.process_first_vectors_lanes(whole, lanes);
+            }
         }
         resident.set.advance(lanes);
         return;
@@ -975,10 +970,6 @@ fn render_span(
             voice.held_from = first;
             resident.key[resident.key_len] = (v as u32, len as u32);
             resident.key_len += 1;
-            if whole > 0 {
-                resident.groups[resident.groups_len] = v as u32;
-                resident.groups_len += 1;
-            }
         }
     }
     resident.set.advance(lanes);

@@ -410,11 +410,6 @@ impl VectorBatch {
         VectorBatch { re: z, im: z, pr: z, pi: z, from, ranges: 0, len: 0, avx2 }
     }
 
-    /// Whether no mode is waiting.
-    pub fn is_empty(&self) -> bool {
-        self.len == 0
-    }
-
     /// Whether the batch is full (run it).
     pub fn is_full(&self) -> bool {
         self.len == BATCH_LANES
@@ -422,7 +417,9 @@ impl VectorBatch {
 
     /// Adds vector `k` of `bank` (state and pole of its [`LANES`] slots), remembering `owner`,
     /// at the next free lanes; returns how many were taken (fewer than [`LANES`] only when
-    /// the batch had less room: see [`push_modes`](Self::push_modes)).
+    /// the batch had less room: see [`push_modes`](Self::push_modes)). Tests push whole
+    /// vectors; the engine pushes ranges ([`BatchSet::push_modes`]).
+    #[cfg(test)]
     pub fn push(&mut self, owner: usize, bank: &ResonatorBank, k: usize) -> usize {
         self.push_modes(owner, bank, k * LANES, LANES)
     }
@@ -457,7 +454,9 @@ impl VectorBatch {
 
     /// Advances the pushed modes by `acc.len() / LANES` samples (at most
     /// [`MAX_KERNEL_BLOCK`]) adding into the lane accumulator `acc`, then hands each pushed
-    /// range's new state back through `store(owner, first, re, im)` and empties the batch.
+    /// range's new state back through `store(owner, first, re, im)` and empties the batch
+    /// (tests; the engine keeps the modes: [`advance`](Self::advance)).
+    #[cfg(test)]
     pub fn run(&mut self, acc: &mut [f32], mut store: impl FnMut(usize, usize, &[f32], &[f32])) {
         self.advance(acc);
         for (owner, first, re, im) in self.ranges() {
@@ -521,30 +520,18 @@ impl BatchSet {
         self.batches[0].avx2
     }
 
-    /// How many modes it holds at most.
-    pub fn capacity(&self) -> usize {
-        self.batches.len() * BATCH_LANES
-    }
-
-    /// Whether no mode is held.
-    pub fn is_empty(&self) -> bool {
-        self.used == 0
-    }
-
     /// Adds slots `first..first + count` of `bank` after the modes held, filling batch after
     /// batch; returns how many were taken (fewer than `count` only when the set is full).
     pub fn push_modes(&mut self, owner: usize, bank: &ResonatorBank, first: usize, count: usize) -> usize {
         let mut taken = 0;
         while taken < count {
-            let Some(batch) = self.batches.get_mut(self.used.saturating_sub(1)) else { break };
-            if self.used == 0 || batch.is_full() {
+            if self.used == 0 || self.batches[self.used - 1].is_full() {
                 if self.used == self.batches.len() {
                     break;
                 }
                 self.used += 1;
-                continue;
             }
-            let c = batch.push_modes(owner, bank, first + taken, count - taken);
+            let c = self.batches[self.used - 1].push_modes(owner, bank, first + taken, count - taken);
             if c == 0 {
                 break;
             }
