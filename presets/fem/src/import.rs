@@ -459,7 +459,12 @@ fn boundary_faces(mesh: &TetMesh) -> Vec<[u32; 3]> {
 
 /// Corner nodes on the boundary of `mesh`.
 fn boundary_corners(mesh: &TetMesh) -> Vec<u32> {
-    let mut nodes: Vec<u32> = boundary_faces(mesh).into_iter().flatten().collect();
+    nodes_of(&boundary_faces(mesh))
+}
+
+/// The nodes `faces` use, in order, once each.
+fn nodes_of(faces: &[[u32; 3]]) -> Vec<u32> {
+    let mut nodes: Vec<u32> = faces.iter().flatten().copied().collect();
     nodes.sort_unstable();
     nodes.dedup();
     nodes
@@ -469,9 +474,9 @@ fn boundary_corners(mesh: &TetMesh) -> Vec<u32> {
 /// nodes) with the vertices they use, numbered in node order.
 pub fn boundary_surface(mesh: &TetMesh) -> TriSurface {
     let faces = boundary_faces(mesh);
-    let mut index = vec![u32::MAX; mesh.corners.max(mesh.nodes.len())];
+    let mut index = vec![u32::MAX; mesh.nodes.len()];
     let mut vertices = Vec::new();
-    for &n in boundary_corners(mesh).iter() {
+    for n in nodes_of(&faces) {
         index[n as usize] = vertices.len() as u32;
         vertices.push(mesh.nodes[n as usize]);
     }
@@ -741,14 +746,7 @@ mod tests {
         assert!(remeshed.summary.contains("thin-walled"), "{}", remeshed.summary);
         assert!(as_given.warnings.is_empty() && as_given.summary.starts_with("Gmsh tetrahedral mesh,"));
         let glass = Material { young: 63e9, density: 2500.0, poisson: 0.22 };
-        let opts = BuildOptions {
-            max_modes: 4,
-            max_freq_hz: None,
-            resolution: 16,
-            strike_points: 8,
-            auto_resolution: false,
-            accuracy: None,
-        };
+        let opts = BuildOptions { max_modes: 4, resolution: 16, strike_points: 8, ..BuildOptions::default() };
         let bank = |m: &ImportedMesh| build_bank_from_import("b", "B", "test", m, &glass, &opts, &quiet).unwrap().0;
         let (a, b) = (bank(&remeshed), bank(&as_given));
         for (x, y) in a.lambdas.iter().zip(&b.lambdas) {
