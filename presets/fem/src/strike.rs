@@ -212,12 +212,14 @@ pub(crate) fn strike_path(geom: &Geometry, n: usize) -> Vec<PathPoint> {
                     })
                     .collect()
             } else {
-                // Serpentine rows over the top face.
-                let rows = ((n as f64 * ly / lx).sqrt().round() as usize).max(1);
-                let cols = n.div_ceil(rows);
-                let mut out = Vec::with_capacity(rows * cols);
+                // Serpentine rows over the top face, exactly n points: rows of n / rows
+                // points, the first n % rows rows one more (so a count that is no product
+                // of rows and columns is neither rounded up nor left with a short last row).
+                let rows = ((n as f64 * ly / lx).sqrt().round() as usize).clamp(1, n);
+                let mut out = Vec::with_capacity(n);
                 for r in 0..rows {
                     let fy = (r as f64 + 0.5) / rows as f64;
+                    let cols = n / rows + usize::from(r < n % rows);
                     for c0 in 0..cols {
                         let c = if r % 2 == 0 { c0 } else { cols - 1 - c0 };
                         let fx = (c as f64 + 0.5) / cols as f64;
@@ -271,6 +273,37 @@ pub(crate) fn strike_path(geom: &Geometry, n: usize) -> Vec<PathPoint> {
                         PathPoint { position: x, xy: [a, f], label: format!("s = {f:.2}, {:.0} deg", a * 360.0) }
                     })
                     .collect()
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A box's serpentine has exactly the asked number of points (it rounded up to a full
+    /// grid: `--points 8` on a square face gave 9, 1,024 on a plate over the bank's limit),
+    /// each inside the top face, rows evenly spaced and each row's points in order.
+    #[test]
+    fn a_box_is_struck_at_exactly_the_points_asked() {
+        for (lx, ly) in [(0.05, 0.05), (0.4, 0.3), (0.2, 0.08), (0.3, 0.02), (0.01, 0.3)] {
+            let geom = Geometry::Box { lx, ly, lz: 0.01, line: false };
+            for n in (1..=70).chain([127, 128, 500, presets::MAX_BANK_POINTS]) {
+                let path = strike_path(&geom, n);
+                assert_eq!(path.len(), n, "{lx} x {ly} m, {n} points");
+                let mut rows: Vec<f64> = path.iter().map(|p| p.xy[1]).collect();
+                rows.dedup();
+                for p in &path {
+                    assert!(p.xy.iter().all(|v| *v > 0.0 && *v < 1.0), "{lx} x {ly}, {n}: {:?}", p.xy);
+                    assert!((p.position[2] - 0.01).abs() < 1e-15);
+                }
+                // Rows in order, evenly spaced, the serpentine running back and forth.
+                for (r, y) in rows.iter().enumerate() {
+                    assert!((y - (r as f64 + 0.5) / rows.len() as f64).abs() < 1e-12, "{n}: rows {rows:?}");
+                }
+                let counts: Vec<usize> = rows.iter().map(|y| path.iter().filter(|p| p.xy[1] == *y).count()).collect();
+                assert!(counts.iter().max().unwrap() - counts.iter().min().unwrap() <= 1, "{n}: {counts:?}");
             }
         }
     }
