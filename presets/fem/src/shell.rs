@@ -129,6 +129,48 @@ pub struct ShellReport {
     pub mesh_volume: f64,
 }
 
+/// Each triangle's ray from its centroid into the solid (against its normal): the distance
+/// to, and the index of, the first triangle it meets that faces it (normals over
+/// [`OPPOSITE_DEG`] apart); `None` for no such triangle or no normal.
+fn inward_hits(s: &TriSurface, grid: &TriGrid, normals: &[[f64; 3]]) -> Vec<Option<(f64, u32)>> {
+    let diag = s.diagonal();
+    let cos_opp = OPPOSITE_DEG.to_radians().cos();
+    (0..s.triangles.len())
+        .map(|t| {
+            let [a, b, c] = s.corners(t);
+            let o: [f64; 3] = std::array::from_fn(|i| (a[i] + b[i] + c[i]) / 3.0);
+            let d = normals[t].map(|x| -x);
+            if d == [0.0; 3] {
+                return None;
+            }
+            grid.first_hit(s, o, d, (1e-9 * diag, 2.0 * diag), &|u| u as usize == t)
+                .filter(|&(_, h)| dot(normals[t], normals[h as usize]) < cos_opp)
+        })
+        .collect()
+}
+
+/// How much of the closed, outward-oriented surface `s` lies on parts thinner than `below`
+/// (m): the share of its area whose inward ray ([`inward_hits`]) meets the opposite side
+/// within `below`, and the thinnest such part (m; ∞ for none). A voxel mesh at spacing h
+/// cannot follow a part thinner than h: it comes out a voxel thick.
+pub fn thin_parts(s: &TriSurface, below: f64) -> (f64, f64) {
+    let n = s.triangles.len();
+    let all: Vec<u32> = (0..n as u32).collect();
+    let grid = TriGrid::new(s, &all, 0.0);
+    let normals: Vec<[f64; 3]> = (0..n).map(|t| s.normal(t)).collect();
+    let (mut thin, mut total, mut thinnest) = (0.0, 0.0, f64::INFINITY);
+    for (t, hit) in inward_hits(s, &grid, &normals).into_iter().enumerate() {
+        let [a, b, c] = s.corners(t);
+        let area = 0.5 * norm(cross(sub(b, a), sub(c, a)));
+        total += area;
+        if let Some((d, _)) = hit.filter(|&(d, _)| d < below) {
+            thin += area;
+            thinnest = thinnest.min(d);
+        }
+    }
+    (if total > 0.0 { thin / total } else { 0.0 }, thinnest)
+}
+
 /// Finds the thin walls of the closed, outward-oriented surface `s` (see the module docs).
 ///
 /// # Errors
@@ -137,7 +179,6 @@ pub struct ShellReport {
 pub fn find_thin_wall(s: &TriSurface) -> Result<ThinWall, String> {
     let n = s.triangles.len();
     let all: Vec<u32> = (0..n as u32).collect();
-    let diag = s.diagonal();
     let grid = TriGrid::new(s, &all, 0.0);
     let normals: Vec<[f64; 3]> = (0..n).map(|t| s.normal(t)).collect();
     let area: Vec<f64> = (0..n)
@@ -150,20 +191,8 @@ pub fn find_thin_wall(s: &TriSurface) -> Result<ThinWall, String> {
     if !(total > 0.0) {
         return Err("the surface has no area".into());
     }
-    let cos_opp = OPPOSITE_DEG.to_radians().cos();
     // 1. Each triangle's ray into the solid.
-    let hits: Vec<Option<(f64, u32)>> = (0..n)
-        .map(|t| {
-            let [a, b, c] = s.corners(t);
-            let o: [f64; 3] = std::array::from_fn(|i| (a[i] + b[i] + c[i]) / 3.0);
-            let d = normals[t].map(|x| -x);
-            if d == [0.0; 3] {
-                return None;
-            }
-            grid.first_hit(s, o, d, (1e-9 * diag, 2.0 * diag), &|u| u as usize == t)
-                .filter(|&(_, h)| dot(normals[t], normals[h as usize]) < cos_opp)
-        })
-        .collect();
+    let hits = inward_hits(s, &grid, &normals);
     // 2. Sheets: wall-facing triangles joined across gentle edges.
     let cos_fold = SHEET_FOLD_DEG.to_radians().cos();
     let mut parent: Vec<usize> = (0..n).collect();
