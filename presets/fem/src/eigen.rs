@@ -837,6 +837,22 @@ pub fn solve_sliced(sys: &System, opts: &EigenOptions, progress: &dyn Fn(&str, f
     drop(fac);
     prof.lock_seconds += t.elapsed().as_secs_f64();
     let pairs = check_and_refine(sys, pairs, opts.sigma, plan.b, &mut prof, t0)?;
+    if debug() {
+        eprintln!(
+            "eigen: {:.1} s: symbolic {:.1}, numeric {:.1} ({} shifts), solves {:.1}, M {:.1}, orth {:.1}, Ritz {:.1}, lock {:.1}, check {:.1}; {} steps",
+            prof.total_seconds,
+            prof.symbolic_seconds,
+            prof.numeric_seconds,
+            prof.shifts.len(),
+            prof.solve_seconds,
+            prof.mass_seconds,
+            prof.orth_seconds,
+            prof.ritz_seconds,
+            prof.lock_seconds,
+            prof.check_seconds,
+            prof.steps
+        );
+    }
     LAST_PROFILE.with(|p| *p.borrow_mut() = prof.clone());
     Ok(EigenResult {
         lambdas: pairs.lambdas,
