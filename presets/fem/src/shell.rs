@@ -463,7 +463,8 @@ fn shell_dofs(nv: usize, tris: &[[u32; 3]], layers: usize) -> usize {
 /// tetrahedra (see the module docs). `progress` gets `"shell"`.
 ///
 /// # Errors
-/// [`FemError::InvalidOptions`] for 0 layers or a bad edge; [`FemError::Mesh`] if the
+/// [`FemError::InvalidOptions`] for 0 layers, a bad edge, or a given edge that would make more
+/// than [`super::MAX_IMPORT_VERTICES`] corner vertices; [`FemError::Mesh`] if the
 /// extrusion folds over itself or misses the enclosed volume by more than
 /// [`MAX_VOLUME_ERROR`] (say why; the caller may voxelise instead).
 pub fn mesh_thin_wall(
@@ -520,11 +521,17 @@ pub fn mesh_thin_wall(
     progress("shell", 0.3);
     let nv = verts.len();
     if (opts.layers + 1) * nv > super::MAX_IMPORT_VERTICES {
-        return Err(FemError::Mesh(format!(
-            "the wall's mesh would have {} corner vertices, over the limit of {}: use a lower --resolution",
+        let text = format!(
+            "the wall's mesh would have {} corner vertices, over the limit of {}",
             (opts.layers + 1) * nv,
             super::MAX_IMPORT_VERTICES
-        )));
+        );
+        // A given edge (--resolution) is the user's to change: an option error, which the
+        // importer reports rather than voxelising at that resolution.
+        return Err(match opts.edge {
+            Some(_) => FemError::InvalidOptions(format!("{text}: use a lower --resolution")),
+            None => FemError::Mesh(text),
+        });
     }
     // Angle-weighted vertex normals of the extruded side.
     let mut vn = vec![[0.0f64; 3]; nv];

@@ -84,6 +84,11 @@ fn a_thin_walled_bowl_surface_rings_as_the_built_in_bowl() {
     let vox = import(surface, None, SurfaceMesher::Voxel).unwrap();
     let fv = freqs(&vox.mesh, &glass, 2);
     assert!((fv[0] / rf[0] - 1.0).abs() > 2.0 * (got[0] / rf[0] - 1.0).abs(), "voxels {} vs {}", fv[0], rf[0]);
+    // ... and say so: the wall is under two voxels thick.
+    assert!(vox.warnings.iter().any(|w| w.contains("thinner than two voxels")), "{:?}", vox.warnings);
+    // A --resolution too fine for the wall is refused as an option, not voxelised at it.
+    let e = import(revolve(&outline, 96), Some(100), SurfaceMesher::Auto).unwrap_err();
+    assert!(matches!(e, fem::FemError::InvalidOptions(_)) && e.to_string().contains("lower --resolution"), "{e}");
 }
 
 #[test]
