@@ -131,12 +131,13 @@ pub fn last_profile() -> Profile {
     LAST_PROFILE.with(|p| p.borrow().clone())
 }
 
-/// `STRUCK_EIGEN_DEBUG` set: one line per Lanczos run on stderr.
 /// Largest sparse LDLᵀ factor a bank build accepts, bytes. With the Lanczos basis, the
 /// matrices and the mode shapes a build then stays within 4 GiB (measured: a 118k-DOF bowl
 /// has a 492 MiB factor and peaks at 2.0 GiB; a 660k-DOF block needed 17 GiB).
 pub const MAX_FACTOR_BYTES: usize = 3 << 29; // 1.5 GiB
 
+/// `STRUCK_EIGEN_DEBUG` set: one line per Lanczos run on stderr, and one with the phase
+/// times of a solve that passed its residual check.
 fn debug() -> bool {
     std::env::var_os("STRUCK_EIGEN_DEBUG").is_some()
 }

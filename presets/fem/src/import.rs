@@ -312,10 +312,17 @@ pub const THIN_PART_SHARE: f64 = 0.01;
 fn thin_parts_warning(surface: &TriSurface, h: f64, resolution: usize) -> Option<String> {
     let (share, thinnest) = super::shell::thin_parts(surface, 2.0 * h);
     (share > THIN_PART_SHARE).then(|| {
-        // The resolution whose voxels would fit two across the thinnest part.
-        let needed = (resolution as f64 * 2.0 * h / thinnest).ceil();
+        // The resolution whose voxels would fit two across the thinnest part (rounding
+        // noise of the ray cast kept out of the ceiling); beyond any grid the voxeliser
+        // takes, Gmsh is the only advice.
+        let needed = (resolution as f64 * 2.0 * h / thinnest * (1.0 - 1e-9)).ceil();
+        let advice = if needed <= 1000.0 {
+            format!("--resolution {needed:.0} would resolve them (if it fits the budget), or mesh the object as Gmsh tetrahedra")
+        } else {
+            "mesh the object as Gmsh tetrahedra".to_string()
+        };
         format!(
-            "{:.0} % of the surface is on parts thinner than two voxels (down to {:.2e} m, voxels {:.2e} m): the voxel mesh cannot follow them, so modes that move them come out sharp; --resolution {needed:.0} would resolve them (if it fits the budget), or mesh the object as Gmsh tetrahedra",
+            "{:.0} % of the surface is on parts thinner than two voxels (down to {:.2e} m, voxels {:.2e} m): the voxel mesh cannot follow them, so modes that move them come out sharp; {advice}",
             100.0 * share,
             thinnest,
             h
@@ -328,8 +335,10 @@ fn thin_parts_warning(surface: &TriSurface, h: f64, resolution: usize) -> Option
 /// `opts.mesher`) or voxelises it ([`voxelise`]).
 ///
 /// # Errors
-/// As [`check_surface`], [`super::shell::mesh_thin_wall`] (with `SurfaceMesher::Shell`) and
-/// [`voxelise`]; [`FemError::InvalidOptions`] for a bad scale.
+/// As [`check_surface`], [`super::shell::mesh_thin_wall`] (with `SurfaceMesher::Shell`; with
+/// `Auto` only its option errors, the others fall back to voxels) and [`voxelise`];
+/// [`FemError::InvalidOptions`] for a bad scale, or a `resolution` too fine for a thin wall
+/// (over the corner limit or the factor limit).
 pub fn import_surface(
     mut surface: TriSurface,
     format: &str,
@@ -381,10 +390,13 @@ pub fn import_surface(
                         let max = super::eigen::MAX_FACTOR_BYTES as f64;
                         if bytes > max {
                             return Err(FemError::InvalidOptions(format!(
-                                "--resolution {r} is too fine for this wall: its mesh has {} DOFs, whose sparse factor would take {:.2} GiB (limit {:.2} GiB, to keep the build within 4 GiB); lower --resolution, or leave it out to mesh within the budget",
+                                "--resolution {r} is too fine for this wall: its mesh has {} DOFs, whose sparse factor would take {:.2} GiB (limit {:.2} GiB, to keep the build within 4 GiB); use a --resolution of at most about {:.0}, or leave it out to mesh within the budget (or --mesher voxel)",
                                 3 * mesh.nodes.len(),
                                 bytes / f64::from(1 << 30),
-                                max / f64::from(1 << 30)
+                                max / f64::from(1 << 30),
+                                // A wall's DOFs go as the resolution squared and its factor
+                                // about as its DOFs; a fifth's margin.
+                                (r as f64 * (0.8 * max / bytes).sqrt()).floor()
                             )));
                         }
                         return Ok((mesh, rep));

@@ -639,11 +639,10 @@ impl BuildOptions {
                 )));
             }
         }
-        if self.strike_points == 0 || self.strike_points > MAX_BANK_POINTS / 2 {
+        if self.strike_points == 0 || self.strike_points > MAX_BANK_POINTS {
             return Err(FemError::InvalidOptions(format!(
                 "strike_points must be in 1..={}, found {}",
-                MAX_BANK_POINTS / 2,
-                self.strike_points
+                MAX_BANK_POINTS, self.strike_points
             )));
         }
         Ok(())

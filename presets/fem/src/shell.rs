@@ -171,6 +171,16 @@ pub fn thin_parts(s: &TriSurface, below: f64) -> (f64, f64) {
     (if total > 0.0 { thin / total } else { 0.0 }, thinnest)
 }
 
+/// The `--resolution` (the largest side of `s`'s box over the target edge, as
+/// [`super::import::import_surface`] sets it) whose edge is `over.sqrt()` × `edge`, with a
+/// quarter's margin (remeshed edges come out 0.8–1.33 × the target): the finest to advise
+/// when a mesh at `edge` came out `over` × the corner limit.
+fn finest_resolution(s: &TriSurface, edge: f64, over: f64) -> f64 {
+    let (lo, hi) = s.bounds();
+    let side = (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f64::max);
+    (0.8 * side / (edge * over.max(1.0).sqrt())).floor()
+}
+
 /// Finds the thin walls of the closed, outward-oriented surface `s` (see the module docs).
 ///
 /// # Errors
@@ -500,7 +510,18 @@ pub fn mesh_thin_wall(
         Some(e) if !(e.is_finite() && e > 0.0) => {
             return Err(FemError::InvalidOptions(format!("the target edge must be a length > 0, found {e}")));
         }
-        Some(e) => e.max(min_edge),
+        // A given edge finer than the corner limit allows is refused here, naming the
+        // finest that fits (the caller's resolution is extent / edge), instead of being
+        // raised to the limit and then failing just over it.
+        Some(e) if e < min_edge => {
+            return Err(FemError::InvalidOptions(format!(
+                "the wall's mesh at this --resolution would have about {:.0} corner vertices, over the limit of {}: use a --resolution of at most {:.0} (or --mesher voxel)",
+                (opts.layers + 1) as f64 * (min_edge / e).powi(2) * (super::MAX_IMPORT_VERTICES / (opts.layers + 1)) as f64,
+                super::MAX_IMPORT_VERTICES,
+                finest_resolution(s, min_edge, 1.0)
+            )));
+        }
+        Some(e) => e,
         None => edge_for_budget(side_area, opts.dofs, opts.layers).max(min_edge),
     };
     // Remeshing gives edges of 0.8–1.33 h, so the budget's count is met within some 10 %;
@@ -521,15 +542,18 @@ pub fn mesh_thin_wall(
     progress("shell", 0.3);
     let nv = verts.len();
     if (opts.layers + 1) * nv > super::MAX_IMPORT_VERTICES {
+        let corners = (opts.layers + 1) * nv;
         let text = format!(
-            "the wall's mesh would have {} corner vertices, over the limit of {}",
-            (opts.layers + 1) * nv,
+            "the wall's mesh would have {corners} corner vertices, over the limit of {}",
             super::MAX_IMPORT_VERTICES
         );
         // A given edge (--resolution) is the user's to change: an option error, which the
         // importer reports rather than voxelising at that resolution.
         return Err(match opts.edge {
-            Some(_) => FemError::InvalidOptions(format!("{text}: use a lower --resolution")),
+            Some(_) => FemError::InvalidOptions(format!(
+                "{text}: use a --resolution of at most {:.0} (or --mesher voxel)",
+                finest_resolution(s, edge, corners as f64 / super::MAX_IMPORT_VERTICES as f64)
+            )),
             None => FemError::Mesh(text),
         });
     }

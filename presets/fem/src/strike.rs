@@ -196,8 +196,8 @@ fn lerp(a: [f64; 3], d: [f64; 3], t: f64) -> [f64; 3] {
     [a[0] + d[0] * t, a[1] + d[1] * t, a[2] + d[2] * t]
 }
 
-/// At least `n` strike points along a path over the outer surface of `geom`, neighbours
-/// close together.
+/// Exactly `n` (at least 1) strike points along a path over the outer surface of `geom`,
+/// neighbours close together.
 pub(crate) fn strike_path(geom: &Geometry, n: usize) -> Vec<PathPoint> {
     let n = n.max(1);
     match geom {
@@ -304,6 +304,19 @@ mod tests {
                 }
                 let counts: Vec<usize> = rows.iter().map(|y| path.iter().filter(|p| p.xy[1] == *y).count()).collect();
                 assert!(counts.iter().max().unwrap() - counts.iter().min().unwrap() <= 1, "{n}: {counts:?}");
+                // Even rows run in +x, odd rows in −x; a step along the path is at most a
+                // row's spacing across plus a column's along (no jump back over the face).
+                let dy = ly / rows.len() as f64;
+                let dx = lx / *counts.iter().min().unwrap() as f64;
+                for w in path.windows(2) {
+                    let (a, b) = (w[0].position, w[1].position);
+                    if a[1] == b[1] {
+                        let row = rows.iter().position(|y| *y == w[0].xy[1]).unwrap();
+                        assert_eq!(b[0] > a[0], row % 2 == 0, "{n}: row {row} runs the wrong way");
+                    }
+                    let step = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
+                    assert!(step <= 1.0001 * (dx * dx + dy * dy).sqrt(), "{lx} x {ly}, {n}: step {step}");
+                }
             }
         }
     }

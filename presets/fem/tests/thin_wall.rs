@@ -88,7 +88,7 @@ fn a_thin_walled_bowl_surface_rings_as_the_built_in_bowl() {
     assert!(vox.warnings.iter().any(|w| w.contains("thinner than two voxels")), "{:?}", vox.warnings);
     // A --resolution too fine for the wall is refused as an option, not voxelised at it.
     let e = import(revolve(&outline, 96), Some(100), SurfaceMesher::Auto).unwrap_err();
-    assert!(matches!(e, fem::FemError::InvalidOptions(_)) && e.to_string().contains("lower --resolution"), "{e}");
+    assert!(matches!(e, fem::FemError::InvalidOptions(_)) && e.to_string().contains("--resolution of at most"), "{e}");
 }
 
 #[test]
