@@ -152,7 +152,7 @@ fn inward_hits(s: &TriSurface, grid: &TriGrid, normals: &[[f64; 3]]) -> Vec<Opti
 /// How much of the closed, outward-oriented surface `s` lies on parts thinner than `below`
 /// (m): the share of its area whose inward ray ([`inward_hits`]) meets the opposite side
 /// within `below`, and the thinnest such part (m; ∞ for none). A voxel mesh at spacing h
-/// cannot follow a part thinner than h: it comes out a voxel thick.
+/// cannot follow a part thinner than about 2h (the importer asks with `below` = 2h).
 pub fn thin_parts(s: &TriSurface, below: f64) -> (f64, f64) {
     let n = s.triangles.len();
     let all: Vec<u32> = (0..n as u32).collect();
