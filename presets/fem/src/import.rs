@@ -225,7 +225,7 @@ fn import_mesh_file_within(
 }
 
 /// The largest side of the box `lo`–`hi`.
-fn extent(lo: [f64; 3], hi: [f64; 3]) -> f64 {
+pub(crate) fn extent(lo: [f64; 3], hi: [f64; 3]) -> f64 {
     (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f64::max)
 }
 
@@ -309,13 +309,15 @@ pub const THIN_PART_SHARE: f64 = 0.01;
 /// sides `h` ([`super::shell::thin_parts`]): the voxels cannot follow such a part (a fin, a
 /// blade, a thin wall), so its modes come out sharp (a 1 mm fin on a 6 cm block voxelised at
 /// 2.4 mm: 28 % high; a 4 mm bowl wall at 3.2 mm voxels: up to 14 %).
-fn thin_parts_warning(surface: &TriSurface, h: f64, resolution: usize) -> Option<String> {
+fn thin_parts_warning(surface: &TriSurface, h: f64) -> Option<String> {
     let (share, thinnest) = super::shell::thin_parts(surface, 2.0 * h);
     (share > THIN_PART_SHARE).then(|| {
         // The resolution whose voxels would fit two across the thinnest part (rounding
         // noise of the ray cast kept out of the ceiling); beyond any grid the voxeliser
         // takes, Gmsh is the only advice.
-        let needed = (resolution as f64 * 2.0 * h / thinnest * (1.0 - 1e-9)).ceil();
+        // (The resolution is the box's largest side over h.)
+        let (lo, hi) = surface.bounds();
+        let needed = (2.0 * extent(lo, hi) / thinnest * (1.0 - 1e-9)).ceil();
         let advice = if needed <= 1000.0 {
             format!("--resolution {needed:.0} would resolve them (if it fits the budget), or mesh the object as Gmsh tetrahedra")
         } else {
@@ -462,7 +464,7 @@ pub fn import_surface(
     let resolution = opts.resolution.unwrap_or_else(|| auto_resolution(&surface, DEFAULT_VERTEX_BUDGET));
     let (mesh, vox) = voxelise(&surface, &VoxelOptions { resolution, snap: opts.snap }, progress)?;
     warnings.extend(vox.warnings.iter().cloned());
-    if let Some(w) = thin_parts_warning(&surface, vox.h, resolution) {
+    if let Some(w) = thin_parts_warning(&surface, vox.h) {
         warnings.push(w);
     }
     let summary = format!(

@@ -177,8 +177,7 @@ pub fn thin_parts(s: &TriSurface, below: f64) -> (f64, f64) {
 /// when a mesh at `edge` came out `over` × the corner limit.
 fn finest_resolution(s: &TriSurface, edge: f64, over: f64) -> f64 {
     let (lo, hi) = s.bounds();
-    let side = (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f64::max);
-    (0.8 * side / (edge * over.max(1.0).sqrt())).floor()
+    (0.8 * super::import::extent(lo, hi) / (edge * over.max(1.0).sqrt())).floor()
 }
 
 /// Finds the thin walls of the closed, outward-oriented surface `s` (see the module docs).
@@ -516,7 +515,7 @@ pub fn mesh_thin_wall(
         Some(e) if e < min_edge => {
             return Err(FemError::InvalidOptions(format!(
                 "the wall's mesh at this --resolution would have about {:.0} corner vertices, over the limit of {}: use a --resolution of at most {:.0} (or --mesher voxel)",
-                (opts.layers + 1) as f64 * (min_edge / e).powi(2) * (super::MAX_IMPORT_VERTICES / (opts.layers + 1)) as f64,
+                super::MAX_IMPORT_VERTICES as f64 * (min_edge / e).powi(2),
                 super::MAX_IMPORT_VERTICES,
                 finest_resolution(s, min_edge, 1.0)
             )));

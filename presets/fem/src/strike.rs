@@ -283,8 +283,8 @@ mod tests {
     use super::*;
 
     /// A box's serpentine has exactly the asked number of points (it rounded up to a full
-    /// grid: `--points 8` on a square face gave 9, 1,024 on a plate over the bank's limit),
-    /// each inside the top face, rows evenly spaced and each row's points in order.
+    /// grid: `--points 8` on a square face gave 9), each inside the top face, rows evenly
+    /// spaced and each row's points in order.
     #[test]
     fn a_box_is_struck_at_exactly_the_points_asked() {
         for (lx, ly) in [(0.05, 0.05), (0.4, 0.3), (0.2, 0.08), (0.3, 0.02), (0.01, 0.3)] {
