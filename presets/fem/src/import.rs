@@ -225,7 +225,7 @@ fn import_mesh_file_within(
 }
 
 /// The largest side of the box `lo`–`hi`.
-pub(crate) fn extent(lo: [f64; 3], hi: [f64; 3]) -> f64 {
+fn extent(lo: [f64; 3], hi: [f64; 3]) -> f64 {
     (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f64::max)
 }
 

@@ -176,8 +176,10 @@ pub fn thin_parts(s: &TriSurface, below: f64) -> (f64, f64) {
 /// quarter's margin (remeshed edges come out 0.8–1.33 × the target): the finest to advise
 /// when a mesh at `edge` came out `over` × the corner limit.
 fn finest_resolution(s: &TriSurface, edge: f64, over: f64) -> f64 {
+    // The largest side as `import::extent` measures it (not called: import uses this module).
     let (lo, hi) = s.bounds();
-    (0.8 * super::import::extent(lo, hi) / (edge * over.max(1.0).sqrt())).floor()
+    let side = (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f64::max);
+    (0.8 * side / (edge * over.max(1.0).sqrt())).floor()
 }
 
 /// Finds the thin walls of the closed, outward-oriented surface `s` (see the module docs).
