@@ -1191,51 +1191,71 @@ pub fn extract_impact(
 /// Groups features into partials (issue 10 part 4). A real partial is often not one
 /// exponential: the strike's onset leaves a broad, fast component on it (a triangle's
 /// 8553 Hz partial decays at 4 s⁻¹ under an onset component at d = 196 s⁻¹ that is stronger
-/// at t = 0), and a beating twin leaves a second, faster one. Taken as modes of their own,
-/// those components sit far above the damping law and a comparison by frequency picks the
-/// wrong decay. So, in order of energy a²/(4d), a feature that decays faster than a more
-/// energetic one and lies within its partial — 0.5 % in frequency, or within its own
-/// half-power bandwidth d/2π — becomes a component of it, and so does any weaker feature
-/// closer to it than the record can resolve (1/T Hz for a record of T seconds: a fit's
-/// split of one partial). The partial keeps its late
-/// (energy-dominant) decay, and says how well one exponential explains it
-/// (`single_exponential`, its energy share) and its initial slope (`early_decay_per_s`).
+/// at t = 0), a beating twin leaves a second component, and a two-stage decay is fitted as a
+/// fast and a slow one (a steel drum's 494 Hz partial: 0.78 at 14 s⁻¹ and 0.31 at 4.6 s⁻¹,
+/// 1.4 Hz apart; its envelope falls at 4.2–4.5 s⁻¹ after the first 0.15 s). Taken as modes
+/// of their own, those components sit far above the damping law and a comparison by
+/// frequency picks the wrong decay. So, in order of energy a²/(4d), a feature that lies
+/// within a more energetic one's partial — 0.5 % in frequency, closer than the record can
+/// resolve (1/T Hz for a record of T seconds: a fit's split of one partial) or, if it decays
+/// faster, within its own half-power bandwidth d/2π (an onset component is broad) — joins
+/// it. A partial is reported by its late slope: the
+/// slowest member that holds at least [`LATE_SHARE`] of the partial's energy within the
+/// record (so a weak, almost steady fit under a partial — hum, a loop's floor — is not its
+/// slope); the other members are its components. The partial says how well one exponential
+/// explains it (`single_exponential`, the reported member's share of the partial's energy)
+/// and its initial slope (`early_decay_per_s`, the amplitude-weighted mean decay).
 pub fn group_partials(features: Vec<Feature>, duration_s: f64) -> (Vec<Feature>, Vec<Feature>) {
-    let resolution = 1.0 / duration_s.max(1e-3);
+    let t = duration_s.max(1e-3);
+    let resolution = 1.0 / t;
     let energy = |f: &Feature| f.amplitude * f.amplitude / (4.0 * f.decay_per_s.max(1e-9));
+    // Energy within the record: a²(1 − e^(−2dT))/(4d).
+    let seen = |f: &Feature| {
+        let d = f.decay_per_s.max(1e-9);
+        f.amplitude * f.amplitude * -(-2.0 * d * t).exp_m1() / (4.0 * d)
+    };
     let mut order = features;
     order.sort_by(|a, b| energy(b).total_cmp(&energy(a)));
-    // Leaders with their group's energy and Σ a, Σ a·d.
-    let mut leaders: Vec<(Feature, f64, f64, f64)> = Vec::new();
-    let mut components = Vec::new();
+    // Each group's most energetic member first.
+    let mut groups: Vec<Vec<Feature>> = Vec::new();
     for f in order {
-        let e = energy(&f);
-        let joined = leaders.iter_mut().find(|(l, ..)| {
+        let joined = groups.iter_mut().find(|g| {
+            let l = &g[0];
             let df = (f.freq_hz - l.freq_hz).abs();
-            df < resolution
-                || (f.decay_per_s > l.decay_per_s
-                    && df <= (0.005 * l.freq_hz).max(f.decay_per_s / std::f64::consts::TAU))
+            // A faster feature's own bandwidth: the onset component of a partial is broad.
+            let bandwidth = if f.decay_per_s > l.decay_per_s { f.decay_per_s / std::f64::consts::TAU } else { 0.0 };
+            df < resolution || df <= (0.005 * l.freq_hz).max(bandwidth)
         });
         match joined {
-            Some((_, ge, sa, sad)) => {
-                *ge += e;
-                *sa += f.amplitude;
-                *sad += f.amplitude * f.decay_per_s;
-                components.push(f);
-            }
-            None => leaders.push((f, e, f.amplitude, f.amplitude * f.decay_per_s)),
+            Some(g) => g.push(f),
+            None => groups.push(vec![f]),
         }
     }
-    let partials = leaders
-        .into_iter()
-        .map(|(mut l, ge, sa, sad)| {
-            l.single_exponential = energy(&l) / ge.max(1e-300);
-            l.early_decay_per_s = sad / sa.max(1e-300);
-            l
-        })
-        .collect();
+    let mut partials = Vec::with_capacity(groups.len());
+    let mut components = Vec::new();
+    for g in groups {
+        let seen_total: f64 = g.iter().map(seen).sum();
+        let late = (0..g.len())
+            .filter(|&i| seen(&g[i]) >= LATE_SHARE * seen_total)
+            .min_by(|&i, &j| g[i].decay_per_s.total_cmp(&g[j].decay_per_s))
+            .unwrap_or(0);
+        let (sum_e, sum_a) = (g.iter().map(energy).sum::<f64>(), g.iter().map(|f| f.amplitude).sum::<f64>());
+        let sum_ad: f64 = g.iter().map(|f| f.amplitude * f.decay_per_s).sum();
+        let mut p = g[late];
+        p.single_exponential = energy(&p) / sum_e.max(1e-300);
+        p.early_decay_per_s = sum_ad / sum_a.max(1e-300);
+        partials.push(p);
+        components.extend(g.into_iter().enumerate().filter(|&(i, _)| i != late).map(|(_, f)| f));
+    }
     (partials, components)
 }
+
+/// Share of a partial's energy within the record that its slowest member must hold to be
+/// the partial's late slope ([`group_partials`]). On the 82 real clips of
+/// `tests/recordings` (strong partials whose decay is within 20 % of the independent ESPRIT
+/// reference, of 410; of its 85 reliable ones): 2 % 149 / 56, 5 % 150 / 56, **10 % 150 / 57**,
+/// 20 % 144 / 56, 30 % 143 / 55; reporting the most energetic member, as before, 142 / 54.
+pub const LATE_SHARE: f64 = 0.1;
 
 /// Power spectrum of an impact's residual (what the fitted modes leave), to tell the noise
 /// each feature was measured against: a mode next to unresolved partials, a transient or
