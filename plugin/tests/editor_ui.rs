@@ -1,9 +1,11 @@
 //! The real editor UI driven headlessly with egui_kittest: the same `EditorUi::ui` the plugin
 //! window draws, with a `ParamSetter` over a recording GUI context instead of the host's.
 //!
-//! Screenshots of the main views go to `$CARGO_TARGET_TMPDIR/editor-screenshots/` when a wgpu
-//! adapter is available (on Linux CI: Mesa's lavapipe, package `mesa-vulkan-drivers`); without
-//! one the screenshots are skipped with a note, and the tests still run.
+//! With the `editor-screenshots` feature (`cargo test -p struck --test editor_ui --features
+//! editor-screenshots`), screenshots of the main views go to
+//! `$CARGO_TARGET_TMPDIR/editor-screenshots/` when a wgpu adapter is available (on Linux:
+//! Mesa's lavapipe, package `mesa-vulkan-drivers`); without one they are skipped with a note,
+//! and the tests still run. The tests' build leaves the feature off (no test looks at them).
 
 // PANIC: in these tests each `expect` is an assertion; its message names what was missing.
 
@@ -56,6 +58,7 @@ fn tmp(name: &str) -> PathBuf {
 }
 
 /// Saves a screenshot if a renderer is available; never fails the test.
+#[cfg(feature = "editor-screenshots")]
 fn screenshot(h: &mut Harness<'_, State>, name: &str) {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("editor-screenshots");
     let _ = std::fs::create_dir_all(&dir);
@@ -72,6 +75,10 @@ fn screenshot(h: &mut Harness<'_, State>, name: &str) {
         Err(_) => println!("screenshot {name} skipped: the wgpu renderer panicked (no adapter?)"),
     }
 }
+
+/// Without the `editor-screenshots` feature: nothing (the views are still drawn and queried).
+#[cfg(not(feature = "editor-screenshots"))]
+fn screenshot(_: &mut Harness<'_, State>, _: &str) {}
 
 /// The object view's picture of the current object (`editor/drawing.rs`).
 fn picture(plugin: &Struck) -> struck::editor::drawing::ObjectDrawing {
