@@ -4,6 +4,7 @@
 //! bundles the debug plugin into `target/test-bundled`, runs the whole test suite, the
 //! third-party validators and the pedalboard VST3 host test).
 
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn cargo(args: &[&str]) -> Result<(), String> {
@@ -156,7 +157,7 @@ fn banks() -> Result<(), String> {
     cargo(&["build", "--quiet", "--release", "-p", "struck-cli", "--bin", "struck"])?;
     std::fs::create_dir_all("presets/factory/banks").map_err(|e| e.to_string())?;
     let target = std::env::var("CARGO_TARGET_DIR").unwrap_or_else(|_| "target".into());
-    let struck = std::path::Path::new(&target).join("release/struck");
+    let struck = Path::new(&target).join("release/struck");
     let mut failed = Vec::new();
     for &(id, name, shape, dims, e, rho, nu, res, modes) in FEM_BANKS {
         let out = format!("presets/factory/banks/{id}.json");
@@ -262,7 +263,6 @@ const TEST_BUILD_ARGS: [&str; 7] = ["--workspace", "--lib", "--bins", "--tests",
 /// failure).
 fn bundle_for_tests(cargo: &str) -> Result<bool, String> {
     use std::fs;
-    use std::path::Path;
     check_target_dir(cargo)?;
     let mut build = Command::new(cargo);
     build.arg("build").args(TEST_BUILD_ARGS);
@@ -319,7 +319,7 @@ fn check_target_dir(cargo: &str) -> Result<(), String> {
     let dir = text.find(key).map(|i| &text[i + key.len()..]).and_then(|t| t.split('"').next());
     let want = std::env::current_dir().map_err(|e| e.to_string())?.join("target");
     match dir {
-        Some(d) if std::path::Path::new(d) == want => Ok(()),
+        Some(d) if Path::new(d) == want => Ok(()),
         Some(d) => Err(format!(
             "cargo builds into {d}, but `cargo xtask test` bundles and runs from {}: unset CARGO_TARGET_DIR (or build.target-dir)",
             want.display()
@@ -348,6 +348,55 @@ fn step(name: &str, cmd: &mut Command) -> bool {
     ok
 }
 
+/// A step run beside the others: its output goes to a log file that [`Background::finish`]
+/// prints when it is waited for, so it does not interleave with theirs.
+struct Background {
+    name: String,
+    log: PathBuf,
+    child: Result<std::process::Child, String>,
+    start: std::time::Instant,
+}
+
+impl Background {
+    fn start(name: &str, mut cmd: Command, log: &Path) -> Self {
+        eprintln!("+ {name} (beside the next steps; output in {})", log.display());
+        let child = std::fs::File::create(log)
+            .and_then(|out| Ok((out.try_clone()?, out)))
+            .and_then(|(out, err)| cmd.stdout(out).stderr(err).spawn())
+            .map_err(|e| e.to_string());
+        Self { name: name.into(), log: log.to_path_buf(), child, start: std::time::Instant::now() }
+    }
+
+    /// Waits for the step, prints its output and time, and returns whether it succeeded.
+    fn finish(self) -> bool {
+        let name = &self.name;
+        eprintln!("+ {name} (waiting for it)");
+        let ok = match self.child.map(|mut c| c.wait()) {
+            Ok(Ok(s)) if s.success() => true,
+            Ok(Ok(s)) => {
+                eprintln!("xtask: {name} failed ({s})");
+                false
+            }
+            Ok(Err(e)) => {
+                eprintln!("xtask: cannot run {name}: {e}");
+                false
+            }
+            Err(e) => {
+                eprintln!("xtask: cannot run {name}: {e}");
+                false
+            }
+        };
+        if let Ok(text) = std::fs::read_to_string(&self.log) {
+            eprint!("{text}");
+        }
+        eprintln!(
+            "xtask: {name}: {:.0} s (from its start, beside the steps before)",
+            self.start.elapsed().as_secs_f64()
+        );
+        ok
+    }
+}
+
 /// `cargo xtask test [cargo test args]`: installs what the tests need (tests/setup.sh), bundles
 /// the debug plugin into [`TEST_BUNDLES`], runs every test binary of the workspace (all of
 /// them, even when one fails), then the third-party validators (clap-validator and Steinberg's
@@ -371,6 +420,19 @@ fn test(extra: &[String]) -> Result<(), String> {
     if !built {
         failed.push("cargo build");
     }
+
+    // The FEM tests' independent references: the script checks itself against closed forms
+    // and recomputes tests/data/axisymmetric.json (scipy, about 80 s, one thread). It runs
+    // beside the test binaries, which leave a core idle much of the time (a binary runs its
+    // tests two at a time, and many have one long test).
+    let mut refs = Command::new(root.join("target/test-venv/bin/python"));
+    refs.arg("presets/fem/tests/reference/axisymmetric.py")
+        .arg("--check")
+        .arg("presets/fem/tests/data/axisymmetric.json")
+        .env("OMP_NUM_THREADS", "1")
+        .env("OPENBLAS_NUM_THREADS", "1");
+    let background_refs =
+        Background::start("FEM axisymmetric references (scipy)", refs, &root.join("target/fem-references.log"));
 
     let mut cargo_test = Command::new(&cargo_bin);
     cargo_test
@@ -423,13 +485,7 @@ fn test(extra: &[String]) -> Result<(), String> {
         failed.push("Ardour");
     }
 
-    // The FEM tests' independent references: the script checks itself against closed forms
-    // and recomputes tests/data/axisymmetric.json (scipy, about 30 s).
-    let mut refs = Command::new(root.join("target/test-venv/bin/python"));
-    refs.arg("presets/fem/tests/reference/axisymmetric.py")
-        .arg("--check")
-        .arg("presets/fem/tests/data/axisymmetric.json");
-    if !step("FEM axisymmetric references (scipy)", &mut refs) {
+    if !background_refs.finish() {
         failed.push("FEM references");
     }
 
