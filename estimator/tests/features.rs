@@ -130,6 +130,12 @@ fn a_partial_is_reported_by_its_late_slope_not_its_floor() {
     let q = near(1784.0);
     assert_eq!(q.len(), 1, "{:?}", fit.features);
     assert!((q[0].decay_per_s / 50.0 - 1.0).abs() < 0.03, "the partial's slope, not its floor: {:?}", q[0]);
+    // The floor was fitted, and is a component of the partial.
+    assert!(
+        fit.components.iter().any(|c| (c.freq_hz / 1784.0 - 1.0).abs() < 0.001 && c.decay_per_s < 2.0),
+        "{:?}",
+        fit.components
+    );
 }
 
 /// A mode just below Nyquist at a low sample rate (8 kHz: 3,950 and 3,990 Hz, 0.494 and

@@ -426,7 +426,8 @@ fn test(extra: &[String]) -> Result<(), String> {
     // beside the test binaries, which leave a core idle much of the time (a binary runs its
     // tests two at a time, and many have one long test).
     let mut refs = Command::new(root.join("target/test-venv/bin/python"));
-    refs.arg("presets/fem/tests/reference/axisymmetric.py")
+    refs.arg("-u")
+        .arg("presets/fem/tests/reference/axisymmetric.py")
         .arg("--check")
         .arg("presets/fem/tests/data/axisymmetric.json")
         .env("OMP_NUM_THREADS", "1")
