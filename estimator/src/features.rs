@@ -1200,13 +1200,12 @@ pub fn extract_impact(
 /// within a more energetic one's partial — 0.5 % in frequency, closer than the record can
 /// resolve (1/T Hz for a record of T seconds: a fit's split of one partial) or, if it decays
 /// faster, within its own half-power bandwidth d/2π (an onset component is broad) — joins
-/// it. A partial is reported by its late slope: the
-/// slowest member that holds at least [`LATE_SHARE`] of the partial's energy within the
-/// record (so a weak, almost steady fit under a partial — hum, a loop's floor — is not its
-/// slope); the other members are its components. The partial says how well one exponential
-/// explains it (`single_exponential`, the reported member's share of the partial's energy
-/// within the record)
-/// and its initial slope (`early_decay_per_s`, the amplitude-weighted mean decay).
+/// it. A partial is reported by its late slope: the slowest member that holds at least
+/// [`LATE_SHARE`] of the partial's energy within the record (so a weak, almost steady fit
+/// under a partial — hum, a loop's floor — is not its slope); the other members are its
+/// components. The partial says how well one exponential explains it (`single_exponential`,
+/// the reported member's share of the partial's energy within the record) and its initial
+/// slope (`early_decay_per_s`, the amplitude-weighted mean decay).
 pub fn group_partials(features: Vec<Feature>, duration_s: f64) -> (Vec<Feature>, Vec<Feature>) {
     let t = duration_s.max(1e-3);
     let resolution = 1.0 / t;

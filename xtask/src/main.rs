@@ -333,7 +333,14 @@ fn check_target_dir(cargo: &str) -> Result<(), String> {
 fn step(name: &str, cmd: &mut Command) -> bool {
     eprintln!("+ {name}");
     let start = std::time::Instant::now();
-    let ok = match cmd.status() {
+    let ok = succeeded(name, cmd.status());
+    eprintln!("xtask: {name}: {:.0} s", start.elapsed().as_secs_f64());
+    ok
+}
+
+/// Whether a step's command ran and succeeded; says which of the two failed.
+fn succeeded(name: &str, status: std::io::Result<std::process::ExitStatus>) -> bool {
+    match status {
         Ok(s) if s.success() => true,
         Ok(s) => {
             eprintln!("xtask: {name} failed ({s})");
@@ -343,9 +350,7 @@ fn step(name: &str, cmd: &mut Command) -> bool {
             eprintln!("xtask: cannot run {name}: {e}");
             false
         }
-    };
-    eprintln!("xtask: {name}: {:.0} s", start.elapsed().as_secs_f64());
-    ok
+    }
 }
 
 /// A step run beside the others: its output goes to a log file that [`Background::finish`]
@@ -353,7 +358,7 @@ fn step(name: &str, cmd: &mut Command) -> bool {
 struct Background {
     name: String,
     log: PathBuf,
-    child: Result<std::process::Child, String>,
+    child: std::io::Result<std::process::Child>,
     start: std::time::Instant,
 }
 
@@ -362,8 +367,7 @@ impl Background {
         eprintln!("+ {name} (beside the next steps; output in {})", log.display());
         let child = std::fs::File::create(log)
             .and_then(|out| Ok((out.try_clone()?, out)))
-            .and_then(|(out, err)| cmd.stdout(out).stderr(err).spawn())
-            .map_err(|e| e.to_string());
+            .and_then(|(out, err)| cmd.stdout(out).stderr(err).spawn());
         Self { name: name.into(), log: log.to_path_buf(), child, start: std::time::Instant::now() }
     }
 
@@ -371,21 +375,7 @@ impl Background {
     fn finish(self) -> bool {
         let name = &self.name;
         eprintln!("+ {name} (waiting for it)");
-        let ok = match self.child.map(|mut c| c.wait()) {
-            Ok(Ok(s)) if s.success() => true,
-            Ok(Ok(s)) => {
-                eprintln!("xtask: {name} failed ({s})");
-                false
-            }
-            Ok(Err(e)) => {
-                eprintln!("xtask: cannot run {name}: {e}");
-                false
-            }
-            Err(e) => {
-                eprintln!("xtask: cannot run {name}: {e}");
-                false
-            }
-        };
+        let ok = succeeded(name, self.child.and_then(|mut c| c.wait()));
         if let Ok(text) = std::fs::read_to_string(&self.log) {
             eprint!("{text}");
         }
