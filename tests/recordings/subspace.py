@@ -194,6 +194,10 @@ def esprit(y, order=None, order_bonus=0, pmax=MAX_ORDER):
     phi = np.linalg.lstsq(U[:-1], U[1:], rcond=None)[0]
     z = np.linalg.eigvals(phi)
     z = z[np.abs(z) > 1e-6]
+    # A pole growing e^300-fold over the window (a noise-free render's spurious
+    # pole) would overflow the Vandermonde matrix and stall the solver: not a
+    # partial (poles growing at all are dropped below), so not fitted.
+    z = z[np.log(np.abs(z)) * len(y) < 300.0]
     Vm = z[None, :] ** np.arange(len(y))[:, None]
     c = np.linalg.lstsq(Vm, y, rcond=None)[0]
     return z, c
