@@ -63,10 +63,13 @@ pub enum EstimateError {
         value: f32,
     },
     /// No impact could be found in any file.
-    #[error("no impacts found in {files} file(s); record taps well above the background noise, with a short silence between them")]
+    #[error("no impacts found in {files} file(s); record taps well above the background noise, with a short silence between them{also}")]
     NoImpacts {
         /// Number of files searched.
         files: usize,
+        /// What reading them warned of (a file whose data ends early, …), as
+        /// " (also: …; …)", or empty: the error is then the only line the user sees.
+        also: String,
     },
     /// Impacts were found, but none could be used (each one's reason is in the report's
     /// skipped list; the first is named here).

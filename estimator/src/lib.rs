@@ -457,11 +457,12 @@ pub fn extract_features(
                 .filter_map(|&(at, _)| events.iter().rev().find(|&&e| e < at).map(|&e| (at - e) as f64 / fs))
                 .collect();
             let (lo, hi) = spacing.iter().fold((f64::INFINITY, 0.0f64), |(a, b), &v| (a.min(v), b.max(v)));
+            // "each 25 ms", not "each 25–25 ms".
+            let (lo_ms, hi_ms) = ((1e3 * lo).round(), (1e3 * hi).round());
+            let each = if lo_ms == hi_ms { format!("{lo_ms:.0}") } else { format!("{lo_ms:.0}–{hi_ms:.0}") };
             report.warnings.push(format!(
-                "{name}: {} strikes fell inside impacts and are analysed with them (a roll, a tremolo or bounces: each {:.0}–{:.0} ms after the strike before it, from {:.2} s to {:.2} s; their decays mix); leave more time between taps",
+                "{name}: {} strikes fell inside impacts and are analysed with them (a roll, a tremolo or bounces: each {each} ms after the strike before it, from {:.2} s to {:.2} s; their decays mix); leave more time between taps",
                 seg.restrikes.len(),
-                1e3 * lo,
-                1e3 * hi,
                 seg.restrikes[0].0 as f64 / fs,
                 seg.restrikes[seg.restrikes.len() - 1].0 as f64 / fs
             ));
@@ -496,7 +497,13 @@ pub fn extract_features(
         if let Some(e) = first_silent.filter(|_| report.files.is_empty()) {
             return Err(e);
         }
-        return Err(EstimateError::NoImpacts { files: files.len() });
+        // The warnings would be lost with the report (a truncated file's "data ends early").
+        let also = if report.warnings.is_empty() {
+            String::new()
+        } else {
+            format!(" (also: {})", report.warnings.join("; ").replace('\n', " "))
+        };
+        return Err(EstimateError::NoImpacts { files: files.len(), also });
     }
     Ok(report)
 }

@@ -443,7 +443,12 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
             let low = |b: &[u8]| b.iter().rev().fold(0u32, |a, &x| (a << 8) | u32::from(x)) & ((1 << pad_bits) - 1);
             let samples = || buf[..got * frame_bytes].chunks_exact(spec.bytes);
             if samples().any(|b| low(b) != 0) {
-                justified = Some(f64::from(1u32 << pad_bits));
+                // Right-justified samples are sign-extended from the valid bits, so they lie
+                // within ±2^(valid − 1); samples over that fill the container (its valid bits
+                // were declared wrong: 16-bit audio marked 12) and read at its full scale.
+                let limit = 1.0 / f64::from(1u32 << pad_bits);
+                let fits = samples().all(|b| spec.decode(b).abs() <= limit);
+                justified = Some(if fits { f64::from(1u32 << pad_bits) } else { 1.0 });
             } else if samples().any(|b| b.iter().any(|&x| x != 0)) {
                 justified = Some(1.0);
             }
@@ -731,6 +736,11 @@ mod tests {
         plain[14] = 24;
         check_exact("right24in32", &wav_bytes(&plain, &data, None), &x, 1e-6);
         check_exact("ext-right24in32", &wav_bytes(&fmt_body(1, 1, 48_000, 32, Some(24)), &data, None), &x, 1e-6);
+        // 16-bit audio whose header says 12 valid bits (a black-box tester's file): its low
+        // bits are not zero, but its samples fill the container, so they are not
+        // right-justified 12-bit ones (read 16× too loud, with a false clipping warning).
+        let data: Vec<u8> = x.iter().flat_map(|v| ((v * 32_768.0).round() as i16).to_le_bytes()).collect();
+        check_exact("16-marked-12", &wav_bytes(&fmt_body(1, 1, 48_000, 16, Some(12)), &data, None), &x, 1e-4);
         // A block size that fits no layout of the samples (16-bit mono in 3-byte blocks).
         let mut odd = fmt_body(1, 1, 48_000, 16, None);
         odd[12] = 3;

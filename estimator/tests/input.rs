@@ -210,7 +210,15 @@ fn no_impacts_and_send() {
     write_wav_f32(&p, &x, 48_000).unwrap();
     let cancel = AtomicBool::new(false);
     let e = extract_features(&[p], &Options::default(), &|_| {}, &cancel).unwrap_err();
-    assert!(matches!(e, EstimateError::NoImpacts { files: 1 }), "{e:?}");
+    assert!(matches!(e, EstimateError::NoImpacts { files: 1, .. }), "{e:?}");
+    // The same noise cut short (its header promises more data): the error carries the
+    // reading's warning, which was lost with the report (an independent tester's `head -c`).
+    let bytes = std::fs::read(tmp("noise")).unwrap();
+    let cut = tmp("noise-cut");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    let e = extract_features(&[cut], &Options::default(), &|_| {}, &cancel).unwrap_err().to_string();
+    assert!(e.starts_with("no impacts found") && e.contains("(also: ") && e.contains("truncated"), "{e}");
+    assert!(!e.contains('\n'), "{e}");
     fn is_send<T: Send>() {}
     is_send::<estimator::EstimateReport>();
     is_send::<estimator::FeaturesReport>();
