@@ -68,7 +68,8 @@
 //!   even within `min_gap_s` of the precursor (from its first 10 ms on: a strike that loud
 //!   within them is the precursor's own attack). Not when the first onset was a strike of its
 //!   own: it peaked in its first 10 ms and decayed (did not rise 0.5 dB over that peak), and
-//!   the second is less than 15 dB over it (`PRECURSOR_REGROWTH`).
+//!   the second is less than 15 dB over it (`PRECURSOR_REGROWTH`) or it fell 3 dB by then
+//!   (`PRECURSOR_DECAYED`: a soft strike 20 dB under a hard one).
 //! - The minimum gap (`min_gap_s`) counts from the onset's frame, so it ends 45–50 ms after
 //!   the onset sample, and holds only while the impact rings: a tick that decayed into the
 //!   floor or 40 dB under its peak (`RANG_OUT_DB`) within it is over, and what rises next is
@@ -174,6 +175,10 @@ const PRECURSOR_DB_RATIO: f64 = 10.0;
 const PRECURSOR_REGROWTH: f64 = 1.122;
 /// See `PRECURSOR_REGROWTH`.
 const PRECURSOR_STRUCK_DB_RATIO: f64 = 31.623;
+/// A first onset whose ring fell this factor (3 dB) from its first 10 ms by its last 10 ms
+/// before a louder onset is a strike of its own however much louder that one is
+/// (`PRECURSOR_STRUCK_DB_RATIO` holds only for what did not fall that far).
+const PRECURSOR_DECAYED: f64 = 2.0;
 /// A precursor still rising when the next onset comes — gradually this factor (3 dB) over
 /// its first 10 ms and loudest in its last 10 ms — is that onset's precursor however little louder
 /// the onset is: a music box's pin pressing the tooth until it slips off
@@ -1049,9 +1054,16 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
                             let head_end = (j0 + PRECURSOR_MIN_FRAMES).min(upto);
                             let head = e[j0..head_end.max(j0 + 1)].iter().fold(0.0f64, |m, &v| m.max(v));
                             let tail = e[head_end..upto].iter().fold(0.0f64, |m, &v| m.max(v));
+                            // However much louder the strike: one that decayed 3 dB from its
+                            // first 10 ms by its last 10 ms (a soft strike 20–26 dB under a hard
+                            // one 120–240 ms later; a graze stays flat, a scrape rises).
+                            let last = e[upto.saturating_sub(PRECURSOR_MIN_FRAMES).max(head_end)..upto]
+                                .iter()
+                                .fold(0.0f64, |m, &v| m.max(v));
+                            let decayed = last * PRECURSOR_DECAYED <= head;
                             let struck = upto >= head_end + PRECURSOR_MIN_FRAMES
                                 && tail <= PRECURSOR_REGROWTH * head
-                                && e_on < PRECURSOR_STRUCK_DB_RATIO * pre_peak;
+                                && (e_on < PRECURSOR_STRUCK_DB_RATIO * pre_peak || decayed);
                             // A swell, not a strike: it rose `PRECURSOR_SWELL` over its first
                             // 10 ms, gradually (no 10 ms of it rose half its rise in dB over
                             // its level so far: a second strike in a fast roll jumps), and was
