@@ -180,10 +180,10 @@ const PRECURSOR_STRUCK_DB_RATIO: f64 = 31.623;
 /// (`PRECURSOR_STRUCK_DB_RATIO` holds only for what did not fall that far).
 const PRECURSOR_DECAYED: f64 = 2.0;
 /// A precursor still rising when the next onset comes — gradually this factor (3 dB) over
-/// its first 10 ms and loudest in its last 10 ms — is that onset's precursor however little louder
-/// the onset is: a music box's pin pressing the tooth until it slips off
-/// (`metal-music-box-fluid-64` of `tests/recordings` swells 11 dB over 65 ms, and the
-/// release is 2.6 dB over the swell). A struck object's ring decays instead.
+/// its first 10 ms and loudest in its last 10 ms — is that onset's precursor however little
+/// louder the onset is: a music box's pin pressing the tooth until it slips off
+/// (`metal-music-box-fluid-64` of `tests/recordings` swells 11 dB over 45 ms and holds to the
+/// release at 70 ms, which is 2.6 dB over it). A struck object's ring decays instead.
 const PRECURSOR_SWELL: f64 = 2.0;
 
 /// Frames (2.5 ms hops) of a possible precursor's own start, its first 10 ms, that a strike

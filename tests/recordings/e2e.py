@@ -26,6 +26,7 @@ import argparse
 import json
 import math
 import os
+import re
 import struct
 import subprocess
 import sys
@@ -143,6 +144,27 @@ OBJECTS = {
 }
 
 
+# Bars whose lowest partial is their note: the pitch fit is also checked against the
+# sample's nominal pitch.
+TUNED_BARS = ("marimba", "xylophone", "vibraphone")
+PITCH_CLASS = {"C": 0, "D": 2, "E": 4, "F": 5, "G": 7, "A": 9, "B": 11}
+
+
+def nominal_hz(clip):
+    """The sample's nominal pitch: a patch's root (freepats: "#4 'Xylo C3' root 523.2 Hz") or
+    a SoundFont sample's name ("Marimba F# 6(L)": FluidR3 names middle C "C 5", so F# 6 is
+    MIDI 78, 740 Hz); None if neither."""
+    s = clip.get("sample", "")
+    m = re.search(r"root ([0-9.]+) Hz", s)
+    if m:
+        return float(m.group(1))
+    m = re.search(r"([A-G])(#?) ?(\d)", s)
+    if not m:
+        return None
+    midi = 12 * int(m.group(3)) + PITCH_CLASS[m.group(1)] + (1 if m.group(2) else 0)
+    return 440.0 * 2 ** ((midi - 69) / 12)
+
+
 def own_modes_bank(struck, clip, cache, tmp, top=24):
     """A bank of the clip's own modes as Struck extracts them (`struck bank capture`: the
     first impact's strongest partials, at most `top`, within 30 dB of the strongest, at one
@@ -188,6 +210,10 @@ def object_check(struck, clip, obj, ref, cache, tmp):
                      "cents_vs_reference": 1200 * math.log2(low_obj / low_ref)}
             if match.get("lowest_partial_hz"):
                 pitch["cents_vs_match"] = 1200 * math.log2(low_obj / match["lowest_partial_hz"])
+            nominal = nominal_hz(clip) if clip["object"] in TUNED_BARS else None
+            if nominal:
+                pitch["nominal_hz"] = nominal
+                pitch["cents_vs_nominal"] = 1200 * math.log2(low_obj / nominal)
     recorded = ((material.get("support") or {}).get("recorded_modes") or {}).get("modes", [])
     mean_only = json.loads(json.dumps(material))
     if mean_only.get("support"):
@@ -355,6 +381,10 @@ def main():
             summary["objects_pitch_clips"] = len(cents)
             summary["objects_pitch_within_semitone"] = sum(abs(v) <= 100 for v in cents) / len(cents)
             summary["objects_pitch_median_abs_cents"] = sorted(abs(v) for v in cents)[len(cents) // 2]
+        nominal = [r["pitch"]["cents_vs_nominal"] for r in ok_rows if "cents_vs_nominal" in r["pitch"]]
+        if nominal:
+            summary["objects_pitch_tuned_bars"] = len(nominal)
+            summary["objects_pitch_tuned_within_semitone"] = sum(abs(v) <= 100 for v in nominal) / len(nominal)
         summary["objects_reference_partials"] = sum(len(reference_for(c, a.cache)["partials"]) for c in clips
                                                     if a.own_modes or OBJECTS.get(c["object"]))
         summary["objects_failed"] = sum("error" in r for r in object_rows)
@@ -375,7 +405,9 @@ def main():
               + (f"; object's lowest mode within a semitone of the lowest strong partial on "
                  f"{summary['objects_pitch_within_semitone'] * summary['objects_pitch_clips']:.0f}/"
                  f"{summary['objects_pitch_clips']} clips (median {summary['objects_pitch_median_abs_cents']:.0f} cents)"
-                 if "objects_pitch_clips" in summary else ""))
+                 if "objects_pitch_clips" in summary else "")
+              + (f"; of the sample's nominal pitch on {summary['objects_pitch_tuned_within_semitone'] * summary['objects_pitch_tuned_bars']:.0f}/"
+                 f"{summary['objects_pitch_tuned_bars']} tuned bars" if "objects_pitch_tuned_bars" in summary else ""))
     if a.json_out:
         with open(a.json_out, "w") as f:
             json.dump({"summary": summary, "instruments": results, "objects": object_rows}, f, indent=1)
