@@ -498,11 +498,11 @@ pub fn extract_features(
             return Err(e);
         }
         // The warnings would be lost with the report (a truncated file's "data ends early").
-        let also = if report.warnings.is_empty() {
-            String::new()
-        } else {
-            format!(" (also: {})", report.warnings.join("; ").replace('\n', " "))
-        };
+        // (Not each file's own "no impacts found": the error says it.)
+        let also: Vec<&str> =
+            report.warnings.iter().map(String::as_str).filter(|w| !w.contains("no impacts found")).collect();
+        let also =
+            if also.is_empty() { String::new() } else { format!(" (also: {})", also.join("; ").replace('\n', " ")) };
         return Err(EstimateError::NoImpacts { files: files.len(), also });
     }
     Ok(report)

@@ -439,19 +439,32 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
                 0
             }
         };
+        // Right-justified samples are sign-extended from the valid bits, so they lie within
+        // ±2^(valid − 1): samples over that fill the container (its valid bits were declared
+        // wrong: 16-bit audio marked 12) and read at its full scale.
+        let samples = || buf[..got * frame_bytes].chunks_exact(spec.bytes);
+        let over_valid = || {
+            let limit = 1.0 / f64::from(1u32 << pad_bits);
+            samples().any(|b| spec.decode(b).abs() > limit)
+        };
         if justified.is_none() {
             let low = |b: &[u8]| b.iter().rev().fold(0u32, |a, &x| (a << 8) | u32::from(x)) & ((1 << pad_bits) - 1);
-            let samples = || buf[..got * frame_bytes].chunks_exact(spec.bytes);
             if samples().any(|b| low(b) != 0) {
-                // Right-justified samples are sign-extended from the valid bits, so they lie
-                // within ±2^(valid − 1); samples over that fill the container (its valid bits
-                // were declared wrong: 16-bit audio marked 12) and read at its full scale.
-                let limit = 1.0 / f64::from(1u32 << pad_bits);
-                let fits = samples().all(|b| spec.decode(b).abs() <= limit);
-                justified = Some(if fits { f64::from(1u32 << pad_bits) } else { 1.0 });
+                justified = Some(if over_valid() { 1.0 } else { f64::from(1u32 << pad_bits) });
             } else if samples().any(|b| b.iter().any(|&x| x != 0)) {
                 justified = Some(1.0);
             }
+        } else if justified != Some(1.0) && over_valid() {
+            // Taken as right-justified on a quiet start, then a louder stretch fills the
+            // container: what was read is rescaled to it (exact: a power of two), and none
+            // of it clipped (all of it was under 2^(valid − 1) of the container).
+            let k = 1.0 / f64::from(1u32 << pad_bits);
+            for v in &mut mono {
+                *v = (f64::from(*v) * k) as f32;
+            }
+            peak_any *= k;
+            clipped = 0;
+            justified = Some(1.0);
         }
         let gain = justified.unwrap_or(1.0);
         for (f, frame) in buf[..got * frame_bytes].chunks_exact(frame_bytes).enumerate() {
@@ -741,6 +754,14 @@ mod tests {
         // right-justified 12-bit ones (read 16× too loud, with a false clipping warning).
         let data: Vec<u8> = x.iter().flat_map(|v| ((v * 32_768.0).round() as i16).to_le_bytes()).collect();
         check_exact("16-marked-12", &wav_bytes(&fmt_body(1, 1, 48_000, 16, Some(12)), &data, None), &x, 1e-4);
+        // The same after a second of quiet room noise (−40 dBFS, under 2^11 of 2^15: the first
+        // 64 KiB alone would pass for right-justified 12-bit samples).
+        let quiet: Vec<f64> = (0..48_000).map(|i| 0.01 * (0.37 * i as f64).sin() * (0.011 * i as f64).cos()).collect();
+        let y: Vec<f64> = quiet.iter().chain(&x).copied().collect();
+        let data: Vec<u8> = y.iter().flat_map(|v| ((v * 32_768.0).round() as i16).to_le_bytes()).collect();
+        let r =
+            check_exact("quiet-16-marked-12", &wav_bytes(&fmt_body(1, 1, 48_000, 16, Some(12)), &data, None), &y, 1e-4);
+        assert!(!r.warnings.iter().any(|w| w.contains("clip")), "{:?}", r.warnings);
         // A block size that fits no layout of the samples (16-bit mono in 3-byte blocks).
         let mut odd = fmt_body(1, 1, 48_000, 16, None);
         odd[12] = 3;

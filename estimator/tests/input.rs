@@ -218,6 +218,7 @@ fn no_impacts_and_send() {
     std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
     let e = extract_features(&[cut], &Options::default(), &|_| {}, &cancel).unwrap_err().to_string();
     assert!(e.starts_with("no impacts found") && e.contains("(also: ") && e.contains("truncated"), "{e}");
+    assert_eq!(e.matches("no impacts found").count(), 1, "{e}");
     assert!(!e.contains('\n'), "{e}");
     fn is_send<T: Send>() {}
     is_send::<estimator::EstimateReport>();

@@ -955,7 +955,7 @@ fn a_much_softer_strike_that_decayed_is_not_a_precursor() {
 }
 
 /// A music box's pin pressing the tooth until it slips off (FluidR3's music box at key 64 in
-/// `tests/recordings`): the tooth sounds while it is pushed, swelling 11 dB over 65 ms, and
+/// `tests/recordings`): the tooth sounds while it is pushed, swelling 11 dB over 45 ms, and
 /// the release that follows (a click and the free tooth) is only 2–4 dB over the swell — not the 10 dB that makes a quiet
 /// onset a precursor. The swell is still the release's precursor (it never decayed): one
 /// impact at the release, the swell skipped as its precursor. (It was an impact of its own,

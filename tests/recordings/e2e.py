@@ -197,8 +197,9 @@ def object_check(struck, clip, obj, ref, cache, tmp):
         material = json.load(f)
     # The pitch fit (issue 10 part 5's target: the object's lowest mode within a semitone of
     # the recording's lowest strong partial): the object's lowest mode at the fitted gamma
-    # against the lowest of the reference's strong partials (subspace.py, not Struck's own
-    # features) and against the lowest partial the match itself used.
+    # against the lowest of the reference's 5 strongest partials (subspace.py, not Struck's
+    # own features), against the lowest partial the match itself used and, for tuned bars,
+    # against the sample's nominal pitch.
     pitch = {}
     if os.path.exists(rep):
         with open(rep) as f:
@@ -354,7 +355,7 @@ def main():
                     parts.append(f"{label} {w}/{len(r)} within 25 %" + (f" (median {median(r):.2f})" if r else ""))
                 pc = oc["pitch"].get("cents_vs_reference")
                 if pc is not None:
-                    parts.append(f"lowest mode {pc:+.0f} cents from the lowest strong partial")
+                    parts.append(f"lowest mode {pc:+.0f} cents from the lowest of the 5 strongest partials")
                 print(f"{c['id']:40s} on {obj} ({oc['recorded_modes']} modes recorded): " + "; ".join(parts))
 
     fin = [r for r in all_ratios if math.isfinite(r)]
@@ -402,7 +403,7 @@ def main():
               + "; ".join(f"{label}: "
                           f"{100 * summary[f'objects_{label}_within_25']:.1f} % within 25 %, median "
                           f"{summary[f'objects_{label}_median_t60_ratio']:.2f}" for label in ("recorded", "mean", "free"))
-              + (f"; object's lowest mode within a semitone of the lowest strong partial on "
+              + (f"; object's lowest mode within a semitone of the lowest of the 5 strongest partials on "
                  f"{summary['objects_pitch_within_semitone'] * summary['objects_pitch_clips']:.0f}/"
                  f"{summary['objects_pitch_clips']} clips (median {summary['objects_pitch_median_abs_cents']:.0f} cents)"
                  if "objects_pitch_clips" in summary else "")
