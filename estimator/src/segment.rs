@@ -152,7 +152,23 @@ pub struct Segmentation {
     /// predictor on). Not impacts of their own, but said: the impact's analysis mixes the
     /// strikes' decays (module docs).
     pub restrikes: Vec<(usize, usize)>,
+    /// The samples of `restrikes` where the ring's spectrum rose (`RESTRIKE_RISE_SHARE`):
+    /// a strike that re-excited some of the object's partials, which
+    /// [`Segmentation::pieces`] cuts the impact at. (Not where it only fell: a ring
+    /// component that stops — a truncated sample under a later strike — breaks the ring's
+    /// prediction as clearly as one that starts.)
+    pub cuts: Vec<usize>,
 }
+
+/// A strike inside an impact ([`Segmentation::cuts`]): the frames compared before it (ending
+/// a frame before the one holding its onset) and after it (from the frame after), each
+/// side this many (4: 10 ms of hops).
+const RESTRIKE_SPECTRUM_FRAMES: usize = 4;
+/// ... a bin rose when its power after is this many times (3 dB) its power before ...
+const RESTRIKE_BIN_RISE: f64 = 2.0;
+/// ... and the strike re-excited the object when the bins that rose hold this share of the
+/// power after it.
+const RESTRIKE_RISE_SHARE: f64 = 0.1;
 
 /// Within this time of an onset, a new onset during the ring must be within `onset_db` of
 /// the impact's peak (module docs), s.
@@ -214,6 +230,82 @@ const PRECURSOR: &str = "the precursor";
 /// not an impact of its own).
 pub fn is_precursor(reason: &str) -> bool {
     reason.starts_with(PRECURSOR)
+}
+
+/// The start of the reason of a stretch of an impact left out because a strike inside it
+/// came too soon after it ([`Segmentation::pieces`]).
+pub const BEFORE_RESTRIKE: &str = "cut short by a strike inside the impact";
+
+impl Segmentation {
+    /// The stretches of the recording to analyse: each impact cut at the strikes found
+    /// inside it that re-excited the object ([`Segmentation::cuts`]: a bounce, a roll faster
+    /// than the gap, a strike in antiphase to the ring that lowered its energy), so no
+    /// analysed stretch mixes two strikes. What a strike leaves on a ringing linear object is the same modes with new
+    /// amplitudes and phases: from the strike on the recording is again a sum of damped
+    /// sinusoids at the object's frequencies and decays, while a stretch across it has an
+    /// envelope that jumps (a roll's merged impact gave a comb of made-up modes and decays
+    /// slowed by each new strike). Each stretch ends where the next strike's first samples
+    /// begin (one frame, 5 ms, before its onset sample, as between impacts); one shorter
+    /// than `min_impact_s` is returned as skipped (its reason starts with
+    /// [`BEFORE_RESTRIKE`] when a strike follows it) and the strike after it is analysed.
+    /// An impact without a strike inside is returned whole. The stretches keep their
+    /// impact's SNR and noise floor. `fs` is the sample rate of the segmented samples.
+    pub fn pieces(&self, fs: f64, min_impact_s: f64) -> (Vec<Segment>, Vec<(Segment, String)>) {
+        let lead = 2 * ((fs * 0.0025).round() as usize).max(8);
+        let min_len = (min_impact_s * fs) as usize;
+        let (mut kept, mut short) = (Vec::new(), Vec::new());
+        for imp in &self.impacts {
+            let inside: Vec<usize> = self.cuts.iter().copied().filter(|&r| r > imp.start && r < imp.end).collect();
+            if inside.is_empty() {
+                kept.push(*imp);
+                continue;
+            }
+            let mut start = imp.start;
+            for r in inside.into_iter().chain(std::iter::once(imp.end)) {
+                let last = r == imp.end;
+                let end = if last { r } else { r.saturating_sub(lead).max(start + 1) };
+                let piece = Segment { start, end, ..*imp };
+                let ms = 1e3 * (end - start) as f64 / fs;
+                if end - start >= min_len {
+                    kept.push(piece);
+                } else if last {
+                    short.push((piece, format!("too short ({ms:.0} ms from a strike inside the impact to its end); leave more time between taps")));
+                } else {
+                    short.push((
+                        piece,
+                        format!(
+                            "{BEFORE_RESTRIKE} ({ms:.0} ms before it, at {:.3} s): too short to analyse; leave more time between taps",
+                            r as f64 / fs
+                        ),
+                    ));
+                }
+                start = r;
+            }
+        }
+        (kept, short)
+    }
+}
+
+/// Whether the sound from frame `j0` up to frame `upto` (exclusive) is a swell, not a strike
+/// (`PRECURSOR_SWELL`): it rose `PRECURSOR_SWELL` over its first 10 ms
+/// (`PRECURSOR_MIN_FRAMES`), gradually (no 10 ms of it rose half its rise in dB over its level
+/// so far: a second strike in a fast roll jumps), never fell 3 dB under its first 10 ms on the
+/// way (a struck ring that beats, blooms or swells with a vibraphone's tremolo dips first; a
+/// pin pressing the tooth rises from its start), and was at its loudest in its last 10 ms
+/// (still rising when what follows came): whatever louder strike ends it is its strike.
+fn still_swelling(e: &[f64], j0: usize, upto: usize) -> bool {
+    let head_end = (j0 + PRECURSOR_MIN_FRAMES).min(upto);
+    let head = e[j0..head_end.max(j0 + 1)].iter().fold(0.0f64, |m, &v| m.max(v));
+    let tail = e[head_end..upto].iter().fold(0.0f64, |m, &v| m.max(v));
+    let loudest = (head_end..upto).max_by(|&a, &b| e[a].total_cmp(&e[b]));
+    let step = (tail / head.max(1e-300)).sqrt();
+    let mut so_far = head;
+    let gradual = (head_end..upto.saturating_sub(PRECURSOR_MIN_FRAMES)).all(|k| {
+        so_far = so_far.max(e[k]);
+        e[k + PRECURSOR_MIN_FRAMES] < step * so_far
+    });
+    let no_dip = loudest.is_some_and(|l| e[head_end..=l].iter().all(|&v| v * PRECURSOR_DECAYED > head));
+    tail >= PRECURSOR_SWELL * head && gradual && no_dip && loudest.is_some_and(|k| k + PRECURSOR_MIN_FRAMES >= upto)
 }
 
 /// Power spectra of the frames of a signal.
@@ -1077,22 +1169,7 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
                             // its level so far: a second strike in a fast roll jumps), and was
                             // at its loudest in its last 10 ms (still rising when this onset
                             // came): whatever louder onset ends it is its strike.
-                            let loudest = (head_end..upto).max_by(|&a, &b| e[a].total_cmp(&e[b]));
-                            let step = (tail / head.max(1e-300)).sqrt();
-                            let mut so_far = head;
-                            let gradual = (head_end..upto.saturating_sub(PRECURSOR_MIN_FRAMES)).all(|k| {
-                                so_far = so_far.max(e[k]);
-                                e[k + PRECURSOR_MIN_FRAMES] < step * so_far
-                            });
-                            // ... and never fell 3 dB under its first 10 ms on the way (a struck
-                            // ring that beats, blooms or swells with a vibraphone's tremolo
-                            // dips first; a pin pressing the tooth rises from its start).
-                            let no_dip =
-                                loudest.is_some_and(|l| e[head_end..=l].iter().all(|&v| v * PRECURSOR_DECAYED > head));
-                            let swelling = tail >= PRECURSOR_SWELL * head
-                                && gradual
-                                && no_dip
-                                && loudest.is_some_and(|k| k + PRECURSOR_MIN_FRAMES >= upto);
+                            let swelling = still_swelling(&e, j0, upto);
                             let louder = e_on >= PRECURSOR_DB_RATIO * pre_peak || (swelling && e_on > pre_peak);
                             if j < j0 + same_strike && louder && !struck {
                                 precursors.push((o, 10.0 * (e_on / pre_peak).log10()));
@@ -1215,6 +1292,57 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
         }
     }
     restrikes.sort_unstable();
+    // Where the spectrum rose: a strike re-excites each partial with its own phase against
+    // the ring, so some rise even when the sum loses energy (module docs: antiphase); a
+    // component that stops only takes away.
+    let span = RESTRIKE_SPECTRUM_FRAMES;
+    let mut before = vec![0.0; nb];
+    let mut after = vec![0.0; nb];
+    for &(r, _) in &restrikes {
+        let j = r / hop;
+        if j < span + 2 || j + 1 + span > nfr {
+            continue;
+        }
+        before.iter_mut().for_each(|v| *v = 0.0);
+        after.iter_mut().for_each(|v| *v = 0.0);
+        for k in 0..span {
+            spec.power(j - 2 - k, &mut p);
+            before.iter_mut().zip(&p).for_each(|(b, v)| *b += v);
+            spec.power(j + 1 + k, &mut p);
+            after.iter_mut().zip(&p).for_each(|(a, v)| *a += v);
+        }
+        let total: f64 = after.iter().sum();
+        let rose: f64 = after.iter().zip(&before).filter(|(a, b)| **a >= RESTRIKE_BIN_RISE * **b).map(|(a, _)| a).sum();
+        if rose >= RESTRIKE_RISE_SHARE * total && total > 0.0 {
+            out.cuts.push(r);
+        }
+    }
+    // A cut that ends a swell within `SAME_STRIKE_S` of its onset, and is louder than it, is
+    // the swell's strike (a music box's release found only inside the impact: the onsets'
+    // rule for swells, `PRECURSOR_SWELL`): the impact starts there, the swell is its precursor.
+    for imp in out.impacts.iter_mut() {
+        let Some(ci) = out.cuts.iter().position(|&r| r > imp.start && r < imp.end) else { continue };
+        let r = out.cuts[ci];
+        let (j0, j) = (imp.start / hop, r / hop);
+        let e_on = e[j..(j + 4).min(nfr)].iter().fold(0.0f64, |m, &v| m.max(v));
+        let pre_peak = e[j0..j.max(j0 + 1)].iter().fold(0.0f64, |m, &v| m.max(v));
+        if j < j0 + same_strike && j >= j0 + 2 * PRECURSOR_MIN_FRAMES && e_on > pre_peak && still_swelling(&e, j0, j) {
+            out.skipped.push((
+                Segment { start: imp.start, end: r, ..*imp },
+                format!(
+                    "{PRECURSOR} of the strike at {:.3} s ({:.0} dB quieter): taken as part of it",
+                    r as f64 / fs,
+                    10.0 * (e_on / pre_peak.max(1e-300)).log10()
+                ),
+            ));
+            out.cuts.remove(ci);
+            restrikes.retain(|&(at, _)| at != r);
+            for x in restrikes.iter_mut().filter(|x| x.1 == imp.start) {
+                x.1 = r;
+            }
+            imp.start = r;
+        }
+    }
     out.restrikes = restrikes;
     out
 }
