@@ -312,7 +312,7 @@ const MAX_RESTRIKE_WARNINGS: usize = 3;
 const SHARED_TOP: usize = 5;
 /// ... found in another impact within this share of their frequency. A mode's frequency is
 /// precise to far better, even in a woodblock's 50–90 ms impacts (σ 0.02–0.3 Hz at
-/// 0.8–4.9 kHz in the test below); a noise burst's "partials" are not (σ 2–20 Hz), and
+/// 0.8–4.9 kHz in `tests/segment.rs`' `noise_bursts_are_said_to_share_no_partials`); a noise burst's "partials" are not (σ 2–20 Hz), and
 /// widening the window by σ let them meet by chance as often as not.
 const SHARED_TOL: f64 = 0.002;
 /// ... against chance: the same count for frequencies moved by these shares (dense features
@@ -481,9 +481,12 @@ pub fn extract_features(
                 let after = at.saturating_sub(onset) as f64 / fs;
                 // Cut where the strike re-excited the object (`Segmentation::cuts`).
                 let what = if seg.cuts.contains(&at) {
-                    "the impact is cut there and each part analysed alone"
+                    format!(
+                        "the impact is cut there, each part of {:.0} ms or more analysed alone (shorter ones are listed as skipped)",
+                        1e3 * opts.segment.min_impact_s
+                    )
                 } else {
-                    "analysed with it (the ring only fell there, as where a sound stops, so it is not cut: the two decays mix)"
+                    "analysed with it (the ring only fell there, as where a sound stops, so it is not cut: the two decays mix)".to_string()
                 };
                 report.warnings.push(if after < opts.segment.min_gap_s {
                     format!(
@@ -494,7 +497,7 @@ pub fn extract_features(
                     )
                 } else {
                     format!(
-                        "{name}: a strike {:.0} ms after the onset at {:.3} s that did not rise like an onset (in antiphase to the ring, or too fast): {what}; leave more time between taps",
+                        "{name}: a strike {:.0} ms after the onset at {:.3} s that was not taken as an onset (in antiphase to the ring, too soon after another, or much softer than the ring): {what}; leave more time between taps",
                         1e3 * after,
                         onset as f64 / fs
                     )
@@ -515,13 +518,26 @@ pub fn extract_features(
             // "each 25 ms", not "each 25–25 ms".
             let (lo_ms, hi_ms) = ((1e3 * lo).round(), (1e3 * hi).round());
             let each = if lo_ms == hi_ms { format!("{lo_ms:.0}") } else { format!("{lo_ms:.0}–{hi_ms:.0}") };
+            let cut = seg.restrikes.iter().filter(|r| seg.cuts.contains(&r.0)).count();
+            let mut how = Vec::new();
+            if cut > 0 {
+                how.push(format!(
+                    "the impacts are cut at the {cut} where the ring rose (parts under {:.0} ms left out)",
+                    1e3 * opts.segment.min_impact_s
+                ));
+            }
+            if cut < seg.restrikes.len() {
+                how.push(format!(
+                    "the other {} are analysed with the strike before (their decays mix)",
+                    seg.restrikes.len() - cut
+                ));
+            }
             report.warnings.push(format!(
-                "{name}: {} strikes fell inside impacts (a roll, a tremolo or bounces: each {each} ms after the strike before it, from {:.2} s to {:.2} s): the impacts are cut at the {} where the ring rose, parts shorter than {:.0} ms left out, the others analysed with the strike before (their decays mix); leave more time between taps",
+                "{name}: {} strikes fell inside impacts (a roll, a tremolo or bounces: each {each} ms after the strike before it, from {:.2} s to {:.2} s): {}; leave more time between taps",
                 seg.restrikes.len(),
                 seg.restrikes[0].0 as f64 / fs,
                 seg.restrikes[seg.restrikes.len() - 1].0 as f64 / fs,
-                seg.cuts.len(),
-                1e3 * opts.segment.min_impact_s
+                how.join("; ")
             ));
         }
         if seg.impacts.is_empty() {

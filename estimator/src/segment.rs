@@ -80,7 +80,7 @@
 //!   15 ms after the onset on: the rise rules above, or `rise_db` over the 10 ms before;
 //!   broadband) is reported in
 //!   [`Segmentation::restrikes`] (a mallet's bounce, a flam) when it falls inside an
-//!   analysed impact: its decays then mix two strikes.
+//!   analysed impact: its decays then mix two strikes, unless it cuts the impact (below).
 //! - Last, each analysed impact is searched for strikes that were neither cut nor reported
 //!   (a roll 25–45 ms apart, inside the gap; strikes whose ring before gave the predictor no
 //!   20 ms to train on; strikes that lowered the energy), with the predictor trained on 8 ms,
@@ -90,6 +90,10 @@
 //!   its first samples (a two-sample pulse is not) and settle once the predictor's regressors
 //!   have passed it (a fade-out does not). They are reported in
 //!   [`Segmentation::restrikes`] too.
+//! - A reported strike after which the ring's spectrum rose (some partial re-excited:
+//!   [`Segmentation::cuts`]) cuts its impact for the analysis ([`Segmentation::pieces`]);
+//!   one that ends a swell still rising within `SAME_STRIKE_S` of the onset makes the swell
+//!   its precursor, as the onsets' swell rule does.
 
 use realfft::num_complex::Complex64 as C64;
 use realfft::RealFftPlanner;
@@ -150,7 +154,7 @@ pub struct Segmentation {
     /// impact it falls in)`: a second strike inside the minimum gap, and strikes found by
     /// `strikes_within` (a roll faster than the gap, or whose ring gave no 20 ms to train the
     /// predictor on). Not impacts of their own, but said: the impact's analysis mixes the
-    /// strikes' decays (module docs).
+    /// strikes' decays (module docs) unless the strike is one of [`Segmentation::cuts`].
     pub restrikes: Vec<(usize, usize)>,
     /// The samples of `restrikes` where the ring's spectrum rose (`RESTRIKE_RISE_SHARE`):
     /// a strike that re-excited some of the object's partials, which
@@ -166,6 +170,8 @@ pub struct Segmentation {
 const RESTRIKE_SPECTRUM_FRAMES: usize = 4;
 /// ... a bin rose when its power after is this many times (3 dB) its power before ...
 const RESTRIKE_BIN_RISE: f64 = 2.0;
+/// ... and is this many times (6 dB) the impact's noise floor ...
+const RESTRIKE_BIN_OVER_FLOOR: f64 = 4.0;
 /// ... and the strike re-excited the object when the bins that rose hold this share of the
 /// power after it.
 const RESTRIKE_RISE_SHARE: f64 = 0.1;
@@ -251,7 +257,7 @@ impl Segmentation {
     /// An impact without a strike inside is returned whole. The stretches keep their
     /// impact's SNR and noise floor. `fs` is the sample rate of the segmented samples.
     pub fn pieces(&self, fs: f64, min_impact_s: f64) -> (Vec<Segment>, Vec<(Segment, String)>) {
-        let lead = 2 * ((fs * 0.0025).round() as usize).max(8);
+        let lead = 2 * hop_len(fs);
         let min_len = (min_impact_s * fs) as usize;
         let (mut kept, mut short) = (Vec::new(), Vec::new());
         for imp in &self.impacts {
@@ -284,6 +290,11 @@ impl Segmentation {
         }
         (kept, short)
     }
+}
+
+/// The segmentation's hop, samples (2.5 ms; its frames are two hops long).
+fn hop_len(fs: f64) -> usize {
+    ((fs * 0.0025).round() as usize).max(8)
 }
 
 /// Whether the sound from frame `j0` up to frame `upto` (exclusive) is a swell, not a strike
@@ -881,7 +892,7 @@ fn strikes_within(pred: &mut RingPredictor, e: &[f64], start: usize, end: usize,
 
 /// Finds the impacts in a mono signal `x` sampled at `fs` Hz.
 pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
-    let hop = ((fs * 0.0025).round() as usize).max(8);
+    let hop = hop_len(fs);
     let frame = 2 * hop;
     let nfr = if x.len() >= frame { (x.len() - frame) / hop + 1 } else { 0 };
     if nfr == 0 {
@@ -1298,11 +1309,15 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
     let span = RESTRIKE_SPECTRUM_FRAMES;
     let mut before = vec![0.0; nb];
     let mut after = vec![0.0; nb];
-    for &(r, _) in &restrikes {
+    for &(r, o) in &restrikes {
         let j = r / hop;
         if j < span + 2 || j + 1 + span > nfr {
             continue;
         }
+        // Bins at the floor rise 3 dB by chance (a sum of four frames, 15–20 % of them): a
+        // bin counts only well over the impact's floor (σ² per bin and frame).
+        let floor = out.impacts.iter().find(|i| i.start == o).map_or(noise, |i| i.noise_var);
+        let floor = RESTRIKE_BIN_OVER_FLOOR * span as f64 * floor;
         before.iter_mut().for_each(|v| *v = 0.0);
         after.iter_mut().for_each(|v| *v = 0.0);
         for k in 0..span {
@@ -1312,7 +1327,12 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
             after.iter_mut().zip(&p).for_each(|(a, v)| *a += v);
         }
         let total: f64 = after.iter().sum();
-        let rose: f64 = after.iter().zip(&before).filter(|(a, b)| **a >= RESTRIKE_BIN_RISE * **b).map(|(a, _)| a).sum();
+        let rose: f64 = after
+            .iter()
+            .zip(&before)
+            .filter(|(a, b)| **a >= RESTRIKE_BIN_RISE * **b && **a >= floor)
+            .map(|(a, _)| a)
+            .sum();
         if rose >= RESTRIKE_RISE_SHARE * total && total > 0.0 {
             out.cuts.push(r);
         }
@@ -1320,13 +1340,22 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
     // A cut that ends a swell within `SAME_STRIKE_S` of its onset, and is louder than it, is
     // the swell's strike (a music box's release found only inside the impact: the onsets'
     // rule for swells, `PRECURSOR_SWELL`): the impact starts there, the swell is its precursor.
-    for imp in out.impacts.iter_mut() {
+    // (The swell up to the frame before the one holding the cut's first samples, as the
+    // spectra's "before".)
+    let min_len = (opts.min_impact_s * fs) as usize;
+    let mut too_short = Vec::new();
+    for (ii, imp) in out.impacts.iter_mut().enumerate() {
         let Some(ci) = out.cuts.iter().position(|&r| r > imp.start && r < imp.end) else { continue };
         let r = out.cuts[ci];
         let (j0, j) = (imp.start / hop, r / hop);
+        let upto = j - 1;
         let e_on = e[j..(j + 4).min(nfr)].iter().fold(0.0f64, |m, &v| m.max(v));
-        let pre_peak = e[j0..j.max(j0 + 1)].iter().fold(0.0f64, |m, &v| m.max(v));
-        if j < j0 + same_strike && j >= j0 + 2 * PRECURSOR_MIN_FRAMES && e_on > pre_peak && still_swelling(&e, j0, j) {
+        let pre_peak = e[j0..upto.max(j0 + 1)].iter().fold(0.0f64, |m, &v| m.max(v));
+        if j < j0 + same_strike
+            && upto >= j0 + 2 * PRECURSOR_MIN_FRAMES
+            && e_on > pre_peak
+            && still_swelling(&e, j0, upto)
+        {
             out.skipped.push((
                 Segment { start: imp.start, end: r, ..*imp },
                 format!(
@@ -1336,12 +1365,24 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
                 ),
             ));
             out.cuts.remove(ci);
-            restrikes.retain(|&(at, _)| at != r);
-            for x in restrikes.iter_mut().filter(|x| x.1 == imp.start) {
+            // Strikes reported in the swell are part of it; later ones are now the strike's.
+            let old = imp.start;
+            restrikes.retain(|&(at, o)| !(o == old && at <= r));
+            for x in restrikes.iter_mut().filter(|x| x.1 == old) {
                 x.1 = r;
             }
             imp.start = r;
+            if imp.end - r < min_len {
+                too_short.push(ii);
+            }
         }
+    }
+    for &ii in too_short.iter().rev() {
+        let imp = out.impacts.remove(ii);
+        restrikes.retain(|&(_, o)| o != imp.start);
+        out.cuts.retain(|&c| !(c > imp.start && c < imp.end));
+        let ms = 1e3 * (imp.end - imp.start) as f64 / fs;
+        out.skipped.push((imp, format!("too short ({ms:.0} ms); leave more time between taps")));
     }
     out.restrikes = restrikes;
     out
