@@ -362,6 +362,10 @@ fn read_full(r: &mut impl io::Read, buf: &mut [u8]) -> io::Result<usize> {
     Ok(n)
 }
 
+/// A mono mix whose peak is this many dB under the loudest channel's is channels that
+/// cancel ([`Silence::ChannelsCancel`]).
+const CANCEL_DB: f64 = 40.0;
+
 /// Reads a WAV file into a mono [`Recording`]; `channel` picks one channel (0-based), `None`
 /// averages all channels.
 ///
@@ -530,6 +534,16 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
             if peak_any > 0.0 && channel.is_none() && channels > 1 { Silence::ChannelsCancel } else { Silence::Zeros };
         return Err(EstimateError::Silent { path: path.to_path_buf(), why });
     }
+    // Nearly cancelling: one channel the other inverted, but not to the last bit (an integer
+    // −32768 has no +32768; a dither or a gain of 0.999 on one side). The mix's peak is
+    // `CANCEL_DB` under the loudest channel's, where a recording's channels, however they
+    // differ, add up to about the louder one.
+    if analysis && channel.is_none() && channels > 1 && peak_any > 0.0 {
+        let mix_peak = mono.iter().fold(0.0f64, |m, &v| m.max(f64::from(v).abs()));
+        if mix_peak < peak_any * 10f64.powf(-CANCEL_DB / 20.0) {
+            return Err(EstimateError::Silent { path: path.to_path_buf(), why: Silence::ChannelsCancel });
+        }
+    }
     let n = mono.len() as f64;
     let mean = mono.iter().map(|&v| f64::from(v)).sum::<f64>() / n;
     let peak = mono.iter().fold(0.0f64, |m, &v| m.max(f64::from(v).abs()));
@@ -658,6 +672,31 @@ mod tests {
         assert!((f64::from(b.samples[10]) - (f64::from(samples[10]) / 32768.0 - mean)).abs() < 1e-6);
         let _ = std::fs::remove_file(plain);
         let _ = std::fs::remove_file(odd);
+    }
+
+    /// Stereo where one channel is the other inverted (the black-box tester's L = −R) mixes
+    /// to almost nothing: 16-bit −32768 has no +32768, so the mix is not all zeros, and it
+    /// went to the analysis ("no modal features … a dull thud"). Now the channels-cancel
+    /// error, whose hint is `--channel 0`; one channel read alone is fine, and a stereo file
+    /// whose right channel is silent (its mix 6 dB under the left) loads.
+    #[test]
+    fn channels_that_nearly_cancel_say_so() {
+        let x = tone(4800);
+        let l: Vec<i16> = x.iter().map(|v| (v * 65_536.0).round().clamp(-32_768.0, 32_767.0) as i16).collect();
+        let inverted: Vec<u8> = l.iter().flat_map(|&v| [v, v.saturating_neg()]).flat_map(i16::to_le_bytes).collect();
+        let p = scratch("l-minus-r", &wav_bytes(&fmt_body(1, 2, 48_000, 16, None), &inverted, None));
+        match load_wav(&p, None) {
+            Err(e @ EstimateError::Silent { why: Silence::ChannelsCancel, .. }) => {
+                assert!(e.to_string().contains("--channel 0"), "{e}");
+            }
+            other => panic!("{:?}", other.map(|r| r.warnings)),
+        }
+        assert_eq!(load_wav(&p, Some(1)).unwrap().samples.len(), 4800);
+        let _ = std::fs::remove_file(p);
+        let one_side: Vec<u8> = l.iter().flat_map(|&v| [v, 0]).flat_map(i16::to_le_bytes).collect();
+        let p = scratch("left-only", &wav_bytes(&fmt_body(1, 2, 48_000, 16, None), &one_side, None));
+        assert_eq!(load_wav(&p, None).unwrap().samples.len(), 4800);
+        let _ = std::fs::remove_file(p);
     }
 
     #[test]
