@@ -197,6 +197,11 @@ fn end_to_end_session() {
     let o2 = Options { model: ModelKind::Hybrid, method: Method::Lsq, ..Options::default() };
     let r2 = estimate(std::slice::from_ref(&p), &o2, &|_| {}, &cancel).unwrap();
     assert_eq!((r2.model.as_str(), r2.method, r2.params.len()), ("hybrid", Method::Lsq, 3));
+    assert!(!r2.warnings.iter().any(|w| w == estimator::LB_WARNING), "{:?}", r2.warnings);
+    // The lower-bound fit says it is a bound.
+    let o3 = Options { method: Method::Lb, ..Options::default() };
+    let r3 = estimate(std::slice::from_ref(&p), &o3, &|_| {}, &cancel).unwrap();
+    assert!(r3.warnings.iter().any(|w| w == estimator::LB_WARNING), "{:?}", r3.warnings);
     // Cancellation.
     cancel.store(true, Ordering::Relaxed);
     assert!(matches!(estimate(&[p], &opts, &|_| {}, &cancel), Err(EstimateError::Cancelled)));
