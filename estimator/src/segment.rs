@@ -92,8 +92,9 @@
 //!   [`Segmentation::restrikes`] too.
 //! - A reported strike after which the ring's spectrum rose (some partial re-excited:
 //!   [`Segmentation::cuts`]) cuts its impact for the analysis ([`Segmentation::pieces`]);
-//!   one that ends a swell still rising within `SAME_STRIKE_S` of the onset makes the swell
-//!   its precursor, as the onsets' swell rule does.
+//!   one within `SAME_STRIKE_S` of the onset, louder than anything before, after a sound
+//!   that rose and never decayed makes that sound its precursor, as the onsets' swell rule
+//!   does.
 
 use realfft::num_complex::Complex64 as C64;
 use realfft::RealFftPlanner;
@@ -317,6 +318,19 @@ fn still_swelling(e: &[f64], j0: usize, upto: usize) -> bool {
     });
     let no_dip = loudest.is_some_and(|l| e[head_end..=l].iter().all(|&v| v * PRECURSOR_DECAYED > head));
     tail >= PRECURSOR_SWELL * head && gradual && no_dip && loudest.is_some_and(|k| k + PRECURSOR_MIN_FRAMES >= upto)
+}
+
+/// Whether the sound from frame `j0` up to frame `upto` (exclusive) rose `PRECURSOR_SWELL`
+/// over its first 10 ms and never fell 3 dB under them (`PRECURSOR_DECAYED`): it never
+/// decayed as a struck ring does from its strike. Weaker than [`still_swelling`] (it may
+/// have levelled off): for a strike found inside an impact, which the onsets' rules
+/// already passed over.
+fn rose_and_held(e: &[f64], j0: usize, upto: usize) -> bool {
+    let head_end = (j0 + PRECURSOR_MIN_FRAMES).min(upto);
+    let head = e[j0..head_end.max(j0 + 1)].iter().fold(0.0f64, |m, &v| m.max(v));
+    let tail = &e[head_end..upto];
+    tail.iter().fold(0.0f64, |m, &v| m.max(v)) >= PRECURSOR_SWELL * head
+        && tail.iter().all(|&v| v * PRECURSOR_DECAYED > head)
 }
 
 /// Power spectra of the frames of a signal.
@@ -1337,9 +1351,11 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
             out.cuts.push(r);
         }
     }
-    // A cut that ends a swell within `SAME_STRIKE_S` of its onset, and is louder than it, is
-    // the swell's strike (a music box's release found only inside the impact: the onsets'
-    // rule for swells, `PRECURSOR_SWELL`): the impact starts there, the swell is its precursor.
+    // A cut within `SAME_STRIKE_S` of its impact's onset, louder than anything before it,
+    // after a sound that rose and never decayed (`rose_and_held`: no struck ring) is that
+    // sound's strike: the impact starts there, the sound is its precursor (FluidR3's music
+    // box at key 73: the pin presses the tooth, rising 13 dB over 35 ms and holding to the
+    // release 62 ms in, which is only 1.4 dB over it but 35 dB up above 6 kHz).
     // (The swell up to the frame before the one holding the cut's first samples, as the
     // spectra's "before".)
     let min_len = (opts.min_impact_s * fs) as usize;
@@ -1354,7 +1370,7 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
         if j < j0 + same_strike
             && upto >= j0 + 2 * PRECURSOR_MIN_FRAMES
             && e_on > pre_peak
-            && still_swelling(&e, j0, upto)
+            && rose_and_held(&e, j0, upto)
         {
             out.skipped.push((
                 Segment { start: imp.start, end: r, ..*imp },
