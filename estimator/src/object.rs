@@ -484,4 +484,35 @@ mod tests {
         assert!(cents.abs() <= 100.0, "the bar's lowest mode {cents:.0} cents from the sample's 740 Hz: {m:?}");
         assert_eq!(m.unmatched_modes_below, 0, "{m:?}");
     }
+
+    /// The pitch fit weighs features by what they ring over 1 s, so an almost undamped one (a
+    /// mains hum fitted at d = 0.1 s⁻¹) weighs up to 17 dB more than a partial of the same
+    /// amplitude at d = 30: a hum at 50–120 Hz 15 dB or more under the bar's fundamental
+    /// (739 Hz, d 7; partials at 4× and 10×) must not become the object's lowest mode.
+    /// (Measured limit: at 10 dB under, 60 or 100 Hz is taken as the lowest mode.)
+    #[test]
+    fn a_mains_hum_under_the_strike_does_not_set_the_pitch() {
+        for (hum_hz, hum_db) in [(50.0, -30.0), (60.0, -20.0), (100.0, -15.0), (120.0, -15.0), (50.0, -15.0)] {
+            let recorded = [
+                (739.3, 7.0, 1.0),
+                (2957.0, 18.0, 0.5),
+                (7393.0, 40.0, 0.25),
+                (hum_hz, 0.1, 10f64.powf(hum_db / 20.0)),
+            ];
+            let feats: Vec<Feature> = recorded
+                .iter()
+                .map(|&(freq_hz, decay_per_s, amplitude)| Feature {
+                    freq_hz,
+                    decay_per_s,
+                    amplitude,
+                    ..Default::default()
+                })
+                .collect();
+            let base = std::f64::consts::TAU * 100.0;
+            let l0: Vec<f64> = [1.0, 4.0, 10.0, 17.6, 27.2, 38.8].iter().map(|k| (k * base).powi(2)).collect();
+            let m = match_object(&feats, &l0, Some(&[1.0, 0.7, 0.5, 0.4, 0.3, 0.25])).unwrap();
+            let cents = 1200.0 * (m.object_lowest_hz / 739.3).log2();
+            assert!(cents.abs() <= 100.0, "hum {hum_hz} Hz {hum_db} dB: lowest mode {cents:.0} cents off: {m:?}");
+        }
+    }
 }
