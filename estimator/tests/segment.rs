@@ -954,6 +954,35 @@ fn a_much_softer_strike_that_decayed_is_not_a_precursor() {
     assert!(missed.is_empty(), "{missed:?}");
 }
 
+/// A music box's note at 44.1 kHz, 1.2 s: from `t0` the pushed tooth's fundamental and the
+/// pin's scrape, rising `swell_db` over `rise_s` and then held, up to the release at `t1`
+/// `step_db` over the swell (the pin's click as it slips off, and the tooth ringing free).
+/// Noise 100 dB down.
+fn music_box(g: &mut Gen, t0: f64, rise_s: f64, t1: f64, swell_db: f64, step_db: f64) -> Vec<f64> {
+    let fs = 44_100.0;
+    let mut x = vec![0.0; (1.2 * fs) as usize];
+    let i0 = (t0 * fs) as usize;
+    let a0 = 0.2 * 10f64.powf(-(swell_db + step_db) / 20.0);
+    for i in 0..((t1 - t0) * fs) as usize {
+        let t = i as f64 / fs;
+        let a = a0 * 10f64.powf(swell_db / 20.0 * (t / rise_s).min(1.0));
+        let tone = (std::f64::consts::TAU * 330.0 * t).sin();
+        let scrape = (std::f64::consts::TAU * 2000.0 * t).sin() * (1.0 + 0.3 * g.normal());
+        x[i0 + i] += a * (tone + 0.3 * scrape);
+    }
+    let c1 = (t1 * fs).round() as usize;
+    for i in 0..(0.001 * fs) as usize {
+        x[c1 + i] += 0.6 * (-(i as f64) / (0.0003 * fs)).exp() * g.normal();
+    }
+    for (f, d, a) in [(330.0, 2.5, 0.2), (7160.0, 27.0, 0.2), (8118.0, 20.0, 0.04)] {
+        add_mode(&mut x, fs, t1, f, d, a);
+    }
+    for v in x.iter_mut() {
+        *v += 1e-5 * g.normal();
+    }
+    x
+}
+
 /// A music box's pin pressing the tooth until it slips off (FluidR3's music box at key 64 in
 /// `tests/recordings`): the tooth sounds while it is pushed, swelling 11 dB over 45 ms, and
 /// the release that follows (a click and the free tooth) is only 2–4 dB over the swell — not the 10 dB that makes a quiet
@@ -966,33 +995,10 @@ fn a_swell_that_is_still_rising_is_the_precursor_of_the_release() {
     let fs = 44_100.0;
     for (k, &(swell_db, step_db)) in [(11.0, 2.0), (11.0, 4.0), (6.0, 3.0), (15.0, 2.0)].iter().enumerate() {
         let mut g = Gen(2300 + k as u64);
-        let (t0, rise_s) = (0.3, 0.045);
-        let t1 = t0 + 0.07;
-        let mut x = vec![0.0; (1.2 * fs) as usize];
-        let i0 = (t0 * fs) as usize;
-        // The pushed tooth's fundamental and the pin's scrape, rising swell_db over rise_s,
-        // held to the release (the recording's swell: 320 Hz and broad bands at 1–3.5 kHz,
-        // rising 11 dB to 45 ms, then within 1 dB to the release at 70 ms).
-        let a0 = 0.2 * 10f64.powf(-(swell_db + step_db) / 20.0);
-        for i in 0..((t1 - t0) * fs) as usize {
-            let t = i as f64 / fs;
-            let a = a0 * 10f64.powf(swell_db / 20.0 * (t / rise_s).min(1.0));
-            let tone = (std::f64::consts::TAU * 330.0 * t).sin();
-            let scrape = (std::f64::consts::TAU * 2000.0 * t).sin() * (1.0 + 0.3 * g.normal());
-            x[i0 + i] += a * (tone + 0.3 * scrape);
-        }
-        // The release: the pin's click as it slips off, and the tooth rings free, a little
-        // louder.
-        let c1 = (t1 * fs).round() as usize;
-        for i in 0..(0.001 * fs) as usize {
-            x[c1 + i] += 0.6 * (-(i as f64) / (0.0003 * fs)).exp() * g.normal();
-        }
-        for (f, d, a) in [(330.0, 2.5, 0.2), (7160.0, 27.0, 0.2), (8118.0, 20.0, 0.04)] {
-            add_mode(&mut x, fs, t1, f, d, a);
-        }
-        for v in x.iter_mut() {
-            *v += 1e-5 * g.normal();
-        }
+        // The recording's swell: 320 Hz and broad bands at 1–3.5 kHz, rising 11 dB to 45 ms,
+        // then within 1 dB to the release at 70 ms.
+        let t1 = 0.3 + 0.07;
+        let x = music_box(&mut g, 0.3, 0.045, t1, swell_db, step_db);
         let seg = segment(&x, fs);
         let onsets: Vec<f64> = seg.impacts.iter().map(|i| i.start as f64 / fs).collect();
         eprintln!("swell {swell_db} dB, release {step_db} dB over it: {onsets:?}, skipped {:?}", seg.skipped);
@@ -1012,7 +1018,6 @@ fn a_swell_that_is_still_rising_is_the_precursor_of_the_release() {
 /// and a swell that is no longer rising then stays an impact of its own.)
 #[test]
 fn a_swell_that_levelled_off_is_the_precursor_of_the_release_inside_it() {
-    let fs = 44_100.0;
     let mut bad = Vec::new();
     for (k, &(swell_db, step_db, hold_s)) in
         [(13.0, 1.4, 0.027), (13.0, 3.0, 0.027), (9.0, 2.0, 0.04), (13.0, 2.0, 0.02), (13.0, 2.0, 0.05)]
@@ -1020,28 +1025,8 @@ fn a_swell_that_levelled_off_is_the_precursor_of_the_release_inside_it() {
             .enumerate()
     {
         let mut g = Gen(2400 + k as u64);
-        let (t0, rise_s) = (0.3, 0.035);
-        let t1 = t0 + rise_s + hold_s;
-        let mut x = vec![0.0; (1.2 * fs) as usize];
-        let i0 = (t0 * fs) as usize;
-        let a0 = 0.2 * 10f64.powf(-(swell_db + step_db) / 20.0);
-        for i in 0..((t1 - t0) * fs) as usize {
-            let t = i as f64 / fs;
-            let a = a0 * 10f64.powf(swell_db / 20.0 * (t / rise_s).min(1.0));
-            let tone = (std::f64::consts::TAU * 330.0 * t).sin();
-            let scrape = (std::f64::consts::TAU * 2000.0 * t).sin() * (1.0 + 0.3 * g.normal());
-            x[i0 + i] += a * (tone + 0.3 * scrape);
-        }
-        let c1 = (t1 * fs).round() as usize;
-        for i in 0..(0.001 * fs) as usize {
-            x[c1 + i] += 0.6 * (-(i as f64) / (0.0003 * fs)).exp() * g.normal();
-        }
-        for (f, d, a) in [(330.0, 2.5, 0.2), (7160.0, 27.0, 0.2), (8118.0, 20.0, 0.04)] {
-            add_mode(&mut x, fs, t1, f, d, a);
-        }
-        for v in x.iter_mut() {
-            *v += 1e-5 * g.normal();
-        }
+        let t1 = 0.3 + 0.035 + hold_s;
+        let x = music_box(&mut g, 0.3, 0.035, t1, swell_db, step_db);
         let r = features(&write(&format!("levelled-swell-{k}"), &x, 44_100)).unwrap();
         let onsets: Vec<f64> = r.impacts.iter().map(|i| i.onset_s).collect();
         let precursor = r.skipped.iter().any(|s| estimator::segment::is_precursor(&s.reason));
