@@ -466,6 +466,13 @@ pub fn extract_features(
             }
             progress((fi as f32 + (ii + 1) as f32 / nimp as f32) / nfiles as f32);
         }
+        for &(onset, from) in &seg.attacks {
+            report.warnings.push(format!(
+                "{name}: the sound at {:.3} s rises gradually (a fade-in or a swell, not a strike's attack): analysed from {:.3} s, where it rings freely",
+                onset as f64 / fs,
+                from as f64 / fs
+            ));
+        }
         if !seg.noise_steps.is_empty() {
             let times: Vec<String> =
                 seg.noise_steps.iter().take(5).map(|&i| format!("{:.2} s", i as f64 / fs)).collect();
