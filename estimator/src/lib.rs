@@ -468,7 +468,7 @@ pub fn extract_features(
         }
         for &(onset, from) in &seg.attacks {
             report.warnings.push(format!(
-                "{name}: the sound at {:.3} s rises gradually (a fade-in or a swell, not a strike's attack): analysed from {:.3} s, where it rings freely",
+                "{name}: the sound at {:.3} s rises gradually (a fade-in, a swell or a soft mallet's long contact): analysed from {:.3} s, where it rings freely",
                 onset as f64 / fs,
                 from as f64 / fs
             ));
