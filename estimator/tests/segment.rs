@@ -1486,7 +1486,8 @@ fn a_fade_in_is_left_out_of_the_analysis() {
         x.iter_mut().for_each(|v| *v += 1e-5 * g.normal());
         x
     };
-    let shapes: [(&str, fn(f64) -> f64); 4] = [
+    type Shape = fn(f64) -> f64;
+    let shapes: [(&str, Shape); 4] = [
         ("linear", |u| u),
         ("sine", |u| (std::f64::consts::FRAC_PI_2 * u).sin()),
         ("quadratic", |u| u * u),
