@@ -438,6 +438,25 @@ fn attack_end(x: &[f32], fs: f64, end: usize) -> Option<usize> {
     Some(from + w / 2 + (FADE_MARGIN * rise as f64).ceil() as usize)
 }
 
+/// Takes the impacts at `idx` (ascending indices into `out.impacts`) out of the analysis as
+/// skipped, with the reason `why(length in ms)`; the strikes reported and the cuts inside
+/// them go with them.
+fn skip_impacts(
+    out: &mut Segmentation,
+    restrikes: &mut Vec<(usize, usize)>,
+    idx: &[usize],
+    fs: f64,
+    why: impl Fn(f64) -> String,
+) {
+    for &ii in idx.iter().rev() {
+        let imp = out.impacts.remove(ii);
+        restrikes.retain(|&(_, o)| o != imp.start);
+        out.cuts.retain(|&c| !(c > imp.start && c < imp.end));
+        let ms = 1e3 * (imp.end - imp.start) as f64 / fs;
+        out.skipped.push((imp, why(ms)));
+    }
+}
+
 /// Power spectra of the frames of a signal.
 struct FrameSpectra<'a> {
     x: &'a [f32],
@@ -1498,13 +1517,9 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
             }
         }
     }
-    for &ii in too_short.iter().rev() {
-        let imp = out.impacts.remove(ii);
-        restrikes.retain(|&(_, o)| o != imp.start);
-        out.cuts.retain(|&c| !(c > imp.start && c < imp.end));
-        let ms = 1e3 * (imp.end - imp.start) as f64 / fs;
-        out.skipped.push((imp, format!("too short ({ms:.0} ms); leave more time between taps")));
-    }
+    skip_impacts(&mut out, &mut restrikes, &too_short, fs, |ms| {
+        format!("too short ({ms:.0} ms); leave more time between taps")
+    });
     // A gradual attack of the file's first sound (a fade-in at the start of a trimmed file, a
     // sound that swells in) is left out of the analysis, which starts where the damped
     // sinusoids' model holds (`attack_end`); what was reported inside the attack goes with
@@ -1531,13 +1546,9 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
             all_attack.push(ii);
         }
     }
-    for &ii in all_attack.iter().rev() {
-        let imp = out.impacts.remove(ii);
-        restrikes.retain(|&(_, o)| o != imp.start);
-        out.cuts.retain(|&c| !(c > imp.start && c < imp.end));
-        let ms = 1e3 * (imp.end - imp.start) as f64 / fs;
-        out.skipped.push((imp, format!("too short after its gradual attack ({ms:.0} ms left)")));
-    }
+    skip_impacts(&mut out, &mut restrikes, &all_attack, fs, |ms| {
+        format!("too short after its gradual attack ({ms:.0} ms left)")
+    });
     out.restrikes = restrikes;
     out
 }
