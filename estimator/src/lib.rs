@@ -76,7 +76,8 @@ pub struct Options {
 pub struct ImpactFeatures {
     /// The file it came from.
     pub file: String,
-    /// Onset time in the file, s.
+    /// Where its analysis starts in the file, s: the strike's onset, or past a precursor or a
+    /// gradual attack (a fade-in) that the report's warnings name.
     pub onset_s: f64,
     /// Modal features (one per partial), strongest first.
     pub features: Vec<Feature>,
@@ -483,8 +484,12 @@ pub fn extract_features(
                 if seg.noise_steps.len() > 5 { ", …" } else { "" }
             ));
         }
+        // The strike an impact starts with: its onset, before a gradual attack was left out
+        // (the strikes inside it count from where its analysis starts).
+        let strike_at = |start: usize| seg.attacks.iter().find(|a| a.1 == start).map_or(start, |a| a.0);
         if seg.restrikes.len() <= MAX_RESTRIKE_WARNINGS {
-            for &(at, onset) in &seg.restrikes {
+            for &(at, start) in &seg.restrikes {
+                let onset = strike_at(start);
                 let after = at.saturating_sub(onset) as f64 / fs;
                 // Cut where the strike re-excited the object (`Segmentation::cuts`).
                 let what = if seg.cuts.contains(&at) {
@@ -513,7 +518,7 @@ pub fn extract_features(
         } else {
             // A roll or a tremolo: one line. The spacing is each strike's distance from the
             // strike before it (an onset or another of these).
-            let mut events: Vec<usize> = seg.impacts.iter().map(|i| i.start).collect();
+            let mut events: Vec<usize> = seg.impacts.iter().map(|i| strike_at(i.start)).collect();
             events.extend(seg.restrikes.iter().map(|r| r.0));
             events.sort_unstable();
             let spacing: Vec<f64> = seg

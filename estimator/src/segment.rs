@@ -170,7 +170,7 @@ pub struct Segmentation {
     pub cuts: Vec<usize>,
     /// Impacts whose attack rose gradually (a fade-in, a sound that swells in), as
     /// `(onset, the sample the analysis starts at)`: the impact in `impacts` starts at the
-    /// second (module docs).
+    /// second, and so do the `restrikes` inside it (module docs).
     pub attacks: Vec<(usize, usize)>,
 }
 
@@ -375,16 +375,18 @@ const FADE_LAST_SHARE: f64 = 0.05;
 const FADE_MARGIN: f64 = 1.5;
 
 /// Where the gradual attack of a file's first sound (a fade-in at the start of a trimmed
-/// file, a sound that swells in), analysed up to `end`, is over: the first sample after it
-/// that a sum of damped sinusoids explains (Ren §4's model holds from there; over a fade the
+/// file, a sound that swells in), analysed up to `end`, is over, with a margin: from there a
+/// sum of damped sinusoids explains the sound (Ren §4's model; over a fade the
 /// modes' amplitudes follow the fade's shape, and the extractor explains it with a comb of
 /// fast, made-up modes: a 5 ms linear fade over a four-partial ring gave 6 of them, the
 /// strongest a quarter of the fundamental). The envelope is the magnitude of the analytic
 /// signal (Hilbert transform by FFT, zero-padded so the end does not wrap onto the start),
 /// its power averaged over 0.5 ms, from the file's start over `2 × FADE_MAX_S` (at most to
-/// `end`). `None` unless the rise from `FADE_FROM_DB` to `FADE_TO_DB` under the peak of its
-/// first `FADE_MAX_S` takes `FADE_MIN_S` or more (`FADE_MAX_S` at most), is still
-/// `FADE_MID_DB` under that peak half way, and its top is gradual (`FADE_LAST_SHARE`).
+/// `end`). `None` unless the peak of the first `FADE_MAX_S` is not exceeded later (by more
+/// than `FADE_TO_DB`: a swell still rising), and the rise that first reaches `FADE_TO_DB`
+/// under it, from the last moment it was `FADE_FROM_DB` under it, takes `FADE_MIN_S` or
+/// more, is still `FADE_MID_DB` under the peak half way, and its top is gradual
+/// (`FADE_LAST_SHARE`).
 fn attack_end(x: &[f32], fs: f64, end: usize) -> Option<usize> {
     let len = ((2.0 * FADE_MAX_S * fs) as usize).min(end).min(x.len());
     if len < 64 {
@@ -420,17 +422,23 @@ fn attack_end(x: &[f32], fs: f64, end: usize) -> Option<usize> {
     }
     let head = ((FADE_MAX_S * fs) as usize).min(env.len());
     let peak = env[..head].iter().fold(0.0f64, |m, &v| m.max(v));
-    if peak <= 0.0 {
+    // A sound still rising after `FADE_MAX_S` (louder later by more than its last decibel)
+    // is a swell, not a fade.
+    let later = env[head..].iter().fold(0.0f64, |m, &v| m.max(v));
+    if peak <= 0.0 || later > peak * 10f64.powf(FADE_TO_DB / 10.0) {
         return None;
     }
-    let under = |db: f64| env.iter().position(|&v| v >= peak * 10f64.powf(-db / 10.0));
-    let (from, near, to) = (under(FADE_FROM_DB)?, under(FADE_NEAR_DB)?, under(FADE_TO_DB)?);
-    let rise = to.saturating_sub(from);
+    let level = |db: f64| peak * 10f64.powf(-db / 10.0);
+    let to = env.iter().position(|&v| v >= level(FADE_TO_DB))?;
+    // The rise that ends there, from the last moment it was under `FADE_FROM_DB` (noise or
+    // a precursor before a strike is not part of the strike's rise).
+    let from = env[..to].iter().rposition(|&v| v < level(FADE_FROM_DB)).map_or(0, |i| i + 1);
+    let near = from + env[from..=to].iter().position(|&v| v >= level(FADE_NEAR_DB))?;
+    let rise = to - from;
     let mid = env[from..=from + rise / 2].iter().fold(0.0f64, |m, &v| m.max(v));
     if (rise as f64) < FADE_MIN_S * fs
-        || to >= head
-        || mid > peak * 10f64.powf(-FADE_MID_DB / 10.0)
-        || ((to - near.min(to)) as f64) < FADE_LAST_SHARE * rise as f64
+        || mid > level(FADE_MID_DB)
+        || ((to - near) as f64) < FADE_LAST_SHARE * rise as f64
     {
         return None;
     }
@@ -1522,9 +1530,9 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
     });
     // A gradual attack of the file's first sound (a fade-in at the start of a trimmed file, a
     // sound that swells in) is left out of the analysis, which starts where the damped
-    // sinusoids' model holds (`attack_end`); what was reported inside the attack goes with
-    // it. The first sound: the first impact, within `FADE_MAX_S` of the file's start, with
-    // nothing before it but its precursors.
+    // sinusoids' model holds (`attack_end`), before the first strike reported inside the
+    // impact. The first sound: the first impact, within `FADE_MAX_S` of the file's start,
+    // with nothing before it but its precursors.
     let mut all_attack = Vec::new();
     let head = (FADE_MAX_S * fs) as usize;
     let first = out.impacts.first().map(|i| i.start).filter(|&s| {
@@ -1534,16 +1542,17 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
         // Up to its first strike inside: a louder one is not the first sound's peak.
         let until = restrikes.iter().filter(|r| r.1 == imp.start).map(|r| r.0).fold(imp.end, usize::min);
         let Some(to) = attack_end(x, fs, until).filter(|&to| to > imp.start && to < until) else { continue };
+        // The strikes inside count from the analysis' start (`Segmentation::attacks` maps it
+        // back to the onset for what is said of them).
         let old = imp.start;
-        out.attacks.push((old, to));
-        restrikes.retain(|&(at, o)| !(o == old && at < to));
         for r in restrikes.iter_mut().filter(|r| r.1 == old) {
             r.1 = to;
         }
-        out.cuts.retain(|&c| !(c > old && c < to));
-        imp.start = to.min(imp.end);
-        if imp.end - imp.start < min_len {
+        imp.start = to;
+        if imp.end - to < min_len {
             all_attack.push(ii);
+        } else {
+            out.attacks.push((old, to));
         }
     }
     skip_impacts(&mut out, &mut restrikes, &all_attack, fs, |ms| {
