@@ -732,6 +732,17 @@ pub fn estimate(
         );
     }
     if let Some(o) = object.as_ref().filter(|o| o.matched > 0) {
+        if !object::playable_gamma_ratio(o.gamma_ratio) {
+            warnings.push(format!(
+                "the pitch fit puts the object's lowest mode at {:.1} Hz, its pitch scaled {:.0}× {} (γ/γ₀ = {:.3e}, outside the {}–{} the instrument plays): the recordings are not of this object; the material keeps no pitch of its own",
+                o.object_lowest_hz,
+                if o.gamma_ratio < 1.0 { o.gamma_ratio.sqrt().recip() } else { o.gamma_ratio.sqrt() },
+                if o.gamma_ratio < 1.0 { "down" } else { "up" },
+                o.gamma_ratio,
+                object::PLAYABLE_GAMMA_RATIO.0,
+                object::PLAYABLE_GAMMA_RATIO.1
+            ));
+        }
         if o.unmatched_modes_below > 0 || o.unmatched_strong_modes > 0 {
             warnings.push(format!(
                 "the object matches the recording only in part: at the fitted pitch (lowest mode {:.1} Hz, lowest recorded partial {:.1} Hz) {} of its modes below the recording's lowest partial and {} strong ones inside its range have no recorded partial; check that the right object was chosen",

@@ -21,6 +21,16 @@ use serde::{Deserialize, Serialize};
 
 use crate::features::Feature;
 
+/// The specific-modulus ratios γ/γ₀ the instrument plays (its *Stiffness γ/γ₀* parameter):
+/// a pitch fit outside them (the object's pitch scaled more than ~32× down or up) says the
+/// recordings are not of that object, and a material carrying that pitch could not be played.
+pub const PLAYABLE_GAMMA_RATIO: (f64, f64) = (0.001, 1000.0);
+
+/// Whether `gamma_ratio` is a pitch the instrument can play ([`PLAYABLE_GAMMA_RATIO`]).
+pub fn playable_gamma_ratio(gamma_ratio: f64) -> bool {
+    (PLAYABLE_GAMMA_RATIO.0..=PLAYABLE_GAMMA_RATIO.1).contains(&gamma_ratio)
+}
+
 /// Result of matching a known object's modes.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ObjectMatch {

@@ -321,3 +321,72 @@ fn a_bank_captured_from_a_recording_plays_its_partials_with_their_decays() {
         let _ = std::fs::remove_file(p);
     }
 }
+
+/// A recording that is not of the object: a bank captured from one set of partials, and a
+/// recording of the same ratios 40 times lower (29–551 Hz against 1.2–22 kHz). The pitch fit
+/// can only scale the object 40× down (γ/γ₀ = 1/1600, outside the 0.001–1000 the instrument
+/// plays); the material is still written, says why it keeps no pitch of its own, and plays
+/// with "Material sets pitch" on (before: a material carrying that pitch, which `render`
+/// refused: "set gamma (the material file's pitch) 0.000625 is outside 0.001..=1000", as on
+/// Sonic Pi's cash register `perc_till` in `tests/recordings/e2e.py --own-modes`).
+#[test]
+fn a_pitch_the_instrument_cannot_play_is_not_stored() {
+    let sr = 48_000u32;
+    let ratios = [1.0, 2.622, 5.094, 7.438, 12.661, 18.927];
+    let decays = [2.5, 9.0, 4.0, 20.0, 7.5, 12.0];
+    let amps = [1.0, 0.7, 0.5, 0.6, 0.4, 0.3];
+    let partials = |f0: f64| -> Vec<(f64, f64, f64)> { (0..6).map(|k| (f0 * ratios[k], decays[k], amps[k])).collect() };
+    let high = tmp("unplayable-high.wav");
+    write_taps(&high, sr, &partials(1165.0));
+    let low = tmp("unplayable-low.wav");
+    write_taps(&low, sr, &partials(1165.0 / 40.0));
+    let bank_path = tmp("unplayable-bank.json");
+    struck_cli::capture::bank_from_recording(&struck_cli::capture::BankCaptureArgs {
+        file: high.clone(),
+        impact: 2,
+        channel: None,
+        modes: 48,
+        range_db: 40.0,
+        young: 200e9,
+        density: 7850.0,
+        poisson: 0.3,
+        size_m: 0.3,
+        id: "unplayable".into(),
+        name: "Unplayable".into(),
+        out: bank_path.clone(),
+    })
+    .unwrap();
+    let material = tmp("unplayable-material.json");
+    let report = tmp("unplayable-report.json");
+    let est = EstimateArgs {
+        files: vec![low.clone()],
+        model: "rayleigh".into(),
+        method: "emg".into(),
+        object: Some(bank_path.display().to_string()),
+        channel: None,
+        out: material.clone(),
+        report: Some(report.clone()),
+        no_residual: true,
+    };
+    let said = estimate(&est).unwrap();
+    let rep: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let ratio = rep["object"]["gamma_ratio"].as_f64().expect("an object match");
+    assert!((ratio * 1600.0 - 1.0).abs() < 0.01, "γ/γ₀ {ratio}, want 1/1600");
+    let warned = rep["warnings"].as_array().unwrap().iter().any(|w| w.as_str().unwrap().contains("keeps no pitch"));
+    assert!(warned, "no warning: {said} {:?}", rep["warnings"]);
+    let m = presets::Material::load(&material).unwrap();
+    assert!(m.specific_modulus.is_none(), "stored {:?}", m.specific_modulus);
+    let opts = SoundOptions {
+        object: bank_path.display().to_string(),
+        material: material.display().to_string(),
+        sample_rate: sr,
+        set: ["matpitch=on"].iter().map(|s| s.to_string()).collect(),
+        ..SoundOptions::default()
+    };
+    if let Err(e) = struck_cli::cli::configured_host(&opts, 4096) {
+        panic!("the material does not play: {e}");
+    }
+    for p in [high, low, bank_path, material, report] {
+        let _ = std::fs::remove_file(p);
+    }
+}

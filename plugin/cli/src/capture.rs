@@ -141,7 +141,8 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
     // With a known object the fitted γ/γ₀ gives the material's specific modulus, so
     // "Material sets pitch" plays it at the recording's pitch on that object (Ren §5).
     let specific_modulus = match (bank, &report.object) {
-        (Some(b), Some(m)) if m.gamma_ratio.is_finite() && m.gamma_ratio > 0.0 => {
+        // (A pitch the instrument cannot play is none: the report says so.)
+        (Some(b), Some(m)) if estimator::object::playable_gamma_ratio(m.gamma_ratio) => {
             Some(m.gamma_ratio * b.reference.specific_modulus)
         }
         _ => None,

@@ -446,7 +446,8 @@ fn configure(opts: &SoundOptions, max_block: usize, say: bool) -> Result<Offline
     if let Some(ratio) = file_modulus {
         if host.plugin().struck_params().material_pitch.value() {
             let gamma = host.param("gamma").map_err(|e| e.to_string())? * ratio as f32;
-            check_range("set gamma (the material file's pitch)", gamma, 0.001, 1000.0)?;
+            let (lo, hi) = estimator::object::PLAYABLE_GAMMA_RATIO;
+            check_range("set gamma (the material file's pitch)", gamma, lo as f32, hi as f32)?;
             host.set_param("gamma", gamma).map_err(|e| e.to_string())?;
         }
     }
@@ -455,7 +456,7 @@ fn configure(opts: &SoundOptions, max_block: usize, say: bool) -> Result<Offline
         host.reset();
         let now = reference_pitch_hz(&mut host)?;
         let gamma = host.param("gamma").map_err(|e| e.to_string())? * ((hz / now) * (hz / now)) as f32;
-        if !(0.001..=1000.0).contains(&gamma) {
+        if !estimator::object::playable_gamma_ratio(f64::from(gamma)) {
             return Err(format!(
                 "--pitch {text}: the object's reference mode is at {now:.2} Hz; {hz:.2} Hz needs γ/γ₀ = {gamma}, outside 0.001..=1000"
             ));

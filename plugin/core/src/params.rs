@@ -597,7 +597,11 @@ impl StruckParams {
             modulus_ratio: FloatParam::new(
                 "Stiffness γ/γ₀",
                 1.0,
-                FloatRange::Skewed { min: 0.001, max: 1000.0, factor: FloatRange::skew_factor(-2.6) },
+                FloatRange::Skewed {
+                    min: estimator::object::PLAYABLE_GAMMA_RATIO.0 as f32,
+                    max: estimator::object::PLAYABLE_GAMMA_RATIO.1 as f32,
+                    factor: FloatRange::skew_factor(-2.6),
+                },
             )
             .with_value_to_string(ratio_with_semitones(true))
             .with_string_to_value(s2v_ratio_or_semitones(true)),

@@ -284,10 +284,13 @@ impl CaptureRecord {
         recorded_modes(&self.report, fit, bank)
     }
 
-    /// γ = (γ/γ₀)·γ₀ from the object match, if there was one and it is usable.
+    /// γ = (γ/γ₀)·γ₀ from the object match, if there was one and it is usable (a pitch the
+    /// instrument plays: [`estimator::object::PLAYABLE_GAMMA_RATIO`]).
     pub fn specific_modulus(&self) -> Option<f64> {
         match (&self.object, &self.report.object) {
-            (Some(o), Some(m)) if m.gamma_ratio.is_finite() && m.gamma_ratio > 0.0 && o.specific_modulus > 0.0 => {
+            (Some(o), Some(m))
+                if estimator::object::playable_gamma_ratio(m.gamma_ratio) && o.specific_modulus > 0.0 =>
+            {
                 Some(m.gamma_ratio * o.specific_modulus)
             }
             _ => None,
