@@ -95,11 +95,13 @@
 //!   one within `SAME_STRIKE_S` of the onset, louder than anything before, after a sound
 //!   that rose and never decayed makes that sound its precursor, as the onsets' swell rule
 //!   does.
-//! - A file's first sound whose attack rises gradually — 3 ms or more from 20 dB under its
-//!   peak to 1 dB under it, the peak within 100 ms, rising all along (a fade-in at the start
-//!   of a trimmed file, a sound that swells in) — is analysed from where it rings freely,
-//!   half the rise's length after it reached −1 dB (`attack_end`); it is said in
-//!   [`Segmentation::attacks`].
+//! - A file's first sound whose attack rises gradually — 3 ms or more from the last moment
+//!   it was 20 dB under the peak of its first 100 ms to 1 dB under that peak (not exceeded
+//!   later: a swell still rising is none), still 4 dB under it half way, its top gradual (a
+//!   fade-in at the start of a trimmed file, a soft mallet's long contact) — is analysed from
+//!   where it rings freely, half the rise's length after it reached −1 dB (`attack_end`); it
+//!   is said in [`Segmentation::attacks`]. Known limit: partials beating to a null under
+//!   −20 dB during the fade shorten the measured rise (the fade may then be missed).
 
 use realfft::num_complex::Complex64 as C64;
 use realfft::RealFftPlanner;
@@ -156,8 +158,9 @@ pub struct Segmentation {
     /// Sample positions where the level rose like an onset but what followed was steady,
     /// untonal noise (a noise floor that starts or changes): not impacts.
     pub noise_steps: Vec<usize>,
-    /// Strikes inside analysed impacts, in time order: `(its sample, the onset sample of the
-    /// impact it falls in)`: a second strike inside the minimum gap, and strikes found by
+    /// Strikes inside analysed impacts, in time order: `(its sample, the start of the impact
+    /// it falls in)` (the impact's onset, or where its analysis starts after a gradual attack:
+    /// [`Segmentation::attacks`] maps it back): a second strike inside the minimum gap, and strikes found by
     /// `strikes_within` (a roll faster than the gap, or whose ring gave no 20 ms to train the
     /// predictor on). Not impacts of their own, but said: the impact's analysis mixes the
     /// strikes' decays (module docs) unless the strike is one of [`Segmentation::cuts`].
