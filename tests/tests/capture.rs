@@ -234,6 +234,25 @@ fn write_taps(path: &std::path::Path, sr: u32, modes: &[(f64, f64, f64)]) {
     w.finalize().unwrap();
 }
 
+/// `struck bank capture` of `wav`'s second impact as bank `id` into `out`: up to 48 modes
+/// within 40 dB, steel of 0.3 m.
+fn bank_capture_args(wav: &std::path::Path, id: &str, out: PathBuf) -> struck_cli::capture::BankCaptureArgs {
+    struck_cli::capture::BankCaptureArgs {
+        file: wav.to_path_buf(),
+        impact: 2,
+        channel: None,
+        modes: 48,
+        range_db: 40.0,
+        young: 200e9,
+        density: 7850.0,
+        poisson: 0.3,
+        size_m: 0.3,
+        id: id.into(),
+        name: id.into(),
+        out,
+    }
+}
+
 /// `struck bank capture` (the recording's own modes, Ren 2013 §6) and a material captured on
 /// that bank: six partials that belong to no bank of Struck's (a test's own, each with its
 /// own decay) become six modes at their frequencies (1 cent); the material estimated with
@@ -257,20 +276,7 @@ fn a_bank_captured_from_a_recording_plays_its_partials_with_their_decays() {
     let wav = tmp("own-modes.wav");
     write_taps(&wav, sr, &truth);
     let bank_path = tmp("own-modes-bank.json");
-    let args = |out: std::path::PathBuf| struck_cli::capture::BankCaptureArgs {
-        file: wav.clone(),
-        impact: 2,
-        channel: None,
-        modes: 48,
-        range_db: 40.0,
-        young: 200e9,
-        density: 7850.0,
-        poisson: 0.3,
-        size_m: 0.3,
-        id: "own-modes".into(),
-        name: "Own modes".into(),
-        out,
-    };
+    let args = |out: std::path::PathBuf| bank_capture_args(&wav, "own-modes", out);
     // Never over the recording.
     let refused = struck_cli::capture::bank_from_recording(&args(wav.clone())).unwrap_err();
     assert!(hound::WavReader::open(&wav).is_ok(), "the recording was touched: {refused}");
@@ -341,21 +347,7 @@ fn a_pitch_the_instrument_cannot_play_is_not_stored() {
     let low = tmp("unplayable-low.wav");
     write_taps(&low, sr, &partials(1165.0 / 40.0));
     let bank_path = tmp("unplayable-bank.json");
-    struck_cli::capture::bank_from_recording(&struck_cli::capture::BankCaptureArgs {
-        file: high.clone(),
-        impact: 2,
-        channel: None,
-        modes: 48,
-        range_db: 40.0,
-        young: 200e9,
-        density: 7850.0,
-        poisson: 0.3,
-        size_m: 0.3,
-        id: "unplayable".into(),
-        name: "Unplayable".into(),
-        out: bank_path.clone(),
-    })
-    .unwrap();
+    struck_cli::capture::bank_from_recording(&bank_capture_args(&high, "unplayable", bank_path.clone())).unwrap();
     let material = tmp("unplayable-material.json");
     let report = tmp("unplayable-report.json");
     let est = EstimateArgs {
