@@ -334,13 +334,20 @@ fn shared_partials(impacts: &[ImpactFeatures]) -> (usize, f64, usize) {
     if with.len() < 2 {
         return (0, 0.0, 0);
     }
-    let count = |shift: f64| {
-        let mut n = 0;
-        for (i, imp) in with.iter().enumerate() {
+    // Each impact's strongest frequencies, once.
+    let tops: Vec<Vec<f64>> = with
+        .iter()
+        .map(|imp| {
             let mut top: Vec<&Feature> = imp.features.iter().collect();
             top.sort_by(|a, b| b.amplitude.total_cmp(&a.amplitude));
-            for f in top.into_iter().take(SHARED_TOP) {
-                let at = f.freq_hz * (1.0 + shift);
+            top.into_iter().take(SHARED_TOP).map(|f| f.freq_hz).collect()
+        })
+        .collect();
+    let count = |shift: f64| {
+        let mut n = 0;
+        for (i, top) in tops.iter().enumerate() {
+            for &f in top {
+                let at = f * (1.0 + shift);
                 let near = |g: &Feature| (g.freq_hz - at).abs() <= SHARED_TOL * at;
                 if with.iter().enumerate().any(|(j, o)| j != i && o.features.iter().any(near)) {
                     n += 1;
@@ -349,7 +356,7 @@ fn shared_partials(impacts: &[ImpactFeatures]) -> (usize, f64, usize) {
         }
         n
     };
-    let total = with.iter().map(|i| i.features.len().min(SHARED_TOP)).sum();
+    let total = tops.iter().map(Vec::len).sum();
     let chance = SHARED_CHANCE_SHIFTS.iter().map(|&s| count(s) as f64).sum::<f64>() / SHARED_CHANCE_SHIFTS.len() as f64;
     (count(0.0), chance, total)
 }

@@ -403,8 +403,8 @@ fn attack_end(x: &[f32], fs: f64, end: usize) -> Option<usize> {
         *b = f64::from(v);
     }
     let mut spec = fwd.make_output_vec();
-    // PANIC: buffer lengths match the plans by construction.
-    fwd.process(&mut buf.clone(), &mut spec).expect("fft sizes");
+    // PANIC: buffer lengths match the plans by construction. (`buf` is scratch after this.)
+    fwd.process(&mut buf, &mut spec).expect("fft sizes");
     // The Hilbert transform: −i × the spectrum at positive frequencies, 0 at DC and Nyquist.
     let last = spec.len() - 1;
     for (k, s) in spec.iter_mut().enumerate() {
@@ -414,7 +414,7 @@ fn attack_end(x: &[f32], fs: f64, end: usize) -> Option<usize> {
     inv.process(&mut spec, &mut h).expect("fft sizes");
     // Envelope power: x² + H{x}², averaged over the 0.5 ms from each sample on.
     let w = ((0.0005 * fs) as usize).max(1);
-    let e2: Vec<f64> = (0..len).map(|i| buf[i] * buf[i] + h[i] * h[i]).collect();
+    let e2: Vec<f64> = x[..len].iter().zip(&h).map(|(&v, hv)| f64::from(v).powi(2) + hv * hv).collect();
     let mut env = Vec::with_capacity(len.saturating_sub(w) + 1);
     let mut sum: f64 = e2[..w.min(len)].iter().sum();
     for i in 0..=len.saturating_sub(w) {
@@ -447,6 +447,18 @@ fn attack_end(x: &[f32], fs: f64, end: usize) -> Option<usize> {
     }
     // Each envelope value is the mean of the `w` samples from its index on.
     Some(from + w / 2 + (FADE_MARGIN * rise as f64).ceil() as usize)
+}
+
+/// Starts impact `imp` at `to`, after what came before it in the impact (a precursor, a
+/// gradual attack): the strikes reported inside it up to `to` go, the later ones count from
+/// `to`.
+fn move_start(imp: &mut Segment, to: usize, restrikes: &mut Vec<(usize, usize)>) {
+    let old = imp.start;
+    restrikes.retain(|&(at, o)| !(o == old && at <= to));
+    for r in restrikes.iter_mut().filter(|r| r.1 == old) {
+        r.1 = to;
+    }
+    imp.start = to;
 }
 
 /// Takes the impacts at `idx` (ascending indices into `out.impacts`) out of the analysis as
@@ -1517,12 +1529,7 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
             ));
             out.cuts.remove(ci);
             // Strikes reported in the swell are part of it; later ones are now the strike's.
-            let old = imp.start;
-            restrikes.retain(|&(at, o)| !(o == old && at <= r));
-            for x in restrikes.iter_mut().filter(|x| x.1 == old) {
-                x.1 = r;
-            }
-            imp.start = r;
+            move_start(imp, r, &mut restrikes);
             if imp.end - r < min_len {
                 too_short.push(ii);
             }
@@ -1536,31 +1543,30 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
     // sinusoids' model holds (`attack_end`), before the first strike reported inside the
     // impact. The first sound: the first impact, within `FADE_MAX_S` of the file's start,
     // with nothing before it but its precursors.
-    let mut all_attack = Vec::new();
     let head = (FADE_MAX_S * fs) as usize;
-    let first = out.impacts.first().map(|i| i.start).filter(|&s| {
-        s < head && out.skipped.iter().all(|(k, why)| k.start >= s || (is_precursor(why) && k.start < head))
+    let first_sound = out.impacts.first().is_some_and(|i| {
+        i.start < head && out.skipped.iter().all(|(k, why)| k.start >= i.start || (is_precursor(why) && k.start < head))
     });
-    for (ii, imp) in out.impacts.iter_mut().enumerate().take(usize::from(first.is_some())) {
+    let mut all_attack = false;
+    if let Some(imp) = out.impacts.first_mut().filter(|_| first_sound) {
         // Up to its first strike inside: a louder one is not the first sound's peak.
         let until = restrikes.iter().filter(|r| r.1 == imp.start).map(|r| r.0).fold(imp.end, usize::min);
-        let Some(to) = attack_end(x, fs, until).filter(|&to| to > imp.start && to < until) else { continue };
-        // The strikes inside count from the analysis' start (`Segmentation::attacks` maps it
-        // back to the onset for what is said of them).
-        let old = imp.start;
-        for r in restrikes.iter_mut().filter(|r| r.1 == old) {
-            r.1 = to;
-        }
-        imp.start = to;
-        if imp.end - to < min_len {
-            all_attack.push(ii);
-        } else {
-            out.attacks.push((old, to));
+        if let Some(to) = attack_end(x, fs, until).filter(|&to| to > imp.start && to < until) {
+            // The strikes inside (all after `to`) count from the analysis' start
+            // (`Segmentation::attacks` maps it back to the onset for what is said of them).
+            let onset = imp.start;
+            move_start(imp, to, &mut restrikes);
+            all_attack = imp.end - to < min_len;
+            if !all_attack {
+                out.attacks.push((onset, to));
+            }
         }
     }
-    skip_impacts(&mut out, &mut restrikes, &all_attack, fs, |ms| {
-        format!("too short after its gradual attack ({ms:.0} ms left)")
-    });
+    if all_attack {
+        skip_impacts(&mut out, &mut restrikes, &[0], fs, |ms| {
+            format!("too short after its gradual attack ({ms:.0} ms left)")
+        });
+    }
     out.restrikes = restrikes;
     out
 }

@@ -529,24 +529,24 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
     if mono.is_empty() {
         return Err(EstimateError::Silent { path: path.to_path_buf(), why: Silence::NoSamples });
     }
-    if analysis && mono.iter().all(|&v| v == 0.0) {
+    let peak = mono.iter().fold(0.0f64, |m, &v| m.max(f64::from(v).abs()));
+    if analysis {
+        // Channels that cancel: one the other inverted, exactly or not to the last bit (an
+        // integer −32768 has no +32768; a dither or a gain of 0.999 on one side). The mix's
+        // peak is `CANCEL_DB` under the loudest channel's, where a recording's channels,
+        // however they differ, add up to about the louder one.
         let why =
-            if peak_any > 0.0 && channel.is_none() && channels > 1 { Silence::ChannelsCancel } else { Silence::Zeros };
-        return Err(EstimateError::Silent { path: path.to_path_buf(), why });
-    }
-    // Nearly cancelling: one channel the other inverted, but not to the last bit (an integer
-    // −32768 has no +32768; a dither or a gain of 0.999 on one side). The mix's peak is
-    // `CANCEL_DB` under the loudest channel's, where a recording's channels, however they
-    // differ, add up to about the louder one.
-    if analysis && channel.is_none() && channels > 1 && peak_any > 0.0 {
-        let mix_peak = mono.iter().fold(0.0f64, |m, &v| m.max(f64::from(v).abs()));
-        if mix_peak < peak_any * 10f64.powf(-CANCEL_DB / 20.0) {
-            return Err(EstimateError::Silent { path: path.to_path_buf(), why: Silence::ChannelsCancel });
+            if channel.is_none() && channels > 1 && peak_any > 0.0 && peak < peak_any * 10f64.powf(-CANCEL_DB / 20.0) {
+                Some(Silence::ChannelsCancel)
+            } else {
+                (peak == 0.0).then_some(Silence::Zeros)
+            };
+        if let Some(why) = why {
+            return Err(EstimateError::Silent { path: path.to_path_buf(), why });
         }
     }
     let n = mono.len() as f64;
     let mean = mono.iter().map(|&v| f64::from(v)).sum::<f64>() / n;
-    let peak = mono.iter().fold(0.0f64, |m, &v| m.max(f64::from(v).abs()));
     let clip_fraction = clipped as f64 / seen.max(1) as f64;
     let wrong_units = spec.float && peak_any > WRONG_UNITS_PEAK;
     if wrong_units {
