@@ -474,11 +474,21 @@ pub fn extract_features(
             }
             progress((fi as f32 + (ii + 1) as f32 / nimp as f32) / nfiles as f32);
         }
+        // The strike an impact starts with: its onset, before a gradual attack was left out
+        // (the strikes inside it count from where its analysis starts).
+        let strike_at = |start: usize| seg.attacks.iter().find(|a| a.1 == start).map_or(start, |a| a.0);
         for &(onset, from) in &seg.attacks {
             report.warnings.push(format!(
                 "{name}: the sound at {:.3} s rises gradually (a fade-in, a swell or a soft mallet's long contact): analysed from {:.3} s, where it rings freely",
                 onset as f64 / fs,
                 from as f64 / fs
+            ));
+        }
+        for &(start, to) in &seg.fades {
+            report.warnings.push(format!(
+                "{name}: the sound at {:.3} s falls away faster than it rang from {:.3} s on (a fade-out, a gate or a hand damping it): analysed up to there",
+                strike_at(start) as f64 / fs,
+                to as f64 / fs
             ));
         }
         if !seg.noise_steps.is_empty() {
@@ -491,9 +501,6 @@ pub fn extract_features(
                 if seg.noise_steps.len() > 5 { ", …" } else { "" }
             ));
         }
-        // The strike an impact starts with: its onset, before a gradual attack was left out
-        // (the strikes inside it count from where its analysis starts).
-        let strike_at = |start: usize| seg.attacks.iter().find(|a| a.1 == start).map_or(start, |a| a.0);
         if seg.restrikes.len() <= MAX_RESTRIKE_WARNINGS {
             for &(at, start) in &seg.restrikes {
                 let onset = strike_at(start);
