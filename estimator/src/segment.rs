@@ -108,10 +108,18 @@
 //!   sample, a gate, a hand damping the object — is analysed up to where that began, less a
 //!   quarter of the fade's length; said in [`Segmentation::fades`]. A free ring cannot do
 //!   that: a sum of damped sinusoids has a log-convex envelope (its fast partials die
-//!   first), beating aside, and a beat's null recovers. The line is fitted after the last
-//!   strike reported inside the impact. Known limit: a fade over most of the ring (0.4 s of
-//!   a 0.5 s file) is found late, the line being fitted inside it (analysed to 0.35 s: the
-//!   fundamental's decay 3.95 s⁻¹ for 3.0; 5.2 without this rule).
+//!   first), save for beating. A file that ends in a beat's null falls away like a fade, so
+//!   a ring that dipped 5 dB under its line earlier (a fade's length or more before the fall)
+//!   may beat: its fall must then go 6 dB deeper than those dips and last under a quarter of
+//!   the time since the last of them (a fall into a null takes half the beat's period; an
+//!   independent black-box test found a 1 Hz doublet ending at its null cut at 1.0 of 1.5 s,
+//!   its decay doubled, before this). The line is fitted after the last cut inside the
+//!   impact (a strike only reported there, where the ring only fell, may be the fade's own
+//!   start). Known limits: a fade over most of the ring (0.4 s of a 0.5 s file) is found
+//!   late, the line being fitted inside it (analysed to 0.35 s: the fundamental's decay
+//!   3.95 s⁻¹ for 3.0; 5.2 without this rule); a fade on a ring that beats deeply (toms,
+//!   timpani) is mostly left in; fades under 10 ms are not looked for (a 10 ms linear fade at
+//!   the end of 0.2 s: decays 1.6 % slow).
 
 use realfft::num_complex::Complex64 as C64;
 use realfft::RealFftPlanner;
@@ -482,27 +490,44 @@ const FADE_OUT_FIT_FROM: f64 = 0.25;
 /// ... at first up to this share of the impact (then up to the fade's start, refitted until
 /// the start holds).
 const FADE_OUT_FIT_TO: f64 = 0.6;
+/// The fade's last frames lie this much deeper under the line than the ring dipped under it
+/// anywhere before (a beat's nulls), dB ...
+const FADE_OUT_DEEPER_DB: f64 = 6.0;
+/// A ring that dipped this far under the line before the fade may beat (module docs), dB.
+const FADE_OUT_BEAT_DB: f64 = 5.0;
+/// An impact that ended in the floor is no fade if within this long after its end (before
+/// the next onset) the ring comes back ...
+const FADE_OUT_COMEBACK_S: f64 = 0.5;
+/// ... this many times (10 dB) over its last frames' energy.
+const FADE_OUT_COMEBACK: f64 = 10.0;
+/// The last frames compared with the line: 2.5 % of the impact, 2 (5 ms) to this many (20 ms:
+/// a fade of 40 ms at the end of a 2 s ring is half of them).
+const FADE_OUT_TAIL_FRAMES: usize = 8;
 /// An impact shorter than this many frames (60 ms) is not searched for a fade-out.
 const FADE_OUT_MIN_FRAMES: usize = 24;
 /// At least this share of the impact is kept, whatever the fade.
 const FADE_OUT_KEEP: f64 = 0.2;
 
 /// The frame where the ring of the impact spanning frames `ja..jb` of the frame energies `e`
-/// starts to fade out, if it does: its last frames (5 %, two at least) lie `FADE_OUT_DB` under
-/// the least-squares line (in dB) through its frames from `FADE_OUT_FIT_FROM` of the way to
-/// the fade to the fade (at first to `FADE_OUT_FIT_TO` of the impact, then refitted up to
-/// the fade found, until it holds), lower than any frame before the fade, and the shortfall
-/// grows through the fade (each quarter's mean deeper than the quarter's before: a beating
-/// null recovers); the fade starts after the last frame within `FADE_OUT_START_DB` of the
-/// line and lasts at least `min_frames`. Energies are floored at `floor` (digital silence
-/// after a fade to zero).
+/// starts to fade out, if it does. Its last frames (2.5 %, 2–`FADE_OUT_TAIL_FRAMES`) lie
+/// `FADE_OUT_DB` under the least-squares line (in dB) through its frames from
+/// `FADE_OUT_FIT_FROM` of the way to the fade up to the fade (at first up to
+/// `FADE_OUT_FIT_TO` of the impact, then refitted up to the fade found, until it holds); the
+/// fade starts after the last frame within `FADE_OUT_START_DB` of the line and lasts at
+/// least `min_frames`. And it is no free ring's: its end is lower than any frame before; the
+/// shortfall grows through it (each quarter's mean deeper than the quarter's before, within
+/// `FADE_OUT_START_DB`: a beat's null recovers); it ends `FADE_OUT_DEEPER_DB` deeper than the
+/// ring dipped under the line up to a fade's length before it; and if the ring dipped
+/// `FADE_OUT_BEAT_DB` there (it may beat), the fade is shorter than a quarter of the time from
+/// the last such dip to the end. Energies are floored at
+/// `floor` (digital silence after a fade to zero).
 fn fade_out_start(e: &[f64], floor: f64, ja: usize, jb: usize, min_frames: usize) -> Option<usize> {
     let k = jb.saturating_sub(ja);
     if k < FADE_OUT_MIN_FRAMES {
         return None;
     }
     let l: Vec<f64> = e[ja..jb].iter().map(|&v| 10.0 * v.max(floor).max(1e-300).log10()).collect();
-    let tail = (k / 20).max(2);
+    let tail = (k / 40).clamp(2, FADE_OUT_TAIL_FRAMES);
     let mut upto = (FADE_OUT_FIT_TO * k as f64) as usize;
     for _ in 0..6 {
         let from = (FADE_OUT_FIT_FROM * upto as f64) as usize;
@@ -532,10 +557,29 @@ fn fade_out_start(e: &[f64], floor: f64, ja: usize, jb: usize, min_frames: usize
             let len = k - start;
             let lowest_before = l[..start].iter().fold(f64::INFINITY, |m, &v| m.min(v));
             let end_level = l[k - tail..].iter().sum::<f64>() / tail as f64;
-            let q =
-                |a: usize| (start + a * len / 4..start + (a + 1) * len / 4).map(short).sum::<f64>() / (len / 4) as f64;
-            let deepening = len >= 4 && q(0) < q(1) && q(1) < q(2) && q(2) < q(3);
-            return (len >= min_frames && end_level < lowest_before && deepening).then_some(ja + start);
+            let q = |a: usize| {
+                let (qa, qb) = (start + a * len / 4, start + (a + 1) * len / 4);
+                (qa..qb).map(short).sum::<f64>() / (qb - qa).max(1) as f64
+            };
+            // (Within a decibel: a gentle fade's first frames hardly fall.)
+            let deepening = len >= 4 && (0..3).all(|a| q(a + 1) > q(a) - FADE_OUT_START_DB);
+            // A beating ring dips under its line at every null of the beat: a file that ends
+            // in one falls away like a fade. The null before came a period earlier, and the
+            // fall into a null takes at most half a period: so among the frames from where the
+            // line is fitted (the strike's first frames are not the ring's) to a fade's length
+            // before it, a fade goes `FADE_OUT_DEEPER_DB` deeper than the ring dipped; and if
+            // the ring dipped `FADE_OUT_BEAT_DB` there (it may beat), the fade lasts under a
+            // quarter of the time from the last such frame to the end.
+            let earlier = from..start.saturating_sub(len).max(from);
+            let dipped = earlier.clone().map(short).fold(0.0f64, f64::max);
+            let beat_ok =
+                earlier.clone().rposition(|i| short(i) >= FADE_OUT_BEAT_DB).is_none_or(|d| 4 * len <= k - (from + d));
+            let fade = len >= min_frames
+                && end_level < lowest_before
+                && deepening
+                && last >= dipped + FADE_OUT_DEEPER_DB
+                && beat_ok;
+            return fade.then_some(ja + start);
         }
         upto = start;
     }
@@ -1663,13 +1707,24 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
     // A ring that falls away faster than it rang, to its end (an editor's fade-out, a gate, a
     // hand damping the object) is analysed up to where that began (`fade_out_start`): over
     // the fade the partials' amplitudes follow its shape, which no damped sinusoid does.
-    let fade_min = ((FADE_OUT_MIN_S * fs) as usize).div_ceil(hop);
+    let fade_min = (FADE_OUT_MIN_S * fs / hop as f64).round() as usize;
+    let back_after = (FADE_OUT_COMEBACK_S * fs) as usize;
     for imp in &mut out.impacts {
-        // The frames wholly inside the impact, after the last strike reported inside it (a
-        // bounce's ring is a new level, not the line the first strike's ring followed).
-        let from = restrikes.iter().filter(|r| r.1 == imp.start).map(|r| r.0 + frame).fold(imp.start, usize::max);
+        // The frames wholly inside the impact, after the last cut inside it (a bounce's ring
+        // is a new level, not the line the first strike's ring followed; a strike reported
+        // where the ring only fell may be the fade's own start).
+        let from =
+            out.cuts.iter().filter(|&&c| c > imp.start && c < imp.end).map(|&c| c + frame).fold(imp.start, usize::max);
         let (ja, jb) = (from.div_ceil(hop), ((imp.end.saturating_sub(frame)) / hop + 1).min(nfr));
         let Some(jf) = fade_out_start(&e, noise, ja, jb, fade_min) else { continue };
+        // A ring that comes back after the impact ended in the floor (before the next onset)
+        // had only beaten to a null there.
+        let next = onsets.iter().map(|o| o.0).find(|&o| o > imp.start).unwrap_or(x.len());
+        let (ka, kb) = (jb.min(nfr), ((next.min(imp.end + back_after)) / hop).min(nfr));
+        let end_e = e[jb.saturating_sub(2).max(ja)..jb].iter().fold(0.0f64, |m, &v| m.max(v)).max(noise);
+        if ka < kb && e[ka..kb].iter().any(|&v| v > FADE_OUT_COMEBACK * end_e) {
+            continue;
+        }
         let fade = imp.end.saturating_sub(jf * hop);
         let keep = imp.start + ((FADE_OUT_KEEP * (imp.end - imp.start) as f64) as usize).max(min_len);
         let to = (jf * hop).saturating_sub((FADE_OUT_MARGIN * fade as f64) as usize).max(keep);
