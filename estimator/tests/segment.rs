@@ -1463,6 +1463,19 @@ fn every_strike_of_a_fast_roll_is_cut_or_reported() {
     assert!(w[0].contains("a roll") && w[0].contains("each 30 ms after the strike before it"), "{}", w[0]);
 }
 
+/// The features and components of `r` at over 1 % of its strongest feature's amplitude that
+/// are none of `modes` (within 0.5 %), as (f, d, amplitude / strongest).
+fn made_up(r: &FeaturesReport, modes: &[(f64, f64, f64)]) -> Vec<(f64, f64, f64)> {
+    let feats = r.impacts.iter().flat_map(|i| i.features.iter());
+    let strongest = feats.clone().fold(0.0f64, |m, f| m.max(f.amplitude));
+    feats
+        .chain(r.impacts.iter().flat_map(|i| i.components.iter()))
+        .filter(|f| f.amplitude > 0.01 * strongest)
+        .filter(|f| !modes.iter().any(|m| (f.freq_hz / m.0 - 1.0).abs() < 0.005))
+        .map(|f| (f.freq_hz, f.decay_per_s, f.amplitude / strongest))
+        .collect()
+}
+
 /// A file trimmed mid-ring with an editor's fade-in (linear, sine, quadratic, linear in dB
 /// from −60 dB; 5–50 ms): the analysis starts after the fade, so the features are the ring's
 /// partials, not the comb of fast modes that explains a fade (before: a 5 ms linear fade over
@@ -1507,16 +1520,9 @@ fn a_fade_in_is_left_out_of_the_analysis() {
             let r = features(&p).unwrap();
             let _ = std::fs::remove_file(&p);
             let feats: Vec<_> = r.impacts.iter().flat_map(|i| i.features.iter().copied()).collect();
-            let strongest = feats.iter().fold(0.0f64, |m, f| m.max(f.amplitude));
             // Made-up features or components: none at 1 % of the strongest away from the
             // partials.
-            let made_up: Vec<(f64, f64, f64)> = feats
-                .iter()
-                .chain(r.impacts.iter().flat_map(|i| i.components.iter()))
-                .filter(|f| f.amplitude > 0.01 * strongest)
-                .filter(|f| !modes.iter().any(|m| (f.freq_hz / m.0 - 1.0).abs() < 0.005))
-                .map(|f| (f.freq_hz, f.decay_per_s, f.amplitude / strongest))
-                .collect();
+            let made_up = made_up(&r, &modes);
             // Each partial's decay within 1 %.
             let decays_off = modes.iter().any(|m| {
                 !feats.iter().any(|f| (f.freq_hz / m.0 - 1.0).abs() < 0.005 && (f.decay_per_s / m.1 - 1.0).abs() < 0.01)
@@ -1628,14 +1634,7 @@ fn a_fade_out_is_left_out_of_the_analysis() {
             let r = features(&p).unwrap();
             let _ = std::fs::remove_file(&p);
             let feats: Vec<_> = r.impacts.iter().flat_map(|i| i.features.iter().copied()).collect();
-            let strongest = feats.iter().fold(0.0f64, |m, f| m.max(f.amplitude));
-            let made_up: Vec<(f64, f64, f64)> = feats
-                .iter()
-                .chain(r.impacts.iter().flat_map(|i| i.components.iter()))
-                .filter(|f| f.amplitude > 0.01 * strongest)
-                .filter(|f| !modes.iter().any(|m| (f.freq_hz / m.0 - 1.0).abs() < 0.005))
-                .map(|f| (f.freq_hz, f.decay_per_s, f.amplitude / strongest))
-                .collect();
+            let made_up = made_up(&r, &modes);
             let decays: Vec<f64> = modes
                 .iter()
                 .map(|m| {
@@ -1684,6 +1683,41 @@ fn a_fade_out_is_left_out_of_the_analysis() {
         });
         if off || !r.warnings.iter().any(|w| w.contains("falls away faster than it rang")) {
             bad.push(format!("short: {feats:?} {:?}", r.warnings));
+        }
+    }
+    // Faded in and out (20 ms in, 150 ms out, 0.5 s): both left out, and the fade-out is said of
+    // the sound at its onset (where the fade-in rose over the floor, a few ms in), as the
+    // fade-in is, not at where its analysis starts after the fade-in (`strike_at`).
+    {
+        let mut x = vec![0.0; (0.5 * fs) as usize];
+        for &(f, d, a) in &modes {
+            add_mode(&mut x, fs, 0.0, f, d, 0.3 * a);
+        }
+        let (n, m_in, m_out) = (x.len(), (0.02 * fs) as usize, (0.15 * fs) as usize);
+        for i in 0..m_in {
+            x[i] *= i as f64 / m_in as f64;
+        }
+        for i in 0..m_out {
+            x[n - m_out + i] *= 1.0 - i as f64 / m_out as f64;
+        }
+        let mut g = Gen(9398);
+        x.iter_mut().for_each(|v| *v += 1e-5 * g.normal());
+        let p = write("fade-in-and-out", &x, fs as u32);
+        let r = features(&p).unwrap();
+        let _ = std::fs::remove_file(&p);
+        let start = r.impacts.first().map_or(0.0, |i| i.onset_s);
+        let end = r.impacts.first().map_or(0.0, |i| i.onset_s + i.duration_s);
+        // The onset each warning names ("the sound at X s ...").
+        let said_at = |what: &str| {
+            r.warnings.iter().find(|w| w.contains(what)).and_then(|w| {
+                let at = w.split("the sound at ").nth(1)?;
+                at.split(' ').next()?.parse::<f64>().ok()
+            })
+        };
+        let (said_in, said_out) = (said_at("rises gradually"), said_at("falls away faster than it rang"));
+        let same_onset = said_in.is_some_and(|a| a < 0.01) && said_in == said_out;
+        if !(same_onset && start > 0.02 && end <= 0.35 + 0.25 * 0.15 && end > 0.25) {
+            bad.push(format!("in and out: analysed {start:.3}–{end:.3} s, {:?}", r.warnings));
         }
     }
     // Not fades, analysed whole and not said: a ring into the noise floor (2 s), a two-stage
