@@ -1662,21 +1662,28 @@ fn a_fade_out_is_left_out_of_the_analysis() {
     }
     // A short sample: 0.2 s, its last 20 ms faded out linearly (before the quarters' means were
     // right, missed: decays 8 % slow).
-    {
-        let mut x = vec![0.0; (0.2 * fs) as usize];
+    // The ring, `len_s` long, faded in linearly over `in_s` and out over `out_s`, analysed.
+    let faded = |name: &str, len_s: f64, in_s: f64, out_s: f64, seed: u64| {
+        let mut x = vec![0.0; (len_s * fs) as usize];
         for &(f, d, a) in &modes {
             add_mode(&mut x, fs, 0.0, f, d, 0.3 * a);
         }
-        let n = x.len();
-        let m = (0.02 * fs) as usize;
-        for i in 0..m {
-            x[n - m + i] *= 1.0 - i as f64 / m as f64;
+        let (n, m_in, m_out) = (x.len(), (in_s * fs) as usize, (out_s * fs) as usize);
+        for i in 0..m_in {
+            x[i] *= i as f64 / m_in as f64;
         }
-        let mut g = Gen(9399);
+        for i in 0..m_out {
+            x[n - m_out + i] *= 1.0 - i as f64 / m_out as f64;
+        }
+        let mut g = Gen(seed);
         x.iter_mut().for_each(|v| *v += 1e-5 * g.normal());
-        let p = write("fade-out-short", &x, fs as u32);
+        let p = write(name, &x, fs as u32);
         let r = features(&p).unwrap();
         let _ = std::fs::remove_file(&p);
+        r
+    };
+    {
+        let r = faded("fade-out-short", 0.2, 0.0, 0.02, 9399);
         let feats: Vec<_> = r.impacts.iter().flat_map(|i| i.features.iter().copied()).collect();
         let off = modes.iter().take(2).any(|m| {
             !feats.iter().any(|f| (f.freq_hz / m.0 - 1.0).abs() < 0.005 && (f.decay_per_s / m.1 - 1.0).abs() < 0.01)
@@ -1689,22 +1696,7 @@ fn a_fade_out_is_left_out_of_the_analysis() {
     // the sound at its onset (where the fade-in rose over the floor, a few ms in), as the
     // fade-in is, not at where its analysis starts after the fade-in (`strike_at`).
     {
-        let mut x = vec![0.0; (0.5 * fs) as usize];
-        for &(f, d, a) in &modes {
-            add_mode(&mut x, fs, 0.0, f, d, 0.3 * a);
-        }
-        let (n, m_in, m_out) = (x.len(), (0.02 * fs) as usize, (0.15 * fs) as usize);
-        for i in 0..m_in {
-            x[i] *= i as f64 / m_in as f64;
-        }
-        for i in 0..m_out {
-            x[n - m_out + i] *= 1.0 - i as f64 / m_out as f64;
-        }
-        let mut g = Gen(9398);
-        x.iter_mut().for_each(|v| *v += 1e-5 * g.normal());
-        let p = write("fade-in-and-out", &x, fs as u32);
-        let r = features(&p).unwrap();
-        let _ = std::fs::remove_file(&p);
+        let r = faded("fade-in-and-out", 0.5, 0.02, 0.15, 9398);
         let start = r.impacts.first().map_or(0.0, |i| i.onset_s);
         let end = r.impacts.first().map_or(0.0, |i| i.onset_s + i.duration_s);
         // The onset each warning names ("the sound at X s ...").
