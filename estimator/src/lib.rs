@@ -484,10 +484,11 @@ pub fn extract_features(
                 from as f64 / fs
             ));
         }
-        for &(start, to) in &seg.fades {
+        for &(start, fall, to) in &seg.fades {
             report.warnings.push(format!(
-                "{name}: the sound at {:.3} s falls away faster than it rang from {:.3} s on (a fade-out, a gate or a hand damping it): analysed up to there",
+                "{name}: the sound at {:.3} s falls away faster than it rang from {:.3} s on (a fade-out, a gate or a hand damping it): analysed up to {:.3} s",
                 strike_at(start) as f64 / fs,
+                fall as f64 / fs,
                 to as f64 / fs
             ));
         }

@@ -109,13 +109,14 @@
 //!   quarter of the fade's length; said in [`Segmentation::fades`]. A free ring cannot do
 //!   that: a sum of damped sinusoids has a log-convex envelope (its fast partials die
 //!   first), save for beating. A file that ends in a beat's null falls away like a fade, so
-//!   a ring that dipped 5 dB under its line earlier (a fade's length or more before the fall)
-//!   may beat: its fall must then go 6 dB deeper than those dips and last under a quarter of
-//!   the time since the last of them (a fall into a null takes half the beat's period; an
+//!   the fall must go 6 dB deeper than the ring dipped under its line before (up to a fade's
+//!   length before the fall), and if it dipped 5 dB there (it may beat), last under a quarter
+//!   of the time since the last such dip (a fall into a null takes half the beat's period; an
 //!   independent black-box test found a 1 Hz doublet ending at its null cut at 1.0 of 1.5 s,
 //!   its decay doubled, before this). The line is fitted after the last cut inside the
 //!   impact (a strike only reported there, where the ring only fell, may be the fade's own
-//!   start). Known limits: a fade over most of the ring (0.4 s of a 0.5 s file) is found
+//!   start). Known limits: a beat slower than the record that ends in its null (1.1 Hz,
+//!   equal partials, 0.5 s) is taken for a fade, analysed to 0.30 s; a fade over most of the ring (0.4 s of a 0.5 s file) is found
 //!   late, the line being fitted inside it (analysed to 0.35 s: the fundamental's decay
 //!   3.95 s⁻¹ for 3.0; 5.2 without this rule); a fade on a ring that beats deeply (toms,
 //!   timpani) is mostly left in; fades under 10 ms are not looked for (a 10 ms linear fade at
@@ -194,9 +195,9 @@ pub struct Segmentation {
     /// second, and so do the `restrikes` inside it (module docs).
     pub attacks: Vec<(usize, usize)>,
     /// Impacts whose ring fades out faster than it rang (an editor's fade-out, a gate, a
-    /// hand damping the object), as `(the impact's start, the sample its analysis now ends
-    /// at)`: the impact in `impacts` ends at the second (module docs).
-    pub fades: Vec<(usize, usize)>,
+    /// hand damping the object), as `(the impact's start, where the fall begins, the sample
+    /// its analysis now ends at)`: the impact in `impacts` ends at the third (module docs).
+    pub fades: Vec<(usize, usize, usize)>,
 }
 
 /// A strike inside an impact ([`Segmentation::cuts`]): the frames compared before it (ending
@@ -495,8 +496,8 @@ const FADE_OUT_FIT_TO: f64 = 0.6;
 const FADE_OUT_DEEPER_DB: f64 = 6.0;
 /// A ring that dipped this far under the line before the fade may beat (module docs), dB.
 const FADE_OUT_BEAT_DB: f64 = 5.0;
-/// An impact that ended in the floor is no fade if within this long after its end (before
-/// the next onset) the ring comes back ...
+/// An impact is no fade if within this long after its end (before the next strike) the ring
+/// comes back (it had beaten to a null in the floor) ...
 const FADE_OUT_COMEBACK_S: f64 = 0.5;
 /// ... this many times (10 dB) over its last frames' energy.
 const FADE_OUT_COMEBACK: f64 = 10.0;
@@ -1717,19 +1718,24 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
             out.cuts.iter().filter(|&&c| c > imp.start && c < imp.end).map(|&c| c + frame).fold(imp.start, usize::max);
         let (ja, jb) = (from.div_ceil(hop), ((imp.end.saturating_sub(frame)) / hop + 1).min(nfr));
         let Some(jf) = fade_out_start(&e, noise, ja, jb, fade_min) else { continue };
-        // A ring that comes back after the impact ended in the floor (before the next onset)
-        // had only beaten to a null there.
+        // A ring that comes back after the impact ended in the floor had only beaten to a null
+        // there: the frames from its end up to `FADE_OUT_COMEBACK_S` on, wholly before the next
+        // strike's first samples (a frame before its onset sample).
         let next = onsets.iter().map(|o| o.0).find(|&o| o > imp.start).unwrap_or(x.len());
-        let (ka, kb) = (jb.min(nfr), ((next.min(imp.end + back_after)) / hop).min(nfr));
+        let until = next.saturating_sub(frame).min(imp.end + back_after).min(x.len());
+        let (ka, kb) = (jb, (until.saturating_sub(frame) / hop + 1).min(nfr));
         let end_e = e[jb.saturating_sub(2).max(ja)..jb].iter().fold(0.0f64, |m, &v| m.max(v)).max(noise);
-        if ka < kb && e[ka..kb].iter().any(|&v| v > FADE_OUT_COMEBACK * end_e) {
+        if until > imp.end && ka < kb && e[ka..kb].iter().any(|&v| v > FADE_OUT_COMEBACK * end_e) {
             continue;
         }
-        let fade = imp.end.saturating_sub(jf * hop);
-        let keep = imp.start + ((FADE_OUT_KEEP * (imp.end - imp.start) as f64) as usize).max(min_len);
-        let to = (jf * hop).saturating_sub((FADE_OUT_MARGIN * fade as f64) as usize).max(keep);
+        // Kept: a share of the impact, and the minimum impact after the last cut inside it
+        // (a bounce's part is not left too short by the fade).
+        let fall = jf * hop;
+        let keep =
+            (imp.start + ((FADE_OUT_KEEP * (imp.end - imp.start) as f64) as usize).max(min_len)).max(from + min_len);
+        let to = fall.saturating_sub((FADE_OUT_MARGIN * imp.end.saturating_sub(fall) as f64) as usize).max(keep);
         if to < imp.end {
-            out.fades.push((imp.start, to));
+            out.fades.push((imp.start, fall, to));
             restrikes.retain(|&(r, o)| o != imp.start || r < to);
             out.cuts.retain(|&c| !(c >= to && c < imp.end));
             imp.end = to;
