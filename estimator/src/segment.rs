@@ -118,7 +118,7 @@
 //!   start). Known limits: a beat slower than the record that ends in its null (1.1 Hz,
 //!   equal partials, 0.5 s) is taken for a fade, analysed to 0.30 s; a fade over most of the ring (0.4 s of a 0.5 s file) is found
 //!   late, the line being fitted inside it (analysed to 0.35 s: the fundamental's decay
-//!   3.95 s⁻¹ for 3.0; 5.2 without this rule); a fade on a ring that beats deeply (toms,
+//!   3.90 s⁻¹ for 3.0; 5.2 without this rule); a fade on a ring that beats deeply (toms,
 //!   timpani) is mostly left in; fades under 10 ms are not looked for (a 10 ms linear fade at
 //!   the end of 0.2 s: decays 1.6 % slow).
 
