@@ -168,10 +168,25 @@ fn par() -> Par {
     faer::get_global_parallelism()
 }
 
-/// Parallelism for the per-step kernels (tall-skinny products, CholQR, triangular solves
-/// with a few right-hand sides): they are memory-bound and too small per call for a thread
-/// pool to pay off; measured on the shared 2-core machine, rayon made them 2–4× slower.
+/// Parallelism for the small per-step kernels (CholQR, the projected problem's products,
+/// faer's triangular solves for odd block sizes): too small per call for a thread pool to
+/// pay off; measured on the shared 2-core machine, rayon made them 2–4× slower.
 const STEP_PAR: Par = Par::Seq;
+
+/// Parallelism for a Gram–Schmidt product against `x` (the locked vectors or the basis):
+/// the thread pool from [`ORTH_PAR_ENTRIES`] entries on. These products read the whole
+/// basis twice per pass and are bound by memory bandwidth, which two threads nearly double
+/// (stop 39, quiet machine, the 180k-DOF bowl: orthogonalisation 26 → 17.6 s).
+fn orth_par(x: MatRef<'_, f64>) -> Par {
+    if x.nrows() * x.ncols() >= ORTH_PAR_ENTRIES {
+        par()
+    } else {
+        Par::Seq
+    }
+}
+
+/// See [`orth_par`]: 32 MiB of basis.
+const ORTH_PAR_ENTRIES: usize = 1 << 22;
 
 /// Deterministic pseudo-random block (xorshift64*), values in (−1, 1).
 fn random_block(n: usize, b: usize, seed: u64) -> Mat<f64> {
@@ -253,27 +268,121 @@ pub fn dense(sys: &System, opts: &EigenOptions) -> Result<EigenResult, FemError>
 }
 
 /// Sparse M products on column-major blocks through a reused row-major buffer (the kernel
-/// gathers the `b` values of a row from one cache line).
+/// gathers the values of a row from one cache line).
+///
+/// The consistent mass matrix of an isotropic solid couples only equal directions at two
+/// nodes, with the same value for x, y and z: M = Mₛ ⊗ I₃, Mₛ the scalar mass matrix of the
+/// nodes (ρ∫NᵢNⱼ). When the assembled M has that structure (checked entry by entry) the
+/// product runs on Mₛ with the three directions of a node as 3·b right-hand sides: a ninth of
+/// the matrix entries to read.
 struct Mass<'a> {
     sys: &'a System,
+    /// Mₛ in compressed columns (full pattern, rows sorted): `None` if M is not Mₛ ⊗ I₃.
+    nodal: Option<Nodal>,
     xr: Vec<f64>,
     yr: Vec<f64>,
 }
 
-impl Mass<'_> {
+/// The scalar node mass matrix Mₛ (compressed columns, both triangles).
+struct Nodal {
+    col_ptr: Vec<usize>,
+    row_idx: Vec<u32>,
+    val: Vec<f64>,
+}
+
+impl Nodal {
+    /// Mₛ from the DOF-level M if M = Mₛ ⊗ I₃ exactly (cross-direction entries zero, the
+    /// three directions' entries equal), else `None`.
+    fn from_system(sys: &System) -> Option<Nodal> {
+        if sys.n % 3 != 0 {
+            return None;
+        }
+        let nn = sys.n / 3;
+        let mut col_ptr = Vec::with_capacity(nn + 1);
+        let mut row_idx = Vec::new();
+        let mut val = Vec::new();
+        col_ptr.push(0);
+        for a in 0..nn {
+            for d in 0..3 {
+                let c = 3 * a + d;
+                let mut kept = 0;
+                for p in sys.col_ptr[c]..sys.col_ptr[c + 1] {
+                    let r = sys.row_idx[p];
+                    let v = sys.m[p];
+                    if r % 3 != d {
+                        if v != 0.0 {
+                            return None;
+                        }
+                        continue;
+                    }
+                    if d == 0 {
+                        row_idx.push(u32::try_from(r / 3).ok()?);
+                        val.push(v);
+                    } else {
+                        // The same entry as direction x's (same row node, same position).
+                        let q = col_ptr[a] + kept;
+                        if row_idx.get(q) != Some(&u32::try_from(r / 3).ok()?) || val[q] != v {
+                            return None;
+                        }
+                    }
+                    kept += 1;
+                }
+                if d > 0 && kept != row_idx.len() - col_ptr[a] {
+                    return None;
+                }
+            }
+            col_ptr.push(row_idx.len());
+        }
+        Some(Nodal { col_ptr, row_idx, val })
+    }
+
+    /// y = Mₛ x for row-major x, y with `w` values per node.
+    fn apply(&self, x: &[f64], y: &mut [f64], w: usize) {
+        use rayon::prelude::*;
+        let nn = self.col_ptr.len() - 1;
+        let threads = rayon::current_num_threads().clamp(1, 8);
+        let chunk = nn.div_ceil(threads).max(1);
+        y.par_chunks_mut(chunk * w).enumerate().for_each(|(ci, yc)| {
+            let a0 = ci * chunk;
+            for (la, out) in yc.chunks_mut(w).enumerate() {
+                let a = a0 + la;
+                out.fill(0.0);
+                // Symmetric: row a of Mₛx = column a dotted with x.
+                for p in self.col_ptr[a]..self.col_ptr[a + 1] {
+                    let v = self.val[p];
+                    let r = self.row_idx[p] as usize;
+                    for (o, &xv) in out.iter_mut().zip(&x[r * w..r * w + w]) {
+                        *o += v * xv;
+                    }
+                }
+            }
+        });
+    }
+}
+
+impl<'a> Mass<'a> {
+    fn new(sys: &'a System) -> Mass<'a> {
+        Mass { sys, nodal: Nodal::from_system(sys), xr: Vec::new(), yr: Vec::new() }
+    }
+
     /// out = M w.
     fn apply(&mut self, w: MatRef<'_, f64>, mut out: MatMut<'_, f64>, prof: &mut Profile) {
         let t = Instant::now();
         let (n, b) = (w.nrows(), w.ncols());
         self.xr.resize(n * b, 0.0);
         self.yr.resize(n * b, 0.0);
+        // Row-major: DOF r's b values at r·b, so node a's three directions (DOFs 3a..3a+3)
+        // are the 3·b values at 3a·b, as the nodal product wants them.
         for c in 0..b {
             let col = w.col(c);
             for r in 0..n {
                 self.xr[r * b + c] = col[r];
             }
         }
-        sym_matvec_rows(self.sys, &self.sys.m, &self.xr, &mut self.yr, b);
+        match &self.nodal {
+            Some(nodal) => nodal.apply(&self.xr, &mut self.yr, 3 * b),
+            None => sym_matvec_rows(self.sys, &self.sys.m, &self.xr, &mut self.yr, b),
+        }
         for c in 0..b {
             let mut col = out.as_mut().col_mut(c);
             for r in 0..n {
@@ -285,7 +394,7 @@ impl Mass<'_> {
 }
 
 /// Sparse LDLᵀ of K − σM on a symbolic structure shared by all shifts.
-struct Factor<'a> {
+pub struct Factor<'a> {
     sys: &'a System,
     symbolic: SymbolicCholesky<usize>,
     values: Vec<f64>,
@@ -293,6 +402,8 @@ struct Factor<'a> {
     sigma: f64,
     /// Number of negative pivots = eigenvalues below σ (Sylvester's law of inertia).
     negative: usize,
+    /// Row-major right-hand sides of [`Factor::solve`], reused.
+    rows: RefCell<Vec<f64>>,
 }
 
 /// Bytes the sparse LDLᵀ factor of `mesh`'s stiffness matrix would take, estimated from the
@@ -373,6 +484,7 @@ impl<'a> Factor<'a> {
             shifted: vec![0.0; sys.k.len()],
             sigma: f64::NAN,
             negative: 0,
+            rows: RefCell::new(Vec::new()),
         })
     }
 
@@ -439,9 +551,37 @@ impl<'a> Factor<'a> {
         }
     }
 
-    /// x ← (K − σM)⁻¹ x.
-    fn solve(&self, x: MatMut<'_, f64>, prof: &mut Profile) {
-        let t = Instant::now();
+    /// K − σM of `sys` factored as a bank build does (nested dissection in postorder,
+    /// supernodal LDLᵀ), with no size limit: for benches and tests of the solves.
+    ///
+    /// # Errors
+    /// As the build's factorisation.
+    pub fn at(sys: &'a System, sigma: f64) -> Result<Factor<'a>, FemError> {
+        let mut prof = Profile::default();
+        let mut f = Factor::new(sys, usize::MAX, &mut prof)?;
+        f.factor(sigma, &mut prof)?;
+        Ok(f)
+    }
+
+    /// Eigenvalues below the shift (negative pivots).
+    pub fn negative_pivots(&self) -> usize {
+        self.negative
+    }
+
+    /// The row-major solver of [`crate::trisolve`] on this factor with its permutation
+    /// (`fwd[new] = old`, `inv[old] = new`), if the factor is supernodal and ordered.
+    pub fn row_solver(&self) -> Option<(crate::trisolve::RowSolver<'_>, &[usize], &[usize])> {
+        match (self.symbolic.raw(), self.symbolic.perm()) {
+            (SymbolicCholeskyRaw::Supernodal(sym), Some(perm)) => {
+                let (fwd, inv) = perm.arrays();
+                Some((crate::trisolve::RowSolver::new(sym, &self.values), fwd, inv))
+            }
+            _ => None,
+        }
+    }
+
+    /// x ← (K − σM)⁻¹ x by faer's solve (by columns), the reference for [`Factor::apply_inverse`].
+    pub fn apply_inverse_faer(&self, x: MatMut<'_, f64>) {
         let mut buf = MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(x.ncols(), STEP_PAR));
         LdltRef::new(&self.symbolic, &self.values).solve_in_place_with_conj(
             Conj::No,
@@ -449,6 +589,39 @@ impl<'a> Factor<'a> {
             STEP_PAR,
             MemStack::new(&mut buf),
         );
+    }
+
+    /// x ← (K − σM)⁻¹ x as the Lanczos steps do it: by rows ([`crate::trisolve`], the
+    /// permutation applied while copying in and out) for the block sizes it takes, else by
+    /// faer's solve.
+    pub fn apply_inverse(&self, mut x: MatMut<'_, f64>) {
+        let (n, b) = (x.nrows(), x.ncols());
+        match self.row_solver() {
+            Some((solver, fwd, inv)) if crate::trisolve::RowSolver::BLOCKS.contains(&b) => {
+                let mut xr = self.rows.borrow_mut();
+                xr.resize(n * b, 0.0);
+                for c in 0..b {
+                    let col = x.as_ref().col(c);
+                    for (i, &f) in fwd.iter().enumerate() {
+                        xr[i * b + c] = col[f];
+                    }
+                }
+                solver.solve_permuted(&mut xr, b);
+                for c in 0..b {
+                    let mut col = x.as_mut().col_mut(c);
+                    for (i, &v) in inv.iter().enumerate() {
+                        col[i] = xr[v * b + c];
+                    }
+                }
+            }
+            _ => self.apply_inverse_faer(x),
+        }
+    }
+
+    /// x ← (K − σM)⁻¹ x, timed.
+    fn solve(&self, x: MatMut<'_, f64>, prof: &mut Profile) {
+        let t = Instant::now();
+        self.apply_inverse(x);
         prof.solve_seconds += t.elapsed().as_secs_f64();
     }
 }
@@ -499,6 +672,11 @@ impl Locked {
 /// The first pass uses a fresh Z; after it Z is recomputed, so the second pass ("twice is
 /// enough") works from exact inner products; its small correction is carried into Z through
 /// the stored M-image of V (the Φ part of that correction is at rounding level and dropped).
+///
+/// (Both passes include Φ. Leaving Φ out of the first pass, since W = Op X has only rounding
+/// along Φ, was tried at stop 39 and dropped: a locked eigenvalue near the shift has the
+/// largest θ, so what one pass leaves along it grows about tenfold per step, to 99 % of W
+/// within ten steps on the 180k-DOF bowl.)
 fn orthogonalise(
     mass: &mut Mass<'_>,
     locked: MatRef<'_, f64>,
@@ -518,7 +696,7 @@ fn orthogonalise(
         if v.ncols() > 0 {
             let c = subtract_projection(v, w, z.as_ref());
             if pass == 1 {
-                matmul(z.as_mut(), Accum::Add, mv, c.as_ref(), -1.0, STEP_PAR);
+                matmul(z.as_mut(), Accum::Add, mv, c.as_ref(), -1.0, orth_par(mv));
             }
             total += &c;
         }
@@ -534,8 +712,8 @@ fn orthogonalise(
 /// (one classical Gram–Schmidt projection).
 fn subtract_projection(x: MatRef<'_, f64>, w: &mut Mat<f64>, z: MatRef<'_, f64>) -> Mat<f64> {
     let mut c = Mat::<f64>::zeros(x.ncols(), w.ncols());
-    matmul(c.as_mut(), Accum::Replace, x.transpose(), z, 1.0, STEP_PAR);
-    matmul(w.as_mut(), Accum::Add, x, c.as_ref(), -1.0, STEP_PAR);
+    matmul(c.as_mut(), Accum::Replace, x.transpose(), z, 1.0, orth_par(x));
+    matmul(w.as_mut(), Accum::Add, x, c.as_ref(), -1.0, orth_par(x));
     c
 }
 
@@ -769,7 +947,7 @@ fn run(
                 let sel: Vec<usize> = (0..k).filter(|&i| conv[i]).collect();
                 let y = Mat::from_fn(k, sel.len(), |i, j| u[(i, sel[j])]);
                 let mut phi = Mat::<f64>::zeros(n, sel.len());
-                matmul(phi.as_mut(), Accum::Replace, v.as_ref().subcols(0, k), y.as_ref(), 1.0, STEP_PAR);
+                matmul(phi.as_mut(), Accum::Replace, v.as_ref().subcols(0, k), y.as_ref(), 1.0, orth_par(v.as_ref()));
                 for (j, &i) in sel.iter().enumerate() {
                     locked.push(lam(i), phi.as_ref().subcols(j, 1));
                 }
@@ -971,7 +1149,7 @@ impl<'a> Slicing<'a> {
         Slicing {
             plan,
             fac,
-            mass: Mass { sys, xr: Vec::new(), yr: Vec::new() },
+            mass: Mass::new(sys),
             locked: Locked { lambdas: Vec::new(), vecs: Mat::zeros(sys.n, plan.nev + plan.slice) },
             prof,
             seed: 1,

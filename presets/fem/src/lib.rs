@@ -37,6 +37,7 @@ pub mod remesh;
 pub mod shell;
 pub mod strike;
 pub mod surface;
+pub mod trisolve;
 pub mod tune;
 pub mod voxel;
 
