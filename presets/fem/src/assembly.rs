@@ -7,6 +7,7 @@ use super::mesh::TetMesh;
 use super::{FemError, Material};
 
 /// A symmetric sparse pattern (both triangles stored) with K and M values on it.
+#[derive(Clone)]
 pub struct System {
     /// Number of DOFs (3 per node).
     pub n: usize,
