@@ -178,14 +178,7 @@ mod tests {
     /// ordering.
     fn factor_len(adj: &[Vec<u32>], ordering: SymmetricOrdering<'_, usize>) -> usize {
         let n = adj.len();
-        let mut col_ptr = vec![0usize];
-        let mut rows = Vec::new();
-        for (a, nb) in adj.iter().enumerate() {
-            let mut c: Vec<usize> = nb.iter().map(|&b| b as usize).chain([a]).collect();
-            c.sort_unstable();
-            rows.extend(c);
-            col_ptr.push(rows.len());
-        }
+        let (col_ptr, rows) = pattern(adj);
         let pattern = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &rows);
         factorize_symbolic_cholesky(pattern, Side::Lower, ordering, Default::default()).unwrap().len_val()
     }

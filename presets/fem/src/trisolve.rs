@@ -82,22 +82,26 @@ impl<'a> RowSolver<'a> {
     /// # Panics
     /// If `b` is not one of [`RowSolver::BLOCKS`] or `x` is not n × b.
     pub fn solve_permuted(&self, x: &mut [f64], b: usize) {
-        assert_eq!(x.len(), self.n() * b, "right-hand side of the wrong size");
-        match b {
-            4 => self.solve_b::<4>(x),
-            8 => self.solve_b::<8>(x),
-            16 => self.solve_b::<16>(x),
-            _ => panic!("block of {b} right-hand sides: only {:?}", Self::BLOCKS),
-        }
+        self.solve_any(x, b, true);
     }
 
     /// The same, by one thread in supernode order (a reference for the split solve).
+    ///
+    /// # Panics
+    /// As [`RowSolver::solve_permuted`].
     pub fn solve_permuted_sequential(&self, x: &mut [f64], b: usize) {
+        self.solve_any(x, b, false);
+    }
+
+    fn solve_any(&self, x: &mut [f64], b: usize, split: bool) {
         assert_eq!(x.len(), self.n() * b, "right-hand side of the wrong size");
-        match b {
-            4 => self.sequential::<4>(x),
-            8 => self.sequential::<8>(x),
-            16 => self.sequential::<16>(x),
+        match (b, split) {
+            (4, true) => self.solve_b::<4>(x),
+            (8, true) => self.solve_b::<8>(x),
+            (16, true) => self.solve_b::<16>(x),
+            (4, false) => self.sequential::<4>(x),
+            (8, false) => self.sequential::<8>(x),
+            (16, false) => self.sequential::<16>(x),
             _ => panic!("block of {b} right-hand sides: only {:?}", Self::BLOCKS),
         }
     }
