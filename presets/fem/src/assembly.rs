@@ -106,25 +106,29 @@ fn unreachable_pattern() -> usize {
 /// vectors stored row-major (`x[r * b + k]`). Parallel over columns on rayon's pool (the
 /// threads faer's factorisations use; none is spawned per product).
 pub fn sym_matvec_rows(sys: &System, val: &[f64], x: &[f64], y: &mut [f64], b: usize) {
+    sym_csc_matvec_rows(&sys.col_ptr, &sys.row_idx, val, x, y, b);
+}
+
+/// y = A x for a symmetric matrix in compressed columns (both triangles, `col_ptr`,
+/// `row_idx`, `val`), applied to `b` vectors stored row-major, as [`sym_matvec_rows`].
+pub fn sym_csc_matvec_rows(col_ptr: &[usize], row_idx: &[usize], val: &[f64], x: &[f64], y: &mut [f64], b: usize) {
     use rayon::prelude::*;
+    let n = col_ptr.len() - 1;
     let threads = rayon::current_num_threads().clamp(1, 8);
-    let chunk = sys.n.div_ceil(threads).max(1);
+    let chunk = n.div_ceil(threads).max(1);
     y.par_chunks_mut(chunk * b).enumerate().for_each(|(ci, yc)| {
         let c0 = ci * chunk;
-        let mut acc = vec![0.0; b];
         for (lc, out) in yc.chunks_mut(b).enumerate() {
             let c = c0 + lc;
-            acc.fill(0.0);
+            out.fill(0.0);
             // Symmetric: row c of A·x = column c dotted with x.
-            for p in sys.col_ptr[c]..sys.col_ptr[c + 1] {
+            for p in col_ptr[c]..col_ptr[c + 1] {
                 let v = val[p];
-                let r = sys.row_idx[p];
-                let xr = &x[r * b..r * b + b];
-                for kk in 0..b {
-                    acc[kk] += v * xr[kk];
+                let r = row_idx[p];
+                for (o, &xv) in out.iter_mut().zip(&x[r * b..r * b + b]) {
+                    *o += v * xv;
                 }
             }
-            out.copy_from_slice(&acc);
         }
     });
 }

@@ -38,7 +38,7 @@ use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Accum, Conj, Mat, MatMut, MatRef, Par, Side, Spec};
 
-use super::assembly::{sym_matvec_rows, System};
+use super::assembly::{sym_csc_matvec_rows, sym_matvec_rows, System};
 use super::FemError;
 
 /// Settings of [`solve`].
@@ -287,7 +287,7 @@ struct Mass<'a> {
 /// The scalar node mass matrix Mₛ (compressed columns, both triangles).
 struct Nodal {
     col_ptr: Vec<usize>,
-    row_idx: Vec<u32>,
+    row_idx: Vec<usize>,
     val: Vec<f64>,
 }
 
@@ -317,12 +317,12 @@ impl Nodal {
                         continue;
                     }
                     if d == 0 {
-                        row_idx.push(u32::try_from(r / 3).ok()?);
+                        row_idx.push(r / 3);
                         val.push(v);
                     } else {
                         // The same entry as direction x's (same row node, same position).
                         let q = col_ptr[a] + kept;
-                        if row_idx.get(q) != Some(&u32::try_from(r / 3).ok()?) || val[q] != v {
+                        if row_idx.get(q) != Some(&(r / 3)) || val[q] != v {
                             return None;
                         }
                     }
@@ -335,29 +335,6 @@ impl Nodal {
             col_ptr.push(row_idx.len());
         }
         Some(Nodal { col_ptr, row_idx, val })
-    }
-
-    /// y = Mₛ x for row-major x, y with `w` values per node.
-    fn apply(&self, x: &[f64], y: &mut [f64], w: usize) {
-        use rayon::prelude::*;
-        let nn = self.col_ptr.len() - 1;
-        let threads = rayon::current_num_threads().clamp(1, 8);
-        let chunk = nn.div_ceil(threads).max(1);
-        y.par_chunks_mut(chunk * w).enumerate().for_each(|(ci, yc)| {
-            let a0 = ci * chunk;
-            for (la, out) in yc.chunks_mut(w).enumerate() {
-                let a = a0 + la;
-                out.fill(0.0);
-                // Symmetric: row a of Mₛx = column a dotted with x.
-                for p in self.col_ptr[a]..self.col_ptr[a + 1] {
-                    let v = self.val[p];
-                    let r = self.row_idx[p] as usize;
-                    for (o, &xv) in out.iter_mut().zip(&x[r * w..r * w + w]) {
-                        *o += v * xv;
-                    }
-                }
-            }
-        });
     }
 }
 
@@ -381,7 +358,7 @@ impl<'a> Mass<'a> {
             }
         }
         match &self.nodal {
-            Some(nodal) => nodal.apply(&self.xr, &mut self.yr, 3 * b),
+            Some(nd) => sym_csc_matvec_rows(&nd.col_ptr, &nd.row_idx, &nd.val, &self.xr, &mut self.yr, 3 * b),
             None => sym_matvec_rows(self.sys, &self.sys.m, &self.xr, &mut self.yr, b),
         }
         for c in 0..b {
@@ -405,6 +382,8 @@ pub struct Factor<'a> {
     negative: usize,
     /// Row-major right-hand sides of [`Factor::solve`], reused.
     rows: RefCell<Vec<f64>>,
+    /// The elimination tree's cut for the row solves (fixed by the symbolic factor).
+    tree: Option<crate::trisolve::TreeSplit>,
 }
 
 /// Bytes the sparse LDLᵀ factor of `mesh`'s stiffness matrix would take, estimated from the
@@ -478,9 +457,14 @@ impl<'a> Factor<'a> {
                 max_bytes as f64 / f64::from(1 << 30)
             )));
         }
+        let tree = match symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(sym) => Some(crate::trisolve::TreeSplit::of(sym)),
+            SymbolicCholeskyRaw::Simplicial(_) => None,
+        };
         Ok(Factor {
             sys,
             symbolic,
+            tree,
             values: vec![0.0; len],
             shifted: vec![0.0; sys.k.len()],
             sigma: f64::NAN,
@@ -572,10 +556,10 @@ impl<'a> Factor<'a> {
     /// The row-major solver of [`crate::trisolve`] on this factor with its permutation
     /// (`fwd[new] = old`, `inv[old] = new`), if the factor is supernodal and ordered.
     pub fn row_solver(&self) -> Option<(crate::trisolve::RowSolver<'_>, &[usize], &[usize])> {
-        match (self.symbolic.raw(), self.symbolic.perm()) {
-            (SymbolicCholeskyRaw::Supernodal(sym), Some(perm)) => {
+        match (self.symbolic.raw(), self.symbolic.perm(), self.tree) {
+            (SymbolicCholeskyRaw::Supernodal(sym), Some(perm), Some(tree)) => {
                 let (fwd, inv) = perm.arrays();
-                Some((crate::trisolve::RowSolver::new(sym, &self.values), fwd, inv))
+                Some((crate::trisolve::RowSolver::with_split(sym, &self.values, tree), fwd, inv))
             }
             _ => None,
         }
@@ -1470,7 +1454,7 @@ mod tests {
         let mut full = vec![0.0; sys.n * b];
         let mut fast = vec![0.0; sys.n * b];
         sym_matvec_rows(&sys, &sys.m, &x, &mut full, b);
-        nodal.apply(&x, &mut fast, 3 * b);
+        sym_csc_matvec_rows(&nodal.col_ptr, &nodal.row_idx, &nodal.val, &x, &mut fast, 3 * b);
         let scale = full.iter().fold(0.0f64, |a, v| a.max(v.abs()));
         let worst = full.iter().zip(&fast).fold(0.0f64, |a, (p, q)| a.max((p - q).abs()));
         assert!(worst <= 1e-14 * scale, "nodal product differs by {worst:e} (scale {scale:e})");

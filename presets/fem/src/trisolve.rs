@@ -44,6 +44,18 @@ struct Split {
     rows_t: usize,
 }
 
+/// Where the elimination tree of a symbolic factor is cut for the two-thread solve (or that
+/// it is not), see [`RowSolver`].
+#[derive(Clone, Copy, Debug)]
+pub struct TreeSplit(Option<Split>);
+
+impl TreeSplit {
+    /// The cut of `sym`'s elimination tree.
+    pub fn of(sym: &SymbolicSupernodalCholesky<usize>) -> TreeSplit {
+        TreeSplit(split(sym))
+    }
+}
+
 /// Rows `own0..` of the block held mutably (`own`), and the rows `far0..` that lie beyond them.
 struct View<'x, F> {
     own: &'x mut [f64],
@@ -59,8 +71,17 @@ impl<'a> RowSolver<'a> {
     /// # Panics
     /// If `values` does not match `sym`.
     pub fn new(sym: &'a SymbolicSupernodalCholesky<usize>, values: &'a [f64]) -> RowSolver<'a> {
+        RowSolver::with_split(sym, values, TreeSplit::of(sym))
+    }
+
+    /// As [`RowSolver::new`] with the cut of the tree already made ([`TreeSplit::of`] the same
+    /// `sym`): it depends only on the symbolic factor, so one cut serves every shift.
+    ///
+    /// # Panics
+    /// If `values` does not match `sym`.
+    pub fn with_split(sym: &'a SymbolicSupernodalCholesky<usize>, values: &'a [f64], tree: TreeSplit) -> RowSolver<'a> {
         assert_eq!(values.len(), sym.len_val(), "values do not match the symbolic factor");
-        RowSolver { sym, values, split: split(sym) }
+        RowSolver { sym, values, split: tree.0 }
     }
 
     /// Dimension.
@@ -367,9 +388,10 @@ fn split(sym: &SymbolicSupernodalCholesky<usize>) -> Option<Split> {
         }
         std::mem::take(&mut children[node])
     };
-    // The halves' subtrees are consecutive ranges from supernode 0; the top follows them.
+    // In postorder (checked above) the kids' subtrees are consecutive ranges from supernode
+    // 0, and the top follows them.
     let last = *kids.last()?;
-    if kids.len() < 2 || first[kids[0]] != 0 || kids.windows(2).any(|k| first[k[1]] != k[0] + 1) {
+    if kids.len() < 2 {
         return None;
     }
     let total: usize = kids.iter().map(|&c| work[c]).sum();
