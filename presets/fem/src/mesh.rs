@@ -348,6 +348,38 @@ pub(crate) enum Geometry {
     Revolution { rev: Revolution, outer_t: f64, top_view: bool },
 }
 
+/// Finest resolution accepted (elements along the largest dimension); the corner-vertex
+/// limit ([`crate::MAX_IMPORT_VERTICES`]) refuses most shapes well before it.
+pub const MAX_RESOLUTION: usize = 20_000;
+
+/// Refuses a mesh of `vertices` corner vertices over [`crate::MAX_IMPORT_VERTICES`], naming the
+/// finest resolution that fits (found by bisection on `count`, the vertices at a resolution,
+/// which grow with it).
+fn check_vertices(vertices: usize, resolution: usize, count: impl Fn(usize) -> usize) -> Result<(), FemError> {
+    let limit = crate::MAX_IMPORT_VERTICES;
+    if vertices <= limit {
+        return Ok(());
+    }
+    let (mut lo, mut hi) = (2, resolution);
+    if count(lo) > limit {
+        return Err(FemError::InvalidOptions(format!(
+            "this shape has {} corner vertices even at resolution 2, over the limit of {limit}; check its dimensions",
+            count(lo)
+        )));
+    }
+    while hi - lo > 1 {
+        let mid = lo + (hi - lo) / 2;
+        if count(mid) <= limit {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Err(FemError::InvalidOptions(format!(
+        "resolution {resolution} would mesh this shape with {vertices} corner vertices, over the limit of {limit}; use a resolution of at most {lo}"
+    )))
+}
+
 /// Chooses the element size: `resolution` elements along the largest dimension.
 fn divisions(len: f64, h: f64) -> usize {
     ((len / h).ceil() as usize).max(1)
@@ -365,17 +397,51 @@ pub(crate) fn mesh_with_layers(
     resolution: usize,
     min_layers: usize,
 ) -> Result<(TetMesh, Geometry), FemError> {
+    mesh_or_count(shape, resolution, min_layers, None)
+}
+
+/// Corner vertices of [`mesh_with_layers`]'s mesh, counted without building it.
+fn count_vertices(shape: &Shape, resolution: usize, min_layers: usize) -> usize {
+    let counted = std::cell::Cell::new(usize::MAX);
+    let _ = mesh_or_count(shape, resolution, min_layers, Some(&counted));
+    counted.get()
+}
+
+/// [`mesh_with_layers`]; with `count`, only counts the corner vertices into it (returning
+/// an error once counted, before anything is built).
+fn mesh_or_count(
+    shape: &Shape,
+    resolution: usize,
+    min_layers: usize,
+    count: Option<&std::cell::Cell<usize>>,
+) -> Result<(TetMesh, Geometry), FemError> {
     shape.validate()?;
     if resolution < 2 {
         return Err(FemError::InvalidOptions(format!(
             "resolution {resolution} is too coarse; use at least 2 elements along the largest dimension"
         )));
     }
+    if resolution > MAX_RESOLUTION {
+        return Err(FemError::InvalidOptions(format!(
+            "resolution {resolution} is too fine; the largest is {MAX_RESOLUTION} elements along the largest dimension"
+        )));
+    }
     let res = resolution as f64;
+    // Counted before anything is allocated: a resolution too fine for the shape is refused
+    // with the resolution that would fit, not by running out of memory.
+    let fits = |vertices: usize| match count {
+        Some(c) => {
+            c.set(vertices);
+            Err(FemError::InvalidOptions("counted".into()))
+        }
+        None => check_vertices(vertices, resolution, |r| count_vertices(shape, r, min_layers)),
+    };
     let boxed = |lx: f64, ly: f64, lz: f64, line: bool| -> Result<(TetMesh, Geometry), FemError> {
         let h = lx.max(ly).max(lz) / res;
-        let (base, tris) = rect_base(lx, ly, divisions(lx, h), divisions(ly, h));
-        let lay = Layered { base, tris, layers: divisions(lz, h).max(min_layers) };
+        let (nx, ny, nz) = (divisions(lx, h), divisions(ly, h), divisions(lz, h).max(min_layers));
+        fits((nx + 1).saturating_mul(ny + 1).saturating_mul(nz + 1))?;
+        let (base, tris) = rect_base(lx, ly, nx, ny);
+        let lay = Layered { base, tris, layers: nz };
         let mesh = lay.build(&|q| [q[0], q[1], q[2] * lz], &mid)?;
         Ok((mesh, Geometry::Box { lx, ly, lz, line }))
     };
@@ -385,8 +451,10 @@ pub(crate) fn mesh_with_layers(
             // The box's layers between the cut underside and the flat top: quadratic nodes
             // are placed on the curved underside by the map.
             let h = length.max(width).max(thickness) / res;
-            let (base, tris) = rect_base(length, width, divisions(length, h), divisions(width, h));
-            let lay = Layered { base, tris, layers: divisions(thickness, h).max(2) };
+            let (nx, ny, nz) = (divisions(length, h), divisions(width, h), divisions(thickness, h).max(2));
+            fits((nx + 1).saturating_mul(ny + 1).saturating_mul(nz + 1))?;
+            let (base, tris) = rect_base(length, width, nx, ny);
+            let lay = Layered { base, tris, layers: nz };
             let bottom =
                 move |x: f64| thickness - super::geom::undercut_thickness(x, length, thickness, depth, cut, exponent);
             let mesh = lay.build(
@@ -404,13 +472,13 @@ pub(crate) fn mesh_with_layers(
             let rev = Revolution::new(Box::new(move |u| [u * radius, 0.0]), thickness);
             let h = 2.0 * radius / res;
             let segs = divisions(radius, h).max(2);
-            revolve(rev, segs, usize::MAX, divisions(thickness, h).max(min_layers), 1.0, true)
+            revolve(&fits, rev, segs, usize::MAX, divisions(thickness, h).max(min_layers), 1.0, true)
         }
         Shape::Tube { length, outer_radius, wall } => {
             let rev = Revolution::new(Box::new(move |u| [outer_radius, u * length]), wall);
             let h = length.max(2.0 * outer_radius) / res;
             let around = divisions(2.0 * PI * outer_radius, h).max(12);
-            revolve(rev, divisions(length, h), around, divisions(wall, h).max(min_layers), 0.0, false)
+            revolve(&fits, rev, divisions(length, h), around, divisions(wall, h).max(min_layers), 0.0, false)
         }
         Shape::PluggedTube { length, outer_radius, wall, plug } => {
             // The meridian section (the wall's strip, and the bore over the plug) in a
@@ -419,13 +487,15 @@ pub(crate) fn mesh_with_layers(
             let h = length.max(2.0 * outer_radius) / res;
             let bore = outer_radius - wall;
             let open = length - plug;
+            let around = divisions(2.0 * PI * outer_radius, h).max(12);
+            let (nr, nz) = (divisions(bore, h) + divisions(wall, h), divisions(open, h) + divisions(plug, h));
+            fits((nr + 1).saturating_mul(nz + 1).saturating_mul(around))?;
             let mut rs = levels(0.0, bore, divisions(bore, h));
             rs.extend(levels(bore, outer_radius, divisions(wall, h)).into_iter().skip(1));
             let mut zs = if open > 1e-9 * length { levels(0.0, open, divisions(open, h)) } else { vec![0.0] };
             zs.extend(levels(open, length, divisions(plug, h)).into_iter().skip(1));
             let solid = |r: f64, z: f64| r > bore || z > open;
             let (points, tris) = grid_section(&rs, &zs, &solid);
-            let around = divisions(2.0 * PI * outer_radius, h).max(12);
             let mesh = revolve_section(&points, &tris, around)?;
             let rev = Revolution::new(Box::new(move |u| [outer_radius, u * length]), wall);
             Ok((mesh, Geometry::Revolution { rev, outer_t: 0.0, top_view: false }))
@@ -442,6 +512,7 @@ pub(crate) fn mesh_with_layers(
             let h = 2.0 * radius / res;
             let around = divisions(2.0 * PI * radius, h).max(12);
             revolve(
+                &fits,
                 rev,
                 divisions(rev_len_quarter(radius), h).max(3),
                 around,
@@ -460,7 +531,15 @@ pub(crate) fn mesh_with_layers(
             );
             let h = 2.0 * radius / res;
             let around = divisions(2.0 * PI * radius, h).max(12);
-            revolve(rev, divisions(PI * radius, h).max(4), around, divisions(wall, h).max(min_layers), 0.0, false)
+            revolve(
+                &fits,
+                rev,
+                divisions(PI * radius, h).max(4),
+                around,
+                divisions(wall, h).max(min_layers),
+                0.0,
+                false,
+            )
         }
         Shape::Cup { radius, height, wall } => {
             // Flat bottom, rounded corner (fillet radius f), straight wall; outer surface.
@@ -484,7 +563,7 @@ pub(crate) fn mesh_with_layers(
             let h = (2.0 * radius).max(height) / res;
             let around = divisions(2.0 * PI * radius, h).max(12);
             let segs = divisions(total, h).max(4);
-            revolve(rev, segs, around, divisions(wall, h).max(min_layers), 0.0, false)
+            revolve(&fits, rev, segs, around, divisions(wall, h).max(min_layers), 0.0, false)
         }
         Shape::Bell { radius, height, wall } => {
             // Simplified bell: elliptic crown (shoulder radius 0.55 R, 12 % of the height), then a
@@ -508,7 +587,7 @@ pub(crate) fn mesh_with_layers(
             let around = divisions(2.0 * PI * radius, h).max(12);
             let segs = divisions(rev.len, h).max(4);
             // The curve is the inner surface here (N points outward), so strikes go at t = 1.
-            revolve(rev, segs, around, divisions(wall, h).max(min_layers), 1.0, false)
+            revolve(&fits, rev, segs, around, divisions(wall, h).max(min_layers), 1.0, false)
         }
     }
 }
@@ -625,6 +704,7 @@ fn rev_len_quarter(r: f64) -> f64 {
 }
 
 fn revolve(
+    fits: &dyn Fn(usize) -> Result<(), FemError>,
     rev: Revolution,
     segments: usize,
     around: usize,
@@ -633,6 +713,8 @@ fn revolve(
     top_view: bool,
 ) -> Result<(TetMesh, Geometry), FemError> {
     let (s, c) = rev.rings(segments, around);
+    // The layout is a few numbers per ring: the mesh is counted before it is built.
+    fits(c.iter().fold(0usize, |a, &n| a.saturating_add(n)).saturating_mul(layers + 1))?;
     let (base, tris) = rings_base(&s, &c);
     let lay = Layered { base, tris, layers };
     let mesh = lay.build(&|q| rev.map(q), &Revolution::mid)?;

@@ -506,3 +506,29 @@ fn the_automatic_resolution_keeps_torsion_in_tune_and_cubes_solvable() {
     );
     assert!(bytes <= fem::eigen::MAX_FACTOR_BYTES as f64, "{:.2} GiB", bytes / f64::from(1 << 30));
 }
+
+/// A resolution too fine for the shape is refused before the mesh is built (a bar at
+/// resolution 2000 would have 27 million corner vertices and took 1.6 TB before it was
+/// counted), and the resolution the error names does mesh within the limit while one finer
+/// does not.
+#[test]
+fn a_resolution_too_fine_is_refused_before_meshing_with_the_finest_that_fits() {
+    let limit = fem::MAX_IMPORT_VERTICES;
+    for shape in [
+        Shape::Bar { length: 0.3, width: 0.03, thickness: 0.01 },
+        Shape::CircularPlate { radius: 0.1, thickness: 0.003 },
+        Shape::Bowl { radius: 0.08, wall: 0.004 },
+    ] {
+        let err = fem::mesh_shape(&shape, 2000).expect_err("a 2000-element resolution was meshed").to_string();
+        let at_most: usize = err
+            .rsplit("at most ")
+            .next()
+            .and_then(|t| t.trim().parse().ok())
+            .unwrap_or_else(|| panic!("no resolution named in {err:?}"));
+        let fits = fem::mesh_shape(&shape, at_most).expect("the named resolution is refused");
+        assert!(fits.corners <= limit, "{} corner vertices at the named resolution {at_most}", fits.corners);
+        assert!(fem::mesh_shape(&shape, at_most + 1).is_err(), "resolution {} also fits: {err}", at_most + 1);
+    }
+    let err = fem::mesh_shape(&Shape::Bar { length: 0.3, width: 0.03, thickness: 0.01 }, 1_000_000).unwrap_err();
+    assert!(err.to_string().contains("too fine"), "{err}");
+}
