@@ -768,7 +768,16 @@ pub fn render_with_stats(opts: &RenderOptions) -> Result<(String, RenderStats), 
     let auto = opts.seconds.is_none();
     let seconds = opts.seconds.unwrap_or(last + MAX_TAIL_S);
     if !(seconds.is_finite() && seconds > 0.0 && seconds <= 3600.0) {
-        return Err(format!("--seconds {seconds} is outside (0, 3600]"));
+        // A huge value in scientific notation, not three hundred digits.
+        let shown = if seconds.abs() < 1e6 { format!("{seconds}") } else { format!("{seconds:e}") };
+        return Err(if auto {
+            format!(
+                "the notes and input last until {last:.1} s (with the tail, {:.1} s), over the render limit of 3600 s",
+                seconds
+            )
+        } else {
+            format!("--seconds {shown} is outside (0, 3600]")
+        });
     }
     if let Some(n) = opts.normalize {
         if !(n.is_finite() && (-60.0..=0.0).contains(&n)) {
@@ -776,6 +785,9 @@ pub fn render_with_stats(opts: &RenderOptions) -> Result<(String, RenderStats), 
         }
     }
     let total = (seconds * sr).round() as usize;
+    if total == 0 {
+        return Err(format!("--seconds {seconds:e} is shorter than one sample at {} Hz", opts.sound.sample_rate));
+    }
     // WAV sizes are 32-bit: refuse now rather than write a wrapped (corrupt) header later.
     if total as u64 > MAX_WAV_FRAMES && !auto {
         let bytes = total as u64 * WAV_FRAME_BYTES + WAV_HEADER_BYTES_COUNTED + 8;
@@ -942,6 +954,30 @@ pub fn render_with_stats(opts: &RenderOptions) -> Result<(String, RenderStats), 
             "the render clips: its peak is {:+.1} dBFS (turn the output safety on, lower the gain, or use --normalize)",
             20.0 * pass.peak.log10()
         ));
+    }
+    // A render that holds none of its notes says why, rather than leave a silent file.
+    let late =
+        events.iter().filter(|e| matches!(e.event, NoteEvent::NoteOn { .. }) && e.sample >= total as u64).count();
+    if late > 0 {
+        warn(&format!(
+            "{late} note(s) start at or after the end of the render ({:.3} s): they are not heard",
+            total as f64 / sr
+        ));
+    }
+    let played = events.iter().any(|e| matches!(e.event, NoteEvent::NoteOn { .. }) && e.sample < total as u64);
+    if played && input_len == 0 && pass.peak < 1e-6 {
+        warn(&if stats.peak_modes == 0 {
+            format!(
+                "the render is silent: no mode of the object sounded at these keys (all above {:.0} Hz, the Nyquist frequency at {} Hz); try another key, size or sample rate",
+                sr / 2.0,
+                opts.sound.sample_rate
+            )
+        } else {
+            format!(
+                "the render is silent (peak {:.1} dBFS): check the gain and the notes' velocities",
+                20.0 * pass.peak.max(1e-12).log10()
+            )
+        });
     }
     let lib = host.plugin().library().clone();
     let p = host.plugin().struck_params();

@@ -16,7 +16,13 @@ pub fn read_midi(bytes: &[u8], sample_rate: f64) -> Result<Vec<TimedEvent>, Stri
     let smf = midly::Smf::parse(bytes).map_err(|e| format!("not a readable MIDI file: {e}"))?;
     // Seconds per tick: from the header (SMPTE) or from tempo events (metrical).
     let (ppq, smpte_tick) = match smf.header.timing {
+        midly::Timing::Metrical(t) if t.as_int() == 0 => {
+            return Err("the header's time division is 0 ticks per quarter note: the file gives no timing".into())
+        }
         midly::Timing::Metrical(t) => (f64::from(t.as_int()), None),
+        midly::Timing::Timecode(_, 0) => {
+            return Err("the header's SMPTE time division has 0 ticks per frame: the file gives no timing".into())
+        }
         midly::Timing::Timecode(fps, sub) => (1.0, Some(1.0 / (f64::from(fps.as_f32()) * f64::from(sub)))),
     };
     // Merge all tracks into one list of (tick, order, kind).
@@ -38,6 +44,9 @@ pub fn read_midi(bytes: &[u8], sample_rate: f64) -> Result<Vec<TimedEvent>, Stri
         last_tick = tick;
         let sample = (seconds * sample_rate).round() as u64;
         match kind {
+            midly::TrackEventKind::Meta(midly::MetaMessage::Tempo(t)) if t.as_int() == 0 => {
+                return Err(format!("a tempo event at tick {tick} sets 0 microseconds per beat (no finite tempo)"))
+            }
             midly::TrackEventKind::Meta(midly::MetaMessage::Tempo(t)) => us_per_beat = f64::from(t.as_int()),
             midly::TrackEventKind::Midi { channel, message } => {
                 let ch = channel.as_int();
@@ -117,6 +126,29 @@ mod tests {
         assert_eq!(ev[1].sample, 24_000);
         assert!(matches!(ev[1].event, NoteEvent::NoteOff { .. }));
         assert!(read_midi(b"not midi", 48_000.0).is_err());
+    }
+
+    /// A header division of 0 ticks per beat or a tempo of 0 µs per beat gives no timing:
+    /// refused, not every note put at 0 s.
+    #[test]
+    fn refuses_a_zero_division_or_tempo() {
+        let file = |division: u8, tempo: [u8; 3]| {
+            let mut trk = vec![0x00, 0xFF, 0x51, 0x03];
+            trk.extend(tempo);
+            trk.extend([0x00, 0x90, 60, 100, 0x60, 0x80, 60, 0, 0x60, 0x90, 62, 100, 0x00, 0xFF, 0x2F, 0x00]);
+            let mut f = b"MThd\x00\x00\x00\x06\x00\x00\x00\x01\x00".to_vec();
+            f.push(division);
+            f.extend(b"MTrk");
+            f.extend((trk.len() as u32).to_be_bytes());
+            f.extend(trk);
+            f
+        };
+        let ok = read_midi(&file(0x60, [0x07, 0xA1, 0x20]), 48_000.0).unwrap();
+        assert_eq!(ok.last().unwrap().sample, 48_000, "the second note at 192 ticks = 1 s");
+        let e = read_midi(&file(0, [0x07, 0xA1, 0x20]), 48_000.0).unwrap_err();
+        assert!(e.contains("0 ticks per quarter note"), "{e}");
+        let e = read_midi(&file(0x60, [0, 0, 0]), 48_000.0).unwrap_err();
+        assert!(e.contains("0 microseconds per beat"), "{e}");
     }
 
     /// The gestures of a lasting contact: poly aftertouch (force) and the mod wheel (speed)

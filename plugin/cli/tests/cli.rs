@@ -1222,3 +1222,49 @@ fn misspelt_fields_of_material_and_bank_files_are_warned_about_once() {
     assert!(e.contains("no-version.json") && e.contains("schema_version"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A render that cannot hold its notes says so: a note after the end, an object with no
+/// mode under the Nyquist frequency (the 20 cm steel sphere shell untuned at 8 kHz), and a
+/// length under one sample is an error; a length the notes alone push past the limit names
+/// the notes, not a `--seconds` the user never gave.
+#[test]
+fn silent_renders_warn_and_impossible_lengths_are_errors() {
+    let dir = scratch("silent");
+    let out = dir.join("o.wav");
+    let o = struck(&dir, &["render", "--notes", "60:100+0.5", "--seconds", "0.2", "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("1 note(s) start at or after the end of the render"), "{}", stderr(&o));
+    let o = struck(
+        &dir,
+        &[
+            "render",
+            "--object",
+            "fem-sphere-shell",
+            "--sample-rate",
+            "8000",
+            "--set",
+            "keytune=0",
+            "--notes",
+            "60:100",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("the render is silent: no mode of the object sounded"), "{}", stderr(&o));
+    // A note that sounds gives no such warning.
+    let o = struck(&dir, &["render", "--notes", "60:100", "--seconds", "0.3", "--out", out.to_str().unwrap()]);
+    assert!(o.status.success() && !stderr(&o).contains("warning"), "{}", stderr(&o));
+    let e = error_line(&struck(
+        &dir,
+        &["render", "--notes", "60:100", "--seconds", "1e-9", "--out", out.to_str().unwrap()],
+    ));
+    assert!(e.contains("shorter than one sample"), "{e}");
+    let e = error_line(&struck(&dir, &["render", "--notes", "60:100+3599", "--out", out.to_str().unwrap()]));
+    assert!(e.contains("the notes and input last until 3599.0 s") && !e.contains("--seconds"), "{e}");
+    let e = error_line(&struck(
+        &dir,
+        &["render", "--notes", "60:100", "--seconds", "1e308", "--out", out.to_str().unwrap()],
+    ));
+    assert!(e.contains("1e308") && e.len() < 80, "{e}");
+}
