@@ -190,6 +190,8 @@ pub struct AtomicFile {
     tmp: PathBuf,
     /// `None` only once committed.
     file: Option<BufWriter<File>>,
+    /// The temporary file's slot in [`interrupt`]'s list (removed on an interrupt).
+    slot: Option<usize>,
 }
 
 /// Links followed at most (as the system's own limit).
@@ -296,7 +298,8 @@ impl AtomicFile {
                         let _ = file.set_permissions(m.permissions());
                     }
                     let file = Some(BufWriter::with_capacity(1 << 16, file));
-                    return Ok(AtomicFile { dest: path, target, stream, tmp, file });
+                    let slot = interrupt::register(&tmp);
+                    return Ok(AtomicFile { dest: path, target, stream, tmp, file, slot });
                 }
                 // A leftover of a killed run with the same pid and counter: try the next name.
                 Err(e) if e.kind() == io::ErrorKind::AlreadyExists && attempt < 100 => attempt += 1,
@@ -398,6 +401,8 @@ impl Seek for AtomicFile {
 
 impl Drop for AtomicFile {
     fn drop(&mut self) {
+        // Committed (renamed or copied) or about to be removed: no longer the handler's.
+        interrupt::release(self.slot.take());
         if let Some(writer) = self.file.take() {
             // Not committed: discard (without flushing the buffer into a file about to go).
             let (file, _) = writer.into_parts();
@@ -581,4 +586,72 @@ mod tests {
         assert!(e.to_string().starts_with("cannot write /dev/full: "), "{e}");
         assert!(is_char("/dev/full"), "/dev/full is no longer a device");
     }
+}
+
+/// Temporary outputs removed when the process is interrupted (SIGINT, SIGTERM, SIGHUP):
+/// Ctrl-C during a long render must not leave a hidden `.NAME.PID-N.tmp` of a gigabyte
+/// behind. [`install_interrupt_cleanup`] sets the handlers (the command-line tool does, a
+/// library user may not want them); [`AtomicFile`] registers its temporary file while it
+/// exists.
+mod interrupt {
+    use std::ffi::{c_char, CString};
+    use std::os::unix::ffi::OsStrExt;
+    use std::path::Path;
+    use std::sync::atomic::{AtomicPtr, Ordering};
+
+    /// At most this many outputs at once are cleaned up (a command writes one to three).
+    const SLOTS: usize = 32;
+    static PATHS: [AtomicPtr<c_char>; SLOTS] = [const { AtomicPtr::new(std::ptr::null_mut()) }; SLOTS];
+
+    /// Adds `tmp` to the list; `None` when the list is full or the path has a NUL byte.
+    pub(super) fn register(tmp: &Path) -> Option<usize> {
+        let c = CString::new(tmp.as_os_str().as_bytes()).ok()?.into_raw();
+        for (i, slot) in PATHS.iter().enumerate() {
+            if slot.compare_exchange(std::ptr::null_mut(), c, Ordering::AcqRel, Ordering::Relaxed).is_ok() {
+                return Some(i);
+            }
+        }
+        // SAFETY: `c` came from `CString::into_raw` above and was stored nowhere.
+        drop(unsafe { CString::from_raw(c) });
+        None
+    }
+
+    /// Takes a path off the list. Its string is left allocated (a few bytes per output): a
+    /// handler running at this moment on another thread may still be reading it.
+    pub(super) fn release(slot: Option<usize>) {
+        if let Some(i) = slot {
+            PATHS[i].store(std::ptr::null_mut(), Ordering::Release);
+        }
+    }
+
+    extern "C" fn on_signal(sig: libc::c_int) {
+        for slot in &PATHS {
+            let p = slot.load(Ordering::Acquire);
+            if !p.is_null() {
+                // SAFETY: a NUL-terminated string that is never freed; unlink is
+                // async-signal-safe.
+                unsafe { libc::unlink(p) };
+            }
+        }
+        // SAFETY: async-signal-safe calls; the default action then ends the process with
+        // the signal, as the shell expects (exit status 128 + sig).
+        unsafe {
+            libc::signal(sig, libc::SIG_DFL);
+            libc::raise(sig);
+        }
+    }
+
+    pub(super) fn install() {
+        for sig in [libc::SIGINT, libc::SIGTERM, libc::SIGHUP] {
+            // SAFETY: installs a handler that only makes async-signal-safe calls.
+            unsafe { libc::signal(sig, on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t) };
+        }
+    }
+}
+
+/// Removes the temporary files of unfinished [`AtomicFile`]s when the process is interrupted
+/// by SIGINT, SIGTERM or SIGHUP, then ends it with that signal. For programs (the
+/// command-line tool); call once at start.
+pub fn install_interrupt_cleanup() {
+    interrupt::install();
 }

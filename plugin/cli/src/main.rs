@@ -293,6 +293,9 @@ fn run(cli: Cli) -> Result<(), String> {
 }
 
 fn main() -> ExitCode {
+    // Ctrl-C (or a kill) during a long render or build removes the unfinished output's
+    // temporary file; the destination is untouched either way.
+    presets::output::install_interrupt_cleanup();
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         Err(e) => match e.kind() {

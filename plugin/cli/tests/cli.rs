@@ -1268,3 +1268,33 @@ fn silent_renders_warn_and_impossible_lengths_are_errors() {
     ));
     assert!(e.contains("1e308") && e.len() < 80, "{e}");
 }
+
+/// Ctrl-C (SIGINT) or a kill (SIGTERM) during a long render removes the unfinished
+/// temporary file (it stayed behind, a gigabyte at 768 kHz) and leaves the existing output
+/// as it was; the process ends with the signal.
+#[test]
+fn an_interrupted_render_leaves_no_temporary_file() {
+    use std::os::unix::process::ExitStatusExt;
+    let dir = scratch("interrupt");
+    let out = dir.join("out.wav");
+    for sig in ["INT", "TERM"] {
+        std::fs::write(&out, b"the user's file").unwrap();
+        let mut child =
+            command(&dir, &["render", "--notes", "60:100", "--seconds", "3000", "--out", out.to_str().unwrap()])
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .spawn()
+                .unwrap();
+        let t0 = Instant::now();
+        while !listing(&dir).iter().any(|n| n.ends_with(".tmp")) {
+            assert!(t0.elapsed() < Duration::from_secs(60), "no temporary file appeared: {:?}", listing(&dir));
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        std::thread::sleep(Duration::from_millis(200));
+        assert!(Command::new("kill").arg(format!("-{sig}")).arg(child.id().to_string()).status().unwrap().success());
+        let status = child.wait().unwrap();
+        assert!(status.signal().is_some(), "SIG{sig}: ended with {status:?}, not by the signal");
+        assert_eq!(std::fs::read(&out).unwrap(), b"the user's file", "SIG{sig}: the output changed");
+        assert!(!listing(&dir).iter().any(|n| n.ends_with(".tmp")), "SIG{sig}: left {:?}", listing(&dir));
+    }
+}
