@@ -551,9 +551,9 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
     let wrong_units = spec.float && peak_any > WRONG_UNITS_PEAK;
     if wrong_units {
         warnings.push(format!(
-            "{}: float samples reach {:.0}× full scale (±1): the file is not scaled to ±1 (wrong units?); the analysis uses the samples as they are",
+            "{}: float samples reach {}× full scale (±1): the file is not scaled to ±1 (wrong units?); the analysis uses the samples as they are",
             path.display(),
-            peak_any
+            if peak_any < 1e6 { format!("{peak_any:.0}") } else { format!("{peak_any:.1e}") }
         ));
     } else if clipped >= 3 {
         warnings.push(format!(

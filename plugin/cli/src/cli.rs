@@ -158,6 +158,11 @@ pub fn read_input(path: &Path) -> Result<(Vec<f32>, Vec<f32>, u32), String> {
     // The samples as they are: an analysis removes a DC offset, a render must not (it would
     // drive the object from the first sample).
     let left = estimator::wav::load_wav_exact(path, Some(0)).map_err(|e| format!("--input: {e}"))?;
+    // What the reader noticed (samples far over full scale: wrong units; clipping) is said:
+    // such a file drives the object as it is.
+    for w in &left.warnings {
+        warn(&format!("--input: {}", w.replace("the analysis uses", "the render uses")));
+    }
     let right = if left.channels >= 2 {
         estimator::wav::load_wav_exact(path, Some(1)).map_err(|e| format!("--input: {e}"))?.samples
     } else {

@@ -1298,3 +1298,19 @@ fn an_interrupted_render_leaves_no_temporary_file() {
         assert!(!listing(&dir).iter().any(|n| n.ends_with(".tmp")), "SIG{sig}: left {:?}", listing(&dir));
     }
 }
+
+/// An `--input` whose float samples are far over full scale (wrong units) renders as it is
+/// but says so, with the factor in scientific notation, not thirty digits.
+#[test]
+fn an_input_in_wrong_units_is_warned_about() {
+    let dir = scratch("units");
+    let data: Vec<u8> = (0..4800).flat_map(|i| (5e29f32 * ((i as f32) * 0.05).sin()).to_le_bytes()).collect();
+    let input = dir.join("huge.wav");
+    std::fs::write(&input, wav_bytes(3, 1, 48_000, 32, &[], &data)).unwrap();
+    let out = dir.join("o.wav");
+    let o = struck(&dir, &["render", "--input", input.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    let line = err.lines().find(|l| l.contains("not scaled to ±1")).unwrap_or_else(|| panic!("no warning: {err}"));
+    assert!(line.starts_with("warning: --input: ") && line.contains("5.0e29×") && line.len() < 250, "{line}");
+}

@@ -285,8 +285,9 @@ impl Shape {
                 });
             }
         }
-        let wall_ok = match *self {
-            Shape::Tube { outer_radius, wall, .. } => wall < outer_radius,
+        // Whether the wall fits, and the limit said if not.
+        let (wall_ok, limit) = match *self {
+            Shape::Tube { outer_radius, wall, .. } => (wall < outer_radius, "thinner than the outer radius"),
             Shape::PluggedTube { length, outer_radius, wall, plug } => {
                 if plug > length {
                     return Err(FemError::InvalidShape {
@@ -294,11 +295,14 @@ impl Shape {
                         reason: format!("the plug ({plug} m) must not be longer than the tube ({length} m)"),
                     });
                 }
-                wall < outer_radius
+                (wall < outer_radius, "thinner than the outer radius")
             }
-            Shape::Bowl { radius, wall } | Shape::SphereShell { radius, wall } => wall < 0.5 * radius,
-            Shape::Cup { radius, height, wall } => wall < 0.25 * radius && wall < 0.25 * height,
-            Shape::Bell { radius, height, wall } => wall < 0.25 * radius && wall < 0.25 * height,
+            Shape::Bowl { radius, wall } | Shape::SphereShell { radius, wall } => {
+                (wall < 0.5 * radius, "under half the radius")
+            }
+            Shape::Cup { radius, height, wall } | Shape::Bell { radius, height, wall } => {
+                (wall < 0.25 * radius && wall < 0.25 * height, "under a quarter of the radius and of the height")
+            }
             Shape::UndercutBar { depth, cut, exponent, .. } => {
                 if !(depth < 0.95 && cut <= 1.0 && (1.0..=16.0).contains(&exponent)) {
                     return Err(FemError::InvalidShape {
@@ -308,14 +312,14 @@ impl Shape {
                         ),
                     });
                 }
-                true
+                (true, "")
             }
-            _ => true,
+            _ => (true, ""),
         };
         if !wall_ok {
             return Err(FemError::InvalidShape {
                 shape: self.kind(),
-                reason: "the wall is too thick for the radius; use a wall under a quarter of the radius".into(),
+                reason: format!("the wall is too thick; use a wall {limit}"),
             });
         }
         Ok(())

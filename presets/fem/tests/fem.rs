@@ -532,3 +532,17 @@ fn a_resolution_too_fine_is_refused_before_meshing_with_the_finest_that_fits() {
     let err = fem::mesh_shape(&Shape::Bar { length: 0.3, width: 0.03, thickness: 0.01 }, 1_000_000).unwrap_err();
     assert!(err.to_string().contains("too fine"), "{err}");
 }
+
+/// A wall too thick is refused with the limit of its own shape (a tube's said "a quarter of
+/// the radius" while it takes anything thinner than the radius).
+#[test]
+fn a_wall_too_thick_names_its_shapes_limit() {
+    let msg = |s: Shape| s.validate().unwrap_err().to_string();
+    assert!(
+        msg(Shape::Tube { length: 0.6, outer_radius: 0.016, wall: 0.016 }).contains("thinner than the outer radius")
+    );
+    assert!(Shape::Tube { length: 0.6, outer_radius: 0.016, wall: 0.0159 }.validate().is_ok());
+    assert!(msg(Shape::Bowl { radius: 0.08, wall: 0.05 }).contains("under half the radius"));
+    assert!(msg(Shape::Cup { radius: 0.04, height: 0.1, wall: 0.011 })
+        .contains("a quarter of the radius and of the height"));
+}
