@@ -182,7 +182,7 @@ impl TextureFile {
                 TextureFile::new(&name, texel, &heights).map_err(|e| format!("{shown}: {e}"))
             }
             "wav" => {
-                let mut r = hound::WavReader::open(path).map_err(|e| format!("cannot read {shown} as WAV: {e}"))?;
+                let mut r = hound::WavReader::open(path).map_err(|e| wav_error(&shown.to_string(), &e))?;
                 let spec = r.spec();
                 let channels = usize::from(spec.channels.max(1));
                 let frames = r.duration() as usize;
@@ -194,17 +194,19 @@ impl TextureFile {
                     hound::SampleFormat::Float => r
                         .samples::<f32>()
                         .step_by(channels)
-                        .map(|s| s.map(|v| f64::from(v) * scale).map_err(|e| e.to_string()))
+                        .map(|s| s.map(|v| f64::from(v) * scale).map_err(|e| wav_error(&shown.to_string(), &e)))
                         .collect(),
                     hound::SampleFormat::Int => {
                         let full = f64::from(1u32 << (spec.bits_per_sample.clamp(1, 32) - 1));
                         r.samples::<i32>()
                             .step_by(channels)
-                            .map(|s| s.map(|v| f64::from(v) / full * scale).map_err(|e| e.to_string()))
+                            .map(|s| {
+                                s.map(|v| f64::from(v) / full * scale).map_err(|e| wav_error(&shown.to_string(), &e))
+                            })
                             .collect()
                     }
                 };
-                let heights = samples.map_err(|e| format!("{shown}: {e}"))?;
+                let heights = samples?;
                 TextureFile::new(&name, DEFAULT_TEXEL_MM, &heights).map_err(|e| format!("{shown}: {e}"))
             }
             "png" => {
@@ -283,6 +285,33 @@ fn parse_text(text: &str) -> Result<(f64, Vec<f64>), String> {
     Ok((texel.unwrap_or(DEFAULT_TEXEL_MM), heights))
 }
 
+/// Whether hound found the file shorter than its header or data chunk says.
+fn is_short(e: &hound::Error) -> bool {
+    match e {
+        hound::Error::IoError(io) => {
+            io.kind() == std::io::ErrorKind::UnexpectedEof || io.to_string().contains("enough bytes")
+        }
+        hound::Error::FormatError(m) => m.contains("enough bytes"),
+        _ => false,
+    }
+}
+
+/// A WAV reading error in words a user can act on (hound's own say "Failed to read enough
+/// bytes" for a cut file, "bits per sample is not 32" for 64-bit float).
+fn wav_error(shown: &str, e: &hound::Error) -> String {
+    match e {
+        hound::Error::IoError(_) | hound::Error::FormatError(_) if is_short(e) => {
+            format!("cannot read {shown} as WAV: it ends before its header or data says (a truncated or empty file)")
+        }
+        hound::Error::FormatError(m) if m.contains("bits per sample is not 32") => format!(
+            "cannot read {shown} as a texture: 64-bit float WAV is not read here; save it as 32-bit float or 16/24-bit PCM"
+        ),
+        hound::Error::FormatError(m) => format!("cannot read {shown} as WAV: {m}"),
+        hound::Error::Unsupported => format!("cannot read {shown} as a texture: an unsupported WAV encoding (use PCM or 32-bit float)"),
+        other => format!("cannot read {shown} as WAV: {other}"),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -343,7 +372,22 @@ mod tests {
         std::fs::write(&r, b"x").unwrap();
         assert!(TextureFile::load(&r).unwrap_err().contains(".csv, .txt, .wav or .png"));
         assert!(TextureFile::load(&tmp("missing.csv")).unwrap_err().contains("cannot read"));
-        for f in [p, q, r] {
+        // Cut short (the data chunk says more than the file holds) and empty: the same words.
+        let bytes = std::fs::read(&p).unwrap();
+        let cut = tmp("cut.wav");
+        std::fs::write(&cut, &bytes[..bytes.len() - 6]).unwrap();
+        assert!(TextureFile::load(&cut).unwrap_err().contains("ends before its header or data says"));
+        std::fs::write(&cut, b"").unwrap();
+        assert!(TextureFile::load(&cut).unwrap_err().contains("ends before its header or data says"));
+        // 64-bit float: said, with what to save instead.
+        let mut f64wav = bytes[..12].to_vec();
+        f64wav.extend(b"fmt \x10\0\0\0\x03\0\x01\0\x80\xbb\0\0\0\xdc\x05\0\x08\0\x40\0");
+        f64wav.extend(b"data\x08\0\0\0");
+        f64wav.extend(0.5f64.to_le_bytes());
+        std::fs::write(&cut, &f64wav).unwrap();
+        let e = TextureFile::load(&cut).unwrap_err();
+        assert!(e.contains("64-bit float WAV is not read here"), "{e}");
+        for f in [p, q, r, cut] {
             let _ = std::fs::remove_file(f);
         }
     }
