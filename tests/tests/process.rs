@@ -388,3 +388,45 @@ fn a_mode_with_a_node_where_the_bar_is_held_keeps_its_free_decay() {
     assert!((d1 / want - 1.0).abs() < 0.01, "antinode: {d1} vs {want}");
     assert!(want > 2.0 * truth[first].decay_per_s, "the test must see the support: {want}");
 }
+
+/// MIDI's channel mode messages: All Sound Off (CC 120) silences the channel's voices at its
+/// sample (exactly zero after it, the voices ended and reported), All Notes Off (CC 123)
+/// releases them: with the release damping at 60 s⁻¹ its note fades as if released, while
+/// a note on another channel rings on as it would alone.
+#[test]
+fn all_sound_off_and_all_notes_off_act_on_their_channel() {
+    use nice_plug::midi::{Channel, VoiceID};
+    use nice_plug::prelude::NoteEvent;
+    use struck::offline::TimedEvent;
+    let cc = |sample: usize, channel: u8, cc: u8| TimedEvent {
+        sample: sample as u64,
+        event: NoteEvent::MidiCC { timing: 0, channel, cc, value: 0.0 },
+    };
+    // A note on `channel` with its own voice id.
+    let on = |channel: u8, key: u8| {
+        let mut e = struck_cli::cli::note_events(&[note(key, 100, None)], f64::from(SR)).remove(0);
+        if let NoteEvent::NoteOn { channel: c, voice_id, .. } = &mut e.event {
+            *c = Channel::Number(channel);
+            *voice_id = VoiceID::ID(i32::from(channel));
+        }
+        e
+    };
+    let sr = SR as usize;
+    let cut = 3 * sr / 10;
+    let play = |events: &[TimedEvent]| {
+        let mut h = host("circular-plate", "steel-sterling-rayleigh", SR, &[("release", 60.0)]);
+        h.render(events, sr, 512)
+    };
+    // All Sound Off on channel 0 at 0.3 s.
+    let (out, sent) = play(&[on(0, 60), cc(cut, 0, 120)]);
+    assert!(rms(&out[0][cut - 2400..cut]) > 1e-3, "the note did not sound");
+    assert!(out[0][cut..].iter().all(|&v| v == 0.0), "sound after All Sound Off");
+    assert!(sent.iter().any(|(s, e)| *s as usize == cut && matches!(e, NoteEvent::VoiceTerminated { .. })), "{sent:?}");
+    // All Notes Off on channel 0: its note is released, channel 1's rings on.
+    let tail = |events: &[TimedEvent]| rms(&play(events).0[0][7 * sr / 10..]);
+    let alone = tail(&[on(1, 67)]);
+    let both = tail(&[on(0, 60), on(1, 67)]);
+    let after = tail(&[on(0, 60), on(1, 67), cc(cut, 0, 123)]);
+    assert!(both > 1.1 * alone, "both notes ring: {both} vs channel 1 alone {alone}");
+    assert!((after - alone).abs() < 0.05 * alone, "after CC 123 on channel 0: {after}, channel 1 alone {alone}");
+}

@@ -408,6 +408,15 @@ impl<V: Variant> StruckPlugin<V> {
                 engine.set_note_speed(NoteId { voice_id: None, channel, key: NoteId::ANY }, speed_of(value))
             }
             NoteEvent::MidiChannelPressure { channel, pressure, .. } => engine.set_channel_pressure(channel, pressure),
+            // Channel mode messages: All Sound Off (CC 120) silences the channel's voices at
+            // once, All Notes Off (CC 123) releases them (they ring on, damped by the
+            // release damping, as after their note-offs).
+            NoteEvent::MidiCC { channel, cc: 120, .. } => {
+                engine.choke(NoteId { voice_id: None, channel, key: NoteId::ANY })
+            }
+            NoteEvent::MidiCC { channel, cc: 123, .. } => {
+                engine.note_off(NoteId { voice_id: None, channel, key: NoteId::ANY })
+            }
             // MPE timbre (CC 74) on a member channel → strike position of that channel's sounding
             // notes, and of its next ones.
             NoteEvent::MidiCC { channel, cc: 74, value, .. } => {

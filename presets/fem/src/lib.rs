@@ -278,12 +278,26 @@ impl Shape {
     /// [`FemError::InvalidShape`] naming the dimension.
     pub fn validate(&self) -> Result<(), FemError> {
         for (name, v) in self.field_names().iter().zip(self.dimensions()) {
-            if !(v.is_finite() && v > 0.0) {
+            if !(v.is_finite() && v > 0.0 && v <= MAX_DIMENSION_M) {
                 return Err(FemError::InvalidShape {
                     shape: self.kind(),
-                    reason: format!("{name} must be a finite length > 0 in metres, found {v}"),
+                    reason: format!(
+                        "{name} must be a length in metres above 0 and at most {MAX_DIMENSION_M}, found {v}"
+                    ),
                 });
             }
+        }
+        // A ratio no mesh of a few thousand elements can resolve (and beyond double
+        // precision's reach in K − σM: a 1 nm plate 0.3 m wide failed in the factorisation).
+        let dims = self.dimensions();
+        let (lo, hi) = dims.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+        if hi > MAX_ASPECT * lo {
+            return Err(FemError::InvalidShape {
+                shape: self.kind(),
+                reason: format!(
+                    "its largest dimension ({hi} m) is over {MAX_ASPECT:.0} times its smallest ({lo} m); check the units of --dims"
+                ),
+            });
         }
         // Whether the wall fits, and the limit said if not.
         let (wall_ok, limit) = match *self {
@@ -325,6 +339,12 @@ impl Shape {
         Ok(())
     }
 }
+
+/// Largest dimension of a built-in shape, m.
+pub const MAX_DIMENSION_M: f64 = 100.0;
+
+/// Largest ratio of a built-in shape's largest dimension to its smallest.
+pub const MAX_ASPECT: f64 = 1e4;
 
 /// An isotropic linear-elastic material.
 #[derive(Clone, Copy, Debug, PartialEq)]
