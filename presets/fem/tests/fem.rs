@@ -546,3 +546,17 @@ fn a_wall_too_thick_names_its_shapes_limit() {
     assert!(msg(Shape::Cup { radius: 0.04, height: 0.1, wall: 0.011 })
         .contains("a quarter of the radius and of the height"));
 }
+
+/// Dimensions in the wrong units are refused before meshing: a 1,000 km bar ("element 0
+/// has (nearly) zero volume" before) and a 1 nm plate (a failed factorisation before); an
+/// undercut bar's ratios (depth, cut, exponent) are not taken for lengths.
+#[test]
+fn dimensions_out_of_any_object_are_refused_with_their_reason() {
+    let e = Shape::Bar { length: 1e6, width: 0.03, thickness: 0.01 }.validate().unwrap_err().to_string();
+    assert!(e.contains("at most 100"), "{e}");
+    let e = Shape::Plate { length: 0.3, width: 0.03, thickness: 1e-9 }.validate().unwrap_err().to_string();
+    assert!(e.contains("check the units"), "{e}");
+    let undercut =
+        Shape::UndercutBar { length: 0.4, width: 0.05, thickness: 0.02, depth: 0.0001, cut: 0.5, exponent: 16.0 };
+    assert!(undercut.validate().is_ok());
+}
