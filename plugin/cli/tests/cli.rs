@@ -1271,31 +1271,61 @@ fn silent_renders_warn_and_impossible_lengths_are_errors() {
 
 /// Ctrl-C (SIGINT) or a kill (SIGTERM) during a long render removes the unfinished
 /// temporary file (it stayed behind, a gigabyte at 768 kHz) and leaves the existing output
-/// as it was; the process ends with the signal.
+/// as it was; the process ends with the signal. Under `nohup` (SIGHUP ignored) a hangup
+/// leaves the render running.
 #[test]
 fn an_interrupted_render_leaves_no_temporary_file() {
-    use std::os::unix::process::ExitStatusExt;
+    use std::os::unix::process::{CommandExt, ExitStatusExt};
     let dir = scratch("interrupt");
     let out = dir.join("out.wav");
-    for sig in ["INT", "TERM"] {
-        std::fs::write(&out, b"the user's file").unwrap();
-        let mut child =
-            command(&dir, &["render", "--notes", "60:100", "--seconds", "3000", "--out", out.to_str().unwrap()])
-                .stdout(Stdio::null())
-                .stderr(Stdio::null())
-                .spawn()
-                .unwrap();
+    // A long render with the signals at their default actions, whatever this test runs
+    // under (a shell's background job ignores SIGINT, and an ignored signal stays ignored),
+    // SIGHUP ignored if `nohup`; returns once its temporary file exists.
+    let start = |nohup: bool| {
+        let mut cmd =
+            command(&dir, &["render", "--notes", "60:100", "--seconds", "3000", "--out", out.to_str().unwrap()]);
+        cmd.stdout(Stdio::null()).stderr(Stdio::null());
+        // SAFETY: runs in the forked child before exec; `signal` is async-signal-safe.
+        unsafe {
+            cmd.pre_exec(move || {
+                for s in [libc::SIGINT, libc::SIGTERM, libc::SIGHUP] {
+                    libc::signal(s, libc::SIG_DFL);
+                }
+                if nohup {
+                    libc::signal(libc::SIGHUP, libc::SIG_IGN);
+                }
+                Ok(())
+            });
+        }
+        let child = cmd.spawn().unwrap();
         let t0 = Instant::now();
         while !listing(&dir).iter().any(|n| n.ends_with(".tmp")) {
             assert!(t0.elapsed() < Duration::from_secs(60), "no temporary file appeared: {:?}", listing(&dir));
             std::thread::sleep(Duration::from_millis(20));
         }
         std::thread::sleep(Duration::from_millis(200));
-        assert!(Command::new("kill").arg(format!("-{sig}")).arg(child.id().to_string()).status().unwrap().success());
+        child
+    };
+    let kill = |sig: &str, pid: u32| {
+        assert!(Command::new("kill").arg(format!("-{sig}")).arg(pid.to_string()).status().unwrap().success());
+    };
+    for sig in ["INT", "TERM"] {
+        std::fs::write(&out, b"the user's file").unwrap();
+        let mut child = start(false);
+        kill(sig, child.id());
         let status = child.wait().unwrap();
         assert!(status.signal().is_some(), "SIG{sig}: ended with {status:?}, not by the signal");
         assert_eq!(std::fs::read(&out).unwrap(), b"the user's file", "SIG{sig}: the output changed");
         assert!(!listing(&dir).iter().any(|n| n.ends_with(".tmp")), "SIG{sig}: left {:?}", listing(&dir));
+    }
+    let mut child = start(true);
+    kill("HUP", child.id());
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(child.try_wait().unwrap().is_none(), "a render under nohup died of SIGHUP");
+    child.kill().unwrap();
+    let _ = child.wait();
+    for n in listing(&dir).iter().filter(|n| n.ends_with(".tmp")) {
+        let _ = std::fs::remove_file(dir.join(n));
     }
 }
 

@@ -290,8 +290,12 @@ impl Shape {
         // A ratio no mesh of a few thousand elements can resolve (and beyond double
         // precision's reach in K − σM: a 1 nm plate 0.3 m wide failed in the factorisation).
         let mut dims = self.dimensions();
-        if let Shape::UndercutBar { .. } = self {
-            dims.truncate(3); // the cut's depth, extent and exponent are ratios, not lengths
+        match self {
+            // The cut's depth, extent and exponent are ratios, not lengths.
+            Shape::UndercutBar { .. } => dims.truncate(3),
+            // A plug may shrink to nothing (the plain tube).
+            Shape::PluggedTube { .. } => dims.truncate(3),
+            _ => {}
         }
         let (lo, hi) = dims.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &v| (lo.min(v), hi.max(v)));
         if hi > MAX_ASPECT * lo {

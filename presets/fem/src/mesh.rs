@@ -355,15 +355,18 @@ pub const MAX_RESOLUTION: usize = 20_000;
 /// Refuses a mesh of `vertices` corner vertices over [`crate::MAX_IMPORT_VERTICES`], naming the
 /// finest resolution that fits (found by bisection on `count`, the vertices at a resolution,
 /// which grow with it).
-fn check_vertices(vertices: usize, resolution: usize, count: impl Fn(usize) -> usize) -> Result<(), FemError> {
-    let limit = crate::MAX_IMPORT_VERTICES;
+fn check_vertices(
+    vertices: usize,
+    (resolution, min_layers, limit): (usize, usize, usize),
+    count: impl Fn(usize) -> usize,
+) -> Result<(), FemError> {
     if vertices <= limit {
         return Ok(());
     }
     let (mut lo, mut hi) = (2, resolution);
     if count(lo) > limit {
         return Err(FemError::InvalidOptions(format!(
-            "this shape has {} corner vertices even at resolution 2, over the limit of {limit}; check its dimensions",
+            "this shape has {} corner vertices even at resolution 2 with {min_layers} element layer(s) through its walls, over the limit of {limit}; check its dimensions",
             count(lo)
         )));
     }
@@ -397,13 +400,22 @@ pub(crate) fn mesh_with_layers(
     resolution: usize,
     min_layers: usize,
 ) -> Result<(TetMesh, Geometry), FemError> {
-    mesh_or_count(shape, resolution, min_layers, None)
+    mesh_or_count(shape, resolution, min_layers, None, crate::MAX_IMPORT_VERTICES)
+}
+
+/// [`mesh_with_layers`] with no limit on the corner vertices (for writing large meshes to
+/// files, e.g. the `big_mesh` example; a bank build refuses them).
+///
+/// # Errors
+/// As [`mesh_with_layers`] but the vertex limit.
+pub fn mesh_shape_unlimited(shape: &Shape, resolution: usize, min_layers: usize) -> Result<TetMesh, FemError> {
+    Ok(mesh_or_count(shape, resolution, min_layers.max(1), None, usize::MAX)?.0)
 }
 
 /// Corner vertices of [`mesh_with_layers`]'s mesh, counted without building it.
 fn count_vertices(shape: &Shape, resolution: usize, min_layers: usize) -> usize {
     let counted = std::cell::Cell::new(usize::MAX);
-    let _ = mesh_or_count(shape, resolution, min_layers, Some(&counted));
+    let _ = mesh_or_count(shape, resolution, min_layers, Some(&counted), usize::MAX);
     counted.get()
 }
 
@@ -414,6 +426,7 @@ fn mesh_or_count(
     resolution: usize,
     min_layers: usize,
     count: Option<&std::cell::Cell<usize>>,
+    limit: usize,
 ) -> Result<(TetMesh, Geometry), FemError> {
     shape.validate()?;
     if resolution < 2 {
@@ -434,7 +447,7 @@ fn mesh_or_count(
             c.set(vertices);
             Err(FemError::InvalidOptions("counted".into()))
         }
-        None => check_vertices(vertices, resolution, |r| count_vertices(shape, r, min_layers)),
+        None => check_vertices(vertices, (resolution, min_layers, limit), |r| count_vertices(shape, r, min_layers)),
     };
     let boxed = |lx: f64, ly: f64, lz: f64, line: bool| -> Result<(TetMesh, Geometry), FemError> {
         let h = lx.max(ly).max(lz) / res;
@@ -488,13 +501,12 @@ fn mesh_or_count(
             let bore = outer_radius - wall;
             let open = length - plug;
             let around = divisions(2.0 * PI * outer_radius, h).max(12);
-            let (nr, nz) = (divisions(bore, h) + divisions(wall, h), divisions(open, h) + divisions(plug, h));
-            fits((nr + 1).saturating_mul(nz + 1).saturating_mul(around))?;
             let mut rs = levels(0.0, bore, divisions(bore, h));
             rs.extend(levels(bore, outer_radius, divisions(wall, h)).into_iter().skip(1));
             let mut zs = if open > 1e-9 * length { levels(0.0, open, divisions(open, h)) } else { vec![0.0] };
             zs.extend(levels(open, length, divisions(plug, h)).into_iter().skip(1));
             let solid = |r: f64, z: f64| r > bore || z > open;
+            fits(section_vertices(&rs, &zs, &solid, around))?;
             let (points, tris) = grid_section(&rs, &zs, &solid);
             let mesh = revolve_section(&points, &tris, around)?;
             let rev = Revolution::new(Box::new(move |u| [outer_radius, u * length]), wall);
@@ -600,6 +612,30 @@ fn levels(a: f64, b: f64, n: usize) -> Vec<f64> {
 /// A meridian section on the grid `rs` × `zs` (r ≥ 0 rising from the axis, z rising): the
 /// cells whose centre is `inside`, each split into two triangles with alternating diagonals.
 /// Returns the (r, z) nodes the cells use and the triangles.
+/// Corner vertices of [`grid_section`]'s section swept `around` times ([`revolve_section`]):
+/// the grid points of its solid cells, one vertex on the axis (r = 0), `around` elsewhere.
+/// Counted without allocating.
+fn section_vertices(rs: &[f64], zs: &[f64], inside: &dyn Fn(f64, f64) -> bool, around: usize) -> usize {
+    let (nr, nz) = (rs.len(), zs.len());
+    let solid =
+        |i: usize, j: usize| i + 1 < nr && j + 1 < nz && inside(0.5 * (rs[i] + rs[i + 1]), 0.5 * (zs[j] + zs[j + 1]));
+    let mut count = 0usize;
+    for j in 0..nz {
+        for i in 0..nr {
+            // A grid point is used if any of the (up to four) cells around it is solid.
+            let used = solid(i, j)
+                || (i > 0 && solid(i - 1, j))
+                || (j > 0 && solid(i, j - 1))
+                || (i > 0 && j > 0 && solid(i - 1, j - 1));
+            if used {
+                let on_axis = rs[i] <= 1e-12 * rs[nr - 1];
+                count = count.saturating_add(if on_axis { 1 } else { around });
+            }
+        }
+    }
+    count
+}
+
 fn grid_section(rs: &[f64], zs: &[f64], inside: &dyn Fn(f64, f64) -> bool) -> (Vec<[f64; 2]>, Vec<[u32; 3]>) {
     let (nr, nz) = (rs.len(), zs.len());
     let mut id = vec![u32::MAX; nr * nz];

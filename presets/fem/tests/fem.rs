@@ -518,6 +518,9 @@ fn a_resolution_too_fine_is_refused_before_meshing_with_the_finest_that_fits() {
         Shape::Bar { length: 0.3, width: 0.03, thickness: 0.01 },
         Shape::CircularPlate { radius: 0.1, thickness: 0.003 },
         Shape::Bowl { radius: 0.08, wall: 0.004 },
+        // The tubular chime: only the section's solid cells are meshed (the bore above the
+        // plug is not), and the guard counts them exactly.
+        Shape::PluggedTube { length: 1.0, outer_radius: 0.0193, wall: 0.004, plug: 0.0413 },
     ] {
         let err = fem::mesh_shape(&shape, 2000).expect_err("a 2000-element resolution was meshed").to_string();
         let at_most: usize = err
