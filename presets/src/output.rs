@@ -422,6 +422,102 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
     f.commit()
 }
 
+/// Temporary outputs removed when the process is interrupted (SIGINT, SIGTERM, SIGHUP):
+/// Ctrl-C during a long render must not leave a hidden `.NAME.PID-N.tmp` of a gigabyte
+/// behind. [`install_interrupt_cleanup`] sets the handlers (the command-line tool does; a
+/// plugin or library user does not, and then nothing is registered); [`AtomicFile`]
+/// registers its temporary file while it exists.
+#[cfg(unix)]
+mod interrupt {
+    use std::ffi::{c_char, CString};
+    use std::os::unix::ffi::OsStrExt;
+    use std::path::Path;
+    use std::sync::atomic::{AtomicBool, AtomicPtr, Ordering};
+
+    /// At most this many outputs at once are cleaned up (a command writes one to three).
+    const SLOTS: usize = 32;
+    static PATHS: [AtomicPtr<c_char>; SLOTS] = [const { AtomicPtr::new(std::ptr::null_mut()) }; SLOTS];
+    /// Whether [`install`] ran: without a handler nothing is registered.
+    static INSTALLED: AtomicBool = AtomicBool::new(false);
+
+    /// Adds `tmp` to the list; `None` without a handler, when the list is full or the path
+    /// has a NUL byte.
+    pub(super) fn register(tmp: &Path) -> Option<usize> {
+        if !INSTALLED.load(Ordering::Acquire) {
+            return None;
+        }
+        let c = CString::new(tmp.as_os_str().as_bytes()).ok()?.into_raw();
+        for (i, slot) in PATHS.iter().enumerate() {
+            if slot.compare_exchange(std::ptr::null_mut(), c, Ordering::AcqRel, Ordering::Relaxed).is_ok() {
+                return Some(i);
+            }
+        }
+        // SAFETY: `c` came from `CString::into_raw` above and was stored nowhere.
+        drop(unsafe { CString::from_raw(c) });
+        None
+    }
+
+    /// Takes a path off the list. Its string is left allocated (a few bytes per output of a
+    /// command-line run): a handler running at this moment on another thread may still be
+    /// reading it.
+    pub(super) fn release(slot: Option<usize>) {
+        if let Some(i) = slot {
+            PATHS[i].store(std::ptr::null_mut(), Ordering::Release);
+        }
+    }
+
+    extern "C" fn on_signal(sig: libc::c_int) {
+        for slot in &PATHS {
+            let p = slot.load(Ordering::Acquire);
+            if !p.is_null() {
+                // SAFETY: a NUL-terminated string that is never freed; unlink is
+                // async-signal-safe.
+                unsafe { libc::unlink(p) };
+            }
+        }
+        // SAFETY: async-signal-safe calls; the default action then ends the process with
+        // the signal, as the shell expects (exit status 128 + sig).
+        unsafe {
+            libc::signal(sig, libc::SIG_DFL);
+            libc::raise(sig);
+        }
+    }
+
+    /// Sets the handler for each signal that is not ignored (`nohup` ignores SIGHUP, a
+    /// shell's background job SIGINT: they stay ignored).
+    pub(super) fn install() {
+        for sig in [libc::SIGINT, libc::SIGTERM, libc::SIGHUP] {
+            // SAFETY: reads the current action (a null new action changes nothing), then
+            // installs a handler that only makes async-signal-safe calls.
+            unsafe {
+                let mut old: libc::sigaction = std::mem::zeroed();
+                if libc::sigaction(sig, std::ptr::null(), &mut old) != 0 || old.sa_sigaction == libc::SIG_IGN {
+                    continue;
+                }
+                libc::signal(sig, on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t);
+            }
+        }
+        INSTALLED.store(true, Ordering::Release);
+    }
+}
+
+/// Elsewhere nothing is registered and no handler is set.
+#[cfg(not(unix))]
+mod interrupt {
+    pub(super) fn register(_tmp: &std::path::Path) -> Option<usize> {
+        None
+    }
+    pub(super) fn release(_slot: Option<usize>) {}
+    pub(super) fn install() {}
+}
+
+/// Removes the temporary files of unfinished [`AtomicFile`]s when the process is interrupted
+/// by SIGINT, SIGTERM or SIGHUP (those not ignored), then ends it with that signal. For
+/// programs (the command-line tool); call once at start. Unix only (elsewhere a no-op).
+pub fn install_interrupt_cleanup() {
+    interrupt::install();
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -586,100 +682,4 @@ mod tests {
         assert!(e.to_string().starts_with("cannot write /dev/full: "), "{e}");
         assert!(is_char("/dev/full"), "/dev/full is no longer a device");
     }
-}
-
-/// Temporary outputs removed when the process is interrupted (SIGINT, SIGTERM, SIGHUP):
-/// Ctrl-C during a long render must not leave a hidden `.NAME.PID-N.tmp` of a gigabyte
-/// behind. [`install_interrupt_cleanup`] sets the handlers (the command-line tool does; a
-/// plugin or library user does not, and then nothing is registered); [`AtomicFile`]
-/// registers its temporary file while it exists.
-#[cfg(unix)]
-mod interrupt {
-    use std::ffi::{c_char, CString};
-    use std::os::unix::ffi::OsStrExt;
-    use std::path::Path;
-    use std::sync::atomic::{AtomicBool, AtomicPtr, Ordering};
-
-    /// At most this many outputs at once are cleaned up (a command writes one to three).
-    const SLOTS: usize = 32;
-    static PATHS: [AtomicPtr<c_char>; SLOTS] = [const { AtomicPtr::new(std::ptr::null_mut()) }; SLOTS];
-    /// Whether [`install`] ran: without a handler nothing is registered.
-    static INSTALLED: AtomicBool = AtomicBool::new(false);
-
-    /// Adds `tmp` to the list; `None` without a handler, when the list is full or the path
-    /// has a NUL byte.
-    pub(super) fn register(tmp: &Path) -> Option<usize> {
-        if !INSTALLED.load(Ordering::Acquire) {
-            return None;
-        }
-        let c = CString::new(tmp.as_os_str().as_bytes()).ok()?.into_raw();
-        for (i, slot) in PATHS.iter().enumerate() {
-            if slot.compare_exchange(std::ptr::null_mut(), c, Ordering::AcqRel, Ordering::Relaxed).is_ok() {
-                return Some(i);
-            }
-        }
-        // SAFETY: `c` came from `CString::into_raw` above and was stored nowhere.
-        drop(unsafe { CString::from_raw(c) });
-        None
-    }
-
-    /// Takes a path off the list. Its string is left allocated (a few bytes per output of a
-    /// command-line run): a handler running at this moment on another thread may still be
-    /// reading it.
-    pub(super) fn release(slot: Option<usize>) {
-        if let Some(i) = slot {
-            PATHS[i].store(std::ptr::null_mut(), Ordering::Release);
-        }
-    }
-
-    extern "C" fn on_signal(sig: libc::c_int) {
-        for slot in &PATHS {
-            let p = slot.load(Ordering::Acquire);
-            if !p.is_null() {
-                // SAFETY: a NUL-terminated string that is never freed; unlink is
-                // async-signal-safe.
-                unsafe { libc::unlink(p) };
-            }
-        }
-        // SAFETY: async-signal-safe calls; the default action then ends the process with
-        // the signal, as the shell expects (exit status 128 + sig).
-        unsafe {
-            libc::signal(sig, libc::SIG_DFL);
-            libc::raise(sig);
-        }
-    }
-
-    /// Sets the handler for each signal that is not ignored (`nohup` ignores SIGHUP, a
-    /// shell's background job SIGINT: they stay ignored).
-    pub(super) fn install() {
-        for sig in [libc::SIGINT, libc::SIGTERM, libc::SIGHUP] {
-            // SAFETY: reads the current action (a null new action changes nothing), then
-            // installs a handler that only makes async-signal-safe calls.
-            unsafe {
-                let mut old: libc::sigaction = std::mem::zeroed();
-                if libc::sigaction(sig, std::ptr::null(), &mut old) != 0 || old.sa_sigaction == libc::SIG_IGN {
-                    continue;
-                }
-                libc::signal(sig, on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t);
-            }
-        }
-        INSTALLED.store(true, Ordering::Release);
-    }
-}
-
-/// Elsewhere nothing is registered and no handler is set.
-#[cfg(not(unix))]
-mod interrupt {
-    pub(super) fn register(_tmp: &std::path::Path) -> Option<usize> {
-        None
-    }
-    pub(super) fn release(_slot: Option<usize>) {}
-    pub(super) fn install() {}
-}
-
-/// Removes the temporary files of unfinished [`AtomicFile`]s when the process is interrupted
-/// by SIGINT, SIGTERM or SIGHUP (those not ignored), then ends it with that signal. For
-/// programs (the command-line tool); call once at start. Unix only (elsewhere a no-op).
-pub fn install_interrupt_cleanup() {
-    interrupt::install();
 }

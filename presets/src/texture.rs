@@ -182,7 +182,7 @@ impl TextureFile {
                 TextureFile::new(&name, texel, &heights).map_err(|e| format!("{shown}: {e}"))
             }
             "wav" => {
-                let mut r = hound::WavReader::open(path).map_err(|e| wav_error(&shown.to_string(), &e))?;
+                let mut r = hound::WavReader::open(path).map_err(|e| wav_error(&shown, &e))?;
                 let spec = r.spec();
                 let channels = usize::from(spec.channels.max(1));
                 let frames = r.duration() as usize;
@@ -194,15 +194,13 @@ impl TextureFile {
                     hound::SampleFormat::Float => r
                         .samples::<f32>()
                         .step_by(channels)
-                        .map(|s| s.map(|v| f64::from(v) * scale).map_err(|e| wav_error(&shown.to_string(), &e)))
+                        .map(|s| s.map(|v| f64::from(v) * scale).map_err(|e| wav_error(&shown, &e)))
                         .collect(),
                     hound::SampleFormat::Int => {
                         let full = f64::from(1u32 << (spec.bits_per_sample.clamp(1, 32) - 1));
                         r.samples::<i32>()
                             .step_by(channels)
-                            .map(|s| {
-                                s.map(|v| f64::from(v) / full * scale).map_err(|e| wav_error(&shown.to_string(), &e))
-                            })
+                            .map(|s| s.map(|v| f64::from(v) / full * scale).map_err(|e| wav_error(&shown, &e)))
                             .collect()
                     }
                 };
@@ -285,29 +283,21 @@ fn parse_text(text: &str) -> Result<(f64, Vec<f64>), String> {
     Ok((texel.unwrap_or(DEFAULT_TEXEL_MM), heights))
 }
 
-/// Whether hound found the file shorter than its header or data chunk says.
-fn is_short(e: &hound::Error) -> bool {
+/// A WAV reading error in words a user can act on (hound says "Failed to read enough
+/// bytes." for a cut file, "bits per sample is not 32" for 64-bit float).
+fn wav_error(shown: &dyn std::fmt::Display, e: &hound::Error) -> String {
     match e {
-        hound::Error::IoError(io) => {
-            io.kind() == std::io::ErrorKind::UnexpectedEof || io.to_string().contains("enough bytes")
-        }
-        hound::Error::FormatError(m) => m.contains("enough bytes"),
-        _ => false,
-    }
-}
-
-/// A WAV reading error in words a user can act on (hound's own say "Failed to read enough
-/// bytes" for a cut file, "bits per sample is not 32" for 64-bit float).
-fn wav_error(shown: &str, e: &hound::Error) -> String {
-    match e {
-        hound::Error::IoError(_) | hound::Error::FormatError(_) if is_short(e) => {
+        hound::Error::IoError(io)
+            if io.kind() == std::io::ErrorKind::UnexpectedEof || io.to_string().contains("enough bytes") =>
+        {
             format!("cannot read {shown} as WAV: it ends before its header or data says (a truncated or empty file)")
         }
         hound::Error::FormatError(m) if m.contains("bits per sample is not 32") => format!(
             "cannot read {shown} as a texture: 64-bit float WAV is not read here; save it as 32-bit float or 16/24-bit PCM"
         ),
-        hound::Error::FormatError(m) => format!("cannot read {shown} as WAV: {m}"),
-        hound::Error::Unsupported => format!("cannot read {shown} as a texture: an unsupported WAV encoding (use PCM or 32-bit float)"),
+        hound::Error::Unsupported => {
+            format!("cannot read {shown} as a texture: an unsupported WAV encoding (use PCM or 32-bit float)")
+        }
         other => format!("cannot read {shown} as WAV: {other}"),
     }
 }

@@ -773,15 +773,13 @@ pub fn render_with_stats(opts: &RenderOptions) -> Result<(String, RenderStats), 
     let auto = opts.seconds.is_none();
     let seconds = opts.seconds.unwrap_or(last + MAX_TAIL_S);
     if !(seconds.is_finite() && seconds > 0.0 && seconds <= 3600.0) {
-        // A huge value in scientific notation, not three hundred digits.
-        let shown = if seconds.abs() < 1e6 { format!("{seconds}") } else { format!("{seconds:e}") };
         return Err(if auto {
-            format!(
-                "the notes and input last until {last:.1} s (with the tail, {:.1} s), over the render limit of 3600 s",
-                seconds
-            )
+            format!("the notes and input last until {last:.1} s (with the tail, {seconds:.1} s), over the render limit of 3600 s")
+        } else if seconds.abs() < 1e6 {
+            format!("--seconds {seconds} is outside (0, 3600]")
         } else {
-            format!("--seconds {shown} is outside (0, 3600]")
+            // A huge value in scientific notation, not three hundred digits.
+            format!("--seconds {seconds:e} is outside (0, 3600]")
         });
     }
     if let Some(n) = opts.normalize {

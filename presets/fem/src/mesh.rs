@@ -609,9 +609,6 @@ fn levels(a: f64, b: f64, n: usize) -> Vec<f64> {
     (0..=n).map(|i| a + (b - a) * i as f64 / n as f64).collect()
 }
 
-/// A meridian section on the grid `rs` × `zs` (r ≥ 0 rising from the axis, z rising): the
-/// cells whose centre is `inside`, each split into two triangles with alternating diagonals.
-/// Returns the (r, z) nodes the cells use and the triangles.
 /// Corner vertices of [`grid_section`]'s section swept `around` times ([`revolve_section`]):
 /// the grid points of its solid cells, one vertex on the axis (r = 0), `around` elsewhere.
 /// Counted without allocating.
@@ -636,6 +633,9 @@ fn section_vertices(rs: &[f64], zs: &[f64], inside: &dyn Fn(f64, f64) -> bool, a
     count
 }
 
+/// A meridian section on the grid `rs` × `zs` (r ≥ 0 rising from the axis, z rising): the
+/// cells whose centre is `inside`, each split into two triangles with alternating diagonals.
+/// Returns the (r, z) nodes the cells use and the triangles.
 fn grid_section(rs: &[f64], zs: &[f64], inside: &dyn Fn(f64, f64) -> bool) -> (Vec<[f64; 2]>, Vec<[u32; 3]>) {
     let (nr, nz) = (rs.len(), zs.len());
     let mut id = vec![u32::MAX; nr * nz];
