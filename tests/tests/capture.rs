@@ -235,7 +235,8 @@ fn write_taps(path: &std::path::Path, sr: u32, modes: &[(f64, f64, f64)]) {
 }
 
 /// `struck bank capture` of `wav`'s second impact as bank `id` into `out`: up to 48 modes
-/// within 40 dB, steel of 0.3 m.
+/// within 40 dB, Q ≥ 5, below the strongest-energy partial only within 20 dB of its energy
+/// (the defaults), steel of 0.3 m.
 fn bank_capture_args(wav: &std::path::Path, id: &str, out: PathBuf) -> struck_cli::capture::BankCaptureArgs {
     struck_cli::capture::BankCaptureArgs {
         file: wav.to_path_buf(),
@@ -243,6 +244,8 @@ fn bank_capture_args(wav: &std::path::Path, id: &str, out: PathBuf) -> struck_cl
         channel: None,
         modes: 48,
         range_db: 40.0,
+        min_q: 5.0,
+        below_db: 20.0,
         young: 200e9,
         density: 7850.0,
         poisson: 0.3,
@@ -324,6 +327,64 @@ fn a_bank_captured_from_a_recording_plays_its_partials_with_their_decays() {
         assert!((got_d / d - 1.0).abs() < 0.02, "{f} Hz: decays at {got_d:.3}/s, recorded {d}/s");
     }
     for p in [wav, bank_path, material] {
+        let _ = std::fs::remove_file(p);
+    }
+}
+
+/// A kalimba as FluidR3's F5 tine (`tests/recordings`, `metal-kalimba-fluid-65`) holds it: the
+/// tine (348 Hz, ringing 0.7 s), a weaker mode an octave and a half below it that rings
+/// (here 131 Hz, 10 dB under the tine in energy), a short one that is lost under it (210 Hz,
+/// Q 11, 23 dB under the loudest in amplitude but 26 dB under the tine in energy), the thump of the thumb — partials at 500 Hz–6 kHz that
+/// die in 5–40 ms (Q 8–17) — and the rumble under it all (18–81 Hz at Q 1.2–2.1, 15–28 dB
+/// under the loudest in amplitude). A bank of every partial within 40 dB began at 18 Hz: keys
+/// tuned that, 18× too sharp, and it rang a material's long decay at 18 Hz. The bank keeps
+/// what rings with Q ≥ 5 and, below the tine, what is within 20 dB of its energy: its lowest
+/// mode is the 131 Hz one (1 cent), the 210 Hz and the rumble are not in it, the thump is,
+/// and the command says what it left out.
+#[test]
+fn a_captured_bank_starts_at_the_lowest_mode_that_rings_not_at_the_rumble() {
+    use std::f64::consts::PI;
+    let sr = 44_100u32;
+    let modes = [
+        (18.4, 27.1, 0.034),
+        (26.2, 54.3, 0.10),
+        (81.3, 205.0, 0.11),
+        (131.0, 4.0, 0.045),
+        (210.0, 60.0, 0.03),
+        (348.4, 9.6, 0.23),
+        (497.5, 147.6, 0.37),
+        (1038.0, 308.6, 0.25),
+        (2333.2, 110.8, 0.38),
+        (2720.7, 744.3, 0.40),
+        (5900.8, 1077.3, 0.28),
+    ];
+    let wav = tmp("kalimba.wav");
+    write_taps(&wav, sr, &modes);
+    let bank_path = tmp("kalimba-bank.json");
+    let said =
+        struck_cli::capture::bank_from_recording(&bank_capture_args(&wav, "kalimba", bank_path.clone())).unwrap();
+    let bank = presets::Bank::load(&bank_path).unwrap();
+    let freqs = bank.frequencies_hz();
+    println!("{said}\n{freqs:?}");
+    let lowest = (2.0 * PI * 131.0f64).powi(2) + 16.0;
+    let cents = 600.0 * (bank.lambdas[0] / lowest).log2();
+    assert!(cents.abs() < 1.0, "lowest mode {:.2} Hz, want 131 Hz ({cents:.2} cents): {said}", freqs[0]);
+    let has = |f: f64| freqs.iter().any(|&g| (g / f - 1.0).abs() < 0.01);
+    assert!(!has(210.0), "the 210 Hz mode 26 dB under the tine is kept: {freqs:?}");
+    for f in [348.4, 497.5, 2333.2, 2720.7, 5900.8] {
+        assert!(has(f), "{f} Hz is not in the bank: {freqs:?}");
+    }
+    assert!(said.contains("left out"), "{said}");
+    // Every partial within 40 dB, as before: the rumble is found, and the bank starts there.
+    let all = struck_cli::capture::BankCaptureArgs {
+        min_q: 0.0,
+        below_db: 200.0,
+        ..bank_capture_args(&wav, "kalimba", bank_path.clone())
+    };
+    struck_cli::capture::bank_from_recording(&all).unwrap();
+    let every = presets::Bank::load(&bank_path).unwrap().frequencies_hz();
+    assert!(every[0] < 30.0 && every.iter().any(|&g| (g / 210.0 - 1.0).abs() < 0.01), "{every:?}");
+    for p in [wav, bank_path] {
         let _ = std::fs::remove_file(p);
     }
 }

@@ -183,6 +183,14 @@ pub enum BankCommand {
         /// Keep partials within this many dB of the strongest.
         #[arg(long, default_value_t = 40.0)]
         range_db: f64,
+        /// Keep only partials that ring: quality factor Q = πf/d at least this (the mallet's
+        /// thump and the room's rumble come out at Q 1–4).
+        #[arg(long, default_value_t = 5.0)]
+        min_q: f64,
+        /// Keep a partial below the strongest one (by energy; the pitch the recording is heard
+        /// at) only within this many dB of its energy, so keys tune the object's fundamental.
+        #[arg(long, default_value_t = 20.0)]
+        below_db: f64,
         /// The recorded object's material (--young, --density, --poisson; steel by default):
         /// the mallet's contact on it, and the pitch of a material captured from it.
         #[command(flatten)]
@@ -404,7 +412,20 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
             Ok(())
         }
         BankCommand::Info { bank, json } => info(&bank, json),
-        BankCommand::Capture { file, impact, channel, modes, range_db, material, size, id, name, out } => {
+        BankCommand::Capture {
+            file,
+            impact,
+            channel,
+            modes,
+            range_db,
+            min_q,
+            below_db,
+            material,
+            size,
+            id,
+            name,
+            out,
+        } => {
             let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("bank");
             let id = kebab(id.as_deref().unwrap_or(stem));
             let name = name.unwrap_or_else(|| id.clone());
@@ -414,6 +435,8 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
                 channel,
                 modes,
                 range_db,
+                min_q,
+                below_db,
                 young: material.young,
                 density: material.density,
                 poisson: material.poisson,

@@ -348,6 +348,10 @@ pub struct BankCaptureArgs {
     pub modes: usize,
     /// Keep partials within this many dB of the strongest.
     pub range_db: f64,
+    /// Keep partials whose quality factor Q = πf/d is at least this.
+    pub min_q: f64,
+    /// Keep partials below the strongest-energy one only within this many dB of its energy.
+    pub below_db: f64,
     /// Young's modulus (Pa) and density (kg/m³) of the recorded object.
     pub young: f64,
     /// Density, kg/m³.
@@ -385,6 +389,12 @@ pub fn bank_from_recording(args: &BankCaptureArgs) -> Result<String, String> {
     if !(args.range_db.is_finite() && args.range_db > 0.0 && args.range_db <= 120.0) {
         return Err(format!("--range-db {}: takes a level above 0 and at most 120 dB", args.range_db));
     }
+    if !(args.min_q.is_finite() && args.min_q >= 0.0 && args.min_q <= 1e4) {
+        return Err(format!("--min-q {}: takes a quality factor from 0 to 10000", args.min_q));
+    }
+    if !(args.below_db.is_finite() && args.below_db >= 0.0 && args.below_db <= 200.0) {
+        return Err(format!("--below-db {}: takes a level from 0 to 200 dB", args.below_db));
+    }
     if !(args.size_m.is_finite() && args.size_m > 0.0 && args.size_m <= 100.0) {
         return Err(format!("--size {}: takes metres above 0 and at most 100", args.size_m));
     }
@@ -403,18 +413,17 @@ pub fn bank_from_recording(args: &BankCaptureArgs) -> Result<String, String> {
     let imp = feats.impacts.get(args.impact - 1).ok_or_else(|| {
         format!("{}: --impact {}, but the recording holds {n} impact(s)", args.file.display(), args.impact)
     })?;
-    let amax = imp.features.iter().fold(0.0f64, |m, f| m.max(f.amplitude));
-    let floor = amax * 10f64.powf(-args.range_db / 20.0);
-    let mut kept: Vec<&estimator::Feature> =
-        imp.features.iter().filter(|f| f.amplitude >= floor && f.amplitude > 0.0 && f.lambda() > 0.0).collect();
-    kept.sort_by(|a, b| b.amplitude.total_cmp(&a.amplitude));
-    kept.truncate(args.modes);
-    kept.sort_by(|a, b| a.lambda().total_cmp(&b.lambda()));
-    // Two partials at one λ would be one mode (the bank's eigenvalues ascend strictly).
-    kept.dedup_by(|b, a| b.lambda() <= a.lambda());
+    let (kept, dropped) = choose_modes(&imp.features, args);
     if kept.is_empty() {
-        return Err(format!("{}: impact {} holds no partial to make a mode of", args.file.display(), args.impact));
+        return Err(format!(
+            "{}: impact {} holds no partial to make a mode of (none rings with Q >= {} within {} dB of the strongest)",
+            args.file.display(),
+            args.impact,
+            args.min_q,
+            args.range_db
+        ));
     }
+    let amax = kept.iter().fold(0.0f64, |m, f| m.max(f.amplitude));
     let file_name =
         args.file.file_name().map_or_else(|| args.file.display().to_string(), |s| s.to_string_lossy().into());
     let bank = presets::Bank {
@@ -430,10 +439,12 @@ pub fn bank_from_recording(args: &BankCaptureArgs) -> Result<String, String> {
             args.density
         ),
         provenance: format!(
-            "struck bank capture: partials extracted from {} (impact {}, within {} dB of the strongest, at most {})",
+            "struck bank capture: partials extracted from {} (impact {}, within {} dB of the strongest, Q >= {}, below the strongest-energy partial only within {} dB of its energy, at most {})",
             args.file.display(),
             args.impact,
             args.range_db,
+            args.min_q,
+            args.below_db,
             args.modes
         ),
         reference: presets::BankReference {
@@ -454,7 +465,7 @@ pub fn bank_from_recording(args: &BankCaptureArgs) -> Result<String, String> {
         surface: None,
     };
     bank.save(&args.out).map_err(|e| e.to_string())?;
-    Ok(format!(
+    let mut said = format!(
         "wrote {}: {} modes of {file_name}'s impact {} (at {:.3} s), {:.1} Hz to {:.1} Hz",
         args.out.display(),
         kept.len(),
@@ -462,5 +473,66 @@ pub fn bank_from_recording(args: &BankCaptureArgs) -> Result<String, String> {
         imp.onset_s,
         kept[0].freq_hz,
         kept[kept.len() - 1].freq_hz
-    ))
+    );
+    if dropped.low_q + dropped.below > 0 {
+        said.push_str(&format!(
+            "; left out {} partial(s) with Q under {} and {} below the strongest-energy one ({:.1} Hz) more than {} dB under its energy",
+            dropped.low_q, args.min_q, dropped.below, dropped.pitch_hz, args.below_db
+        ));
+    }
+    Ok(said)
+}
+
+/// What [`choose_modes`] left out, to say so.
+struct Dropped {
+    /// Partials under the Q floor.
+    low_q: usize,
+    /// Partials below the strongest-energy partial, too weak.
+    below: usize,
+    /// The strongest-energy partial's frequency, Hz.
+    pitch_hz: f64,
+}
+
+/// The partials of one impact that become the bank's modes, in ascending λ.
+///
+/// A mode of the bank rings with the material's damping, not with the partial's own, so only
+/// partials that ring are modes: Q = πf/d ≥ `min_q` (5 by default: a loss factor of at most
+/// 0.2; the mallet's thump and the room's rumble that the extractor also fits come out at
+/// Q 1–4, real modes of wood at 15–150 and of metal far above). And keys tune the lowest mode,
+/// so a partial below the one that carries most energy (a²/2d, the pitch the recording is
+/// heard at) is kept only within `below_db` (20 dB) of its energy: on the 48 clips of tuned
+/// bars, tines and pans in `tests/recordings` (FluidR3 and FreePats, whose samples state
+/// their pitch), the captured bank's lowest mode is then the sample's note within a semitone
+/// on 44 (on 5 when every partial within `range_db` was kept: 18–81 Hz partials at Q 1–2
+/// under a kalimba's 348 Hz, up to 18× too sharp once tuned; `tests/recordings/capture.py`).
+/// Of what is left, the `modes` strongest in amplitude within `range_db` of the strongest
+/// that rings.
+fn choose_modes<'a>(
+    features: &'a [estimator::Feature],
+    args: &BankCaptureArgs,
+) -> (Vec<&'a estimator::Feature>, Dropped) {
+    let q = |f: &estimator::Feature| std::f64::consts::PI * f.freq_hz / f.decay_per_s.max(f64::MIN_POSITIVE);
+    let mut kept: Vec<&estimator::Feature> =
+        features.iter().filter(|f| f.amplitude > 0.0 && f.lambda() > 0.0 && f.decay_per_s >= 0.0).collect();
+    let n = kept.len();
+    kept.retain(|f| q(f) >= args.min_q);
+    let low_q = n - kept.len();
+    let amax = kept.iter().fold(0.0f64, |m, f| m.max(f.amplitude));
+    let floor = amax * 10f64.powf(-args.range_db / 20.0);
+    kept.retain(|f| f.amplitude >= floor);
+    let energy = |f: &estimator::Feature| f.amplitude * f.amplitude / (2.0 * f.decay_per_s.max(f64::MIN_POSITIVE));
+    let pitch = kept.iter().copied().max_by(|a, b| energy(a).total_cmp(&energy(b)));
+    let pitch_hz = pitch.map_or(0.0, |p| p.freq_hz);
+    let n = kept.len();
+    if let Some(p) = pitch {
+        let e_floor = energy(p) * 10f64.powf(-args.below_db / 10.0);
+        kept.retain(|f| f.freq_hz >= p.freq_hz || energy(f) >= e_floor);
+    }
+    let below = n - kept.len();
+    kept.sort_by(|a, b| b.amplitude.total_cmp(&a.amplitude));
+    kept.truncate(args.modes);
+    kept.sort_by(|a, b| a.lambda().total_cmp(&b.lambda()));
+    // Two partials at one λ would be one mode (the bank's eigenvalues ascend strictly).
+    kept.dedup_by(|b, a| b.lambda() <= a.lambda());
+    (kept, Dropped { low_q, below, pitch_hz })
 }
