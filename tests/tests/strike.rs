@@ -13,11 +13,23 @@ fn objects() -> Vec<String> {
 const MATERIALS: [&str; 4] = ["glass-ren2013", "wood-ren2013", "metal-ren2013", "plastic-ren2013"];
 
 /// K-weighted RMS (dBFS) of the first 50 ms of a strike of `key` at `velocity`, position 0.5.
+#[allow(dead_code)]
 fn loudness_db(object: &str, material: &str, set: &[(&str, f32)], key: u8, velocity: u8) -> f64 {
+    strike_level(object, material, set, key, velocity).0
+}
+
+/// [`loudness_db`] and the strike's push: its peak while the mallet touches (linear), which
+/// *Normalise level* caps at `dsp::engine::MAX_CONTACT_PEAK`.
+fn strike_level(object: &str, material: &str, set: &[(&str, f32)], key: u8, velocity: u8) -> (f64, f32) {
     let mut h = host(object, material, SR, set);
     let x = render(&mut h, &[note(key, velocity, Some(0.5))], 0.05, 512);
-    db(k_weighted_rms(&x, f64::from(SR)))
+    let t = h.plugin().engine().expect("active").contact_time_s(f32::from(velocity) / 127.0);
+    let n = ((t * f64::from(SR)).ceil() as usize + 2).min(x.len());
+    (db(k_weighted_rms(&x, f64::from(SR))), peak(&x[..n]))
 }
+
+/// A push this close to the cap (−1.5 dBFS) is taken as capped.
+const CAPPED: f32 = 0.84;
 
 /// Spectral centroid (Hz) of the first 50 ms of a strike.
 fn centroid(object: &str, material: &str, set: &[(&str, f32)], key: u8, velocity: u8) -> f64 {
@@ -28,23 +40,35 @@ fn centroid(object: &str, material: &str, set: &[(&str, f32)], key: u8, velocity
 
 /// Issue 11 part 2: the reference strike (velocity 127, centre of the path) of every factory
 /// object, in four materials, at sizes 0.5–2 and keys 36–96, measured by BS.1770's
-/// K-weighting run over the rendered samples, is within ±3 dB of the reference −20 dBFS.
+/// K-weighting run over the rendered samples, is within ±3 dB of the reference −20 dBFS —
+/// unless reaching it would take the mallet's push over full scale: a felt on a small
+/// wooden object barely rings, and the push that would make it −20 dBFS loud peaks over
+/// 0 dBFS. Those strikes are quieter, never louder, with their push at the cap (−1 dBFS);
+/// they are counted and printed.
 #[test]
 fn reference_strikes_play_at_one_loudness() {
     let mut worst = (0.0f64, String::new());
+    let mut capped = vec![];
     for o in objects() {
         for m in MATERIALS {
             for size in [0.5f32, 1.0, 2.0] {
                 for key in [36u8, 60, 96] {
-                    let l = loudness_db(&o, m, &[("size", size)], key, 127);
+                    let (l, push) = strike_level(&o, m, &[("size", size)], key, 127);
+                    let what =
+                        format!("{o} {m} size {size} key {key}: {l:.2} dB, push {:+.1} dBFS", db(f64::from(push)));
+                    if push >= CAPPED && l < -17.0 {
+                        capped.push(what);
+                        continue;
+                    }
                     if (l + 20.0).abs() > worst.0 {
-                        worst = ((l + 20.0).abs(), format!("{o} {m} size {size} key {key}: {l:.2} dB"));
+                        worst = ((l + 20.0).abs(), what);
                     }
                 }
             }
         }
     }
     println!("largest deviation from −20 dBFS: {:.2} dB ({})", worst.0, worst.1);
+    println!("{} of {} strikes quieter with the push at the cap: {capped:#?}", capped.len(), objects().len() * 36);
     assert!(worst.0 <= 3.0, "{}", worst.1);
 }
 
@@ -57,12 +81,26 @@ fn reference_strikes_play_at_one_loudness() {
 fn hardness_changes_brightness_not_loudness() {
     for o in objects() {
         for m in MATERIALS {
-            let l0 = loudness_db(&o, m, &[("hard", 0.0)], 60, 127);
-            let l1 = loudness_db(&o, m, &[("hard", 1.0)], 60, 127);
-            assert!((l1 - l0).abs() <= 3.0, "{o} {m}: hardness 0 → 1 changes loudness {:.2} dB", l1 - l0);
+            let (l0, push0) = strike_level(&o, m, &[("hard", 0.0)], 60, 127);
+            let (l1, push1) = strike_level(&o, m, &[("hard", 1.0)], 60, 127);
+            // A strike that mostly pushes (a hard mallet on wood: its high modes follow the
+            // short force and hardly ring) may be quieter with its push at the cap, never louder.
+            let capped = if l0 < l1 { push0 >= CAPPED } else { push1 >= CAPPED };
+            assert!(
+                (l1 - l0).abs() <= 3.0 || capped,
+                "{o} {m}: hardness 0 → 1 changes loudness {:.2} dB (pushes {:+.1} and {:+.1} dBFS)",
+                l1 - l0,
+                db(f64::from(push0)),
+                db(f64::from(push1))
+            );
             let c0 = centroid(&o, m, &[("hard", 0.0)], 60, 100);
             let c1 = centroid(&o, m, &[("hard", 1.0)], 60, 100);
-            println!("{o:20} {m:16} loudness {:+.2} dB, centroid ×{:.2}", l1 - l0, c1 / c0);
+            println!(
+                "{o:20} {m:16} loudness {:+.2} dB{}, centroid ×{:.2}",
+                l1 - l0,
+                if capped { " (capped)" } else { "" },
+                c1 / c0
+            );
             if (m == "glass-ren2013" || m == "metal-ren2013") && o != "fem-sphere-shell" {
                 assert!(c1 >= 2.0 * c0, "{o} {m}: centroid ×{:.2}", c1 / c0);
             }
@@ -141,6 +179,45 @@ fn chords_never_go_over_with_the_safety_on() {
         }
     }
     println!("loudest chord without the safety: {:+.1} dBFS", db(f64::from(loudest_raw)));
+}
+
+/// A single strike never passes full scale without the output safety, and the push of the
+/// mallet stays at the cap: soft mallets on small objects (high keys) barely ring — the
+/// object follows the force and springs back — and normalising the ring's loudness had raised
+/// that push far over full scale (+35 dBFS on the circular plate at key 127 with the felt at
+/// hardness 0, +10 dBFS on the bar at key 115 as it is made; 93 of 320 strikes of a sweep
+/// over 8 objects were over 0 dBFS). Every factory object, glass and metal, keys 84–127,
+/// hardness 0–0.5, velocity 127, safety off: the peak while the mallet touches and the whole
+/// strike's peak are at most 0 dBFS (the cap is −1 dBFS, computed at 24 instants of the
+/// contact; the peak between them is measured up to 7 % higher, −0.4 dBFS).
+#[test]
+fn a_soft_strike_on_a_small_object_does_not_go_over() {
+    let mut loudest = (0.0f32, 0.0f32, String::new());
+    for o in objects() {
+        for m in ["glass-ren2013", "metal-ren2013"] {
+            for hard in [0.0f32, 0.25, 0.5] {
+                for key in [84u8, 96, 108, 115, 120, 127] {
+                    let mut h = host(&o, m, SR, &[("safety", 0.0), ("hard", hard)]);
+                    let x = render(&mut h, &[note(key, 127, Some(0.3))], 0.1, 512);
+                    let t = h.plugin().engine().expect("active").contact_time_s(1.0);
+                    let n = ((t * f64::from(SR)).ceil() as usize + 2).min(x.len());
+                    let (push, whole) = (peak(&x[..n]), peak(&x));
+                    let what = format!("{o} {m} hardness {hard} key {key} (contact {:.3} ms)", t * 1e3);
+                    assert!(push <= 1.0, "{what}: the push peaks at {:+.1} dBFS", db(f64::from(push)));
+                    assert!(whole <= 1.0, "{what}: the strike peaks at {:+.1} dBFS", db(f64::from(whole)));
+                    if whole > loudest.1 {
+                        loudest = (push, whole, what);
+                    }
+                }
+            }
+        }
+    }
+    println!(
+        "loudest strike: {:+.1} dBFS ({:+.1} dBFS while in contact), {}",
+        db(f64::from(loudest.1)),
+        db(f64::from(loudest.0)),
+        loudest.2
+    );
 }
 
 /// Issue 11 part 3: with *Pitch reference* = *Strongest mode*, the mode heard loudest at the
