@@ -15,8 +15,8 @@ What it asserts, each a measured property:
   |diff| <= 1e-5), what the CLAP binary rendered for it;
 - expression: MIDI CC 74 (MPE timbre: strike position) and channel pressure (damping) still
   reach the plugin through VST3, each changing the sound;
-- state: a changed parameter survives `raw_state` into a fresh instance, which then renders
-  like the changed one and unlike a default one;
+- state: a changed parameter survives `raw_state` (and a .vstpreset, `preset_data`) into a
+  fresh instance, which then renders like the changed one and unlike a default one;
 - the effect (StruckResonator.vst3, when given): loads as an effect, which is how every host
   reaches *Audio in*; the impulse of target/host-renders/resonator-in.wav played through it
   gives, sample for sample (1e-5), what the CLAP binary gave (resonator-out.wav, written by
@@ -162,6 +162,30 @@ def main():
         assert d_default > 1e-3, f"the change made no difference ({d_default:.2e})"
         return f"{len(saved)} bytes; restored vs changed {d_same:.1e}, default vs changed {d_default:.2e}"
 
+    def preset_round_trip():
+        # A .vstpreset as pedalboard writes and reads it (`preset_data`: JUCE's VST3 preset
+        # file, restored through the component's setState alone). JUCE kept its cached
+        # parameter values and sent them back at the next block, so the instance played its
+        # defaults until the plugin asked the host to re-read its parameters (stop 41).
+        a = pedalboard.load_plugin(vst3)
+        a.parameters["size"].raw_value = 0.6
+        a.parameters["mallet_hardness"].raw_value = 0.1
+        changed = render(a, sr, seconds, messages)
+        preset = a.preset_data
+        assert bytes(preset[:4]) == b"VST3", f"not a .vstpreset: {bytes(preset[:4])!r}"
+        b = pedalboard.load_plugin(vst3)
+        default = render(b, sr, seconds, messages)
+        b.preset_data = preset
+        size, hard = b.parameters["size"].raw_value, b.parameters["mallet_hardness"].raw_value
+        assert abs(size - 0.6) < 1e-4, f"size is {size} (normalised) after loading the preset"
+        assert abs(hard - 0.1) < 1e-4, f"hardness is {hard} (normalised) after loading the preset"
+        restored = render(b, sr, seconds, messages)
+        d_same = float(np.max(np.abs(restored - changed)))
+        d_default = float(np.max(np.abs(default - changed)))
+        assert d_same <= 1e-6, f"the preset's instance differs from the changed one by {d_same:.2e}"
+        assert d_default > 1e-3, f"the change made no difference ({d_default:.2e})"
+        return f"{len(preset)} bytes; restored vs changed {d_same:.1e}, default vs changed {d_default:.2e}"
+
     def effect_loads():
         t0 = time.perf_counter()
         fx = pedalboard.load_plugin(fx_vst3)
@@ -193,6 +217,7 @@ def main():
         check("the MIDI phrase renders as the CLAP binary renders it", phrase_matches_clap)
         check("MPE CC 74 and channel pressure reach the plugin", expression_reaches_the_plugin)
         check("raw_state carries a changed parameter into a new instance", state_round_trip)
+        check("a .vstpreset (preset_data) carries a changed parameter into a new instance", preset_round_trip)
     if fx_vst3:
         check("Struck Resonator loads as an effect", effect_loads)
         if "fx" in state:

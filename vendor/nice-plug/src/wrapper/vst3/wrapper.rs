@@ -40,7 +40,7 @@ use vst3::Steinberg::{
 use vst3::{Class, ComRef};
 use widestring::U16CStr;
 
-use super::inner::{ProcessEvent, WrapperInner};
+use super::inner::{ProcessEvent, Task, WrapperInner};
 use super::note_expressions;
 use super::util::{VST3_MIDI_CCS, VST3_MIDI_NUM_PARAMS, VST3_MIDI_PARAMS_START, u16strlcpy};
 use super::util::{VST3_MIDI_CHANNELS, VST3_MIDI_PARAMS_END};
@@ -548,6 +548,17 @@ impl<P: Vst3Plugin> IComponentTrait for Wrapper<P> {
             Some(mut state) => {
                 if self.inner.set_state_inner(&mut state) {
                     crate::nice_trace!("Loaded state ({} bytes)", read_buffer.len());
+                    // Struck patch: tell the host that every parameter may have changed, as
+                    // `set_state_object_from_gui` does, so it re-reads them. JUCE's host
+                    // (pedalboard's `preset_data`, `load_preset`) restores a .vstpreset
+                    // through this call alone, kept its cached values and sent them back to
+                    // the plugin at the next `process()`: the preset was lost.
+                    if self.inner.component_handler.borrow().is_some() {
+                        let task_posted = self.inner.schedule_gui(Task::TriggerRestart(
+                            vst3::Steinberg::Vst::RestartFlags_::kParamValuesChanged,
+                        ));
+                        crate::nice_debug_assert!(task_posted, "The task queue is full, dropping task...");
+                    }
                     kResultOk
                 } else {
                     kResultFalse
