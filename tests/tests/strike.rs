@@ -12,14 +12,9 @@ fn objects() -> Vec<String> {
 
 const MATERIALS: [&str; 4] = ["glass-ren2013", "wood-ren2013", "metal-ren2013", "plastic-ren2013"];
 
-/// K-weighted RMS (dBFS) of the first 50 ms of a strike of `key` at `velocity`, position 0.5.
-#[allow(dead_code)]
-fn loudness_db(object: &str, material: &str, set: &[(&str, f32)], key: u8, velocity: u8) -> f64 {
-    strike_level(object, material, set, key, velocity).0
-}
-
-/// [`loudness_db`] and the strike's push: its peak while the mallet touches (linear), which
-/// *Normalise level* caps at `dsp::engine::MAX_CONTACT_PEAK`.
+/// K-weighted RMS (dBFS) of the first 50 ms of a strike of `key` at `velocity`, position 0.5,
+/// and the strike's push: its peak while the mallet touches (linear), which *Normalise level*
+/// caps at `dsp::engine::MAX_CONTACT_PEAK`.
 fn strike_level(object: &str, material: &str, set: &[(&str, f32)], key: u8, velocity: u8) -> (f64, f32) {
     let mut h = host(object, material, SR, set);
     let x = render(&mut h, &[note(key, velocity, Some(0.5))], 0.05, 512);
@@ -57,6 +52,8 @@ fn reference_strikes_play_at_one_loudness() {
                     let what =
                         format!("{o} {m} size {size} key {key}: {l:.2} dB, push {:+.1} dBFS", db(f64::from(push)));
                     if push >= CAPPED && l < -17.0 {
+                        // At the cap (never over it, nor far under the reference).
+                        assert!(push <= 1.0 && l >= -26.0, "{what}");
                         capped.push(what);
                         continue;
                     }
@@ -70,6 +67,7 @@ fn reference_strikes_play_at_one_loudness() {
     println!("largest deviation from −20 dBFS: {:.2} dB ({})", worst.0, worst.1);
     println!("{} of {} strikes quieter with the push at the cap: {capped:#?}", capped.len(), objects().len() * 36);
     assert!(worst.0 <= 3.0, "{}", worst.1);
+    assert!(capped.len() <= 36, "{} strikes held at the cap (30 at stop 41)", capped.len());
 }
 
 /// Issue 11 part 2: *Mallet hardness* 0 → 1 changes the reference loudness by ≤ 3 dB on
@@ -83,11 +81,12 @@ fn hardness_changes_brightness_not_loudness() {
         for m in MATERIALS {
             let (l0, push0) = strike_level(&o, m, &[("hard", 0.0)], 60, 127);
             let (l1, push1) = strike_level(&o, m, &[("hard", 1.0)], 60, 127);
-            // A strike that mostly pushes (a hard mallet on wood: its high modes follow the
-            // short force and hardly ring) may be quieter with its push at the cap, never louder.
+            // A strike that mostly pushes may be quieter with its push at the cap (here the
+            // hard mallet on wood and plastic: the short force reaches their high modes, whose
+            // damping lets them hardly ring), by at most 6 dB, never louder.
             let capped = if l0 < l1 { push0 >= CAPPED } else { push1 >= CAPPED };
             assert!(
-                (l1 - l0).abs() <= 3.0 || capped,
+                (l1 - l0).abs() <= 3.0 || (capped && (l1 - l0).abs() <= 6.0),
                 "{o} {m}: hardness 0 → 1 changes loudness {:.2} dB (pushes {:+.1} and {:+.1} dBFS)",
                 l1 - l0,
                 db(f64::from(push0)),

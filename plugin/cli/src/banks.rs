@@ -183,8 +183,8 @@ pub enum BankCommand {
         /// Keep partials within this many dB of the strongest.
         #[arg(long, default_value_t = 40.0)]
         range_db: f64,
-        /// Keep only partials that ring: quality factor Q = πf/d at least this (the mallet's
-        /// thump and the room's rumble come out at Q 1–4).
+        /// Keep only partials that ring: quality factor Q = πf/d at least this (the rumble
+        /// under the note comes out at Q 1–4).
         #[arg(long, default_value_t = 5.0)]
         min_q: f64,
         /// Keep a partial below the strongest one (by energy; the pitch the recording is heard

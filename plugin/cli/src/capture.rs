@@ -497,9 +497,9 @@ struct Dropped {
 ///
 /// A mode of the bank rings with the material's damping, not with the partial's own, so only
 /// partials that ring are modes: Q = πf/d ≥ `min_q` (5 by default: a loss factor of at most
-/// 0.2; the mallet's thump and the room's rumble that the extractor also fits come out at
-/// Q 1–4, real modes of wood at 15–150 and of metal far above). And keys tune the lowest mode,
-/// so a partial below the one that carries most energy (a²/2d, the pitch the recording is
+/// 0.2; the rumble under the note that the extractor also fits comes out at Q 1–4, the
+/// mallet's thump at 8–20, real modes of wood at 15–150 and of metal far above). And keys
+/// tune the lowest mode, so a partial below the one that carries most energy (a²/2d, the pitch the recording is
 /// heard at) is kept only within `below_db` (20 dB) of its energy: on the 48 clips of tuned
 /// bars, tines and pans in `tests/recordings` (FluidR3 and FreePats, whose samples state
 /// their pitch), the captured bank's lowest mode is then the sample's note within a semitone
