@@ -271,7 +271,16 @@ pub fn bank_file(lib: &Library, query: &str, say: bool) -> Result<Option<presets
 /// # Errors
 /// The file cannot be read or is not a valid bank.
 pub fn load_bank(path: &Path, say: bool) -> Result<presets::Bank, String> {
-    let (bank, unknown) = presets::Bank::load_listing_unknown(path).map_err(|e| file_error(path, &e))?;
+    let (bank, unknown) = presets::Bank::load_listing_unknown(path).map_err(|e| {
+        if matches!(e, presets::PresetError::Json { .. }) && Material::load(path).is_ok() {
+            format!(
+                "{} is a material (a damping law), not an object (a bank of modes): give it with --material",
+                path.display()
+            )
+        } else {
+            file_error(path, &e)
+        }
+    })?;
     warn_unknown(path, &unknown, say);
     Ok(bank)
 }
@@ -282,7 +291,16 @@ pub fn load_bank(path: &Path, say: bool) -> Result<presets::Bank, String> {
 /// # Errors
 /// The file cannot be read or is not a valid material.
 pub fn load_material(path: &Path, say: bool) -> Result<Material, String> {
-    let (material, unknown) = Material::load_listing_unknown(path).map_err(|e| file_error(path, &e))?;
+    let (material, unknown) = Material::load_listing_unknown(path).map_err(|e| {
+        if matches!(e, presets::PresetError::Json { .. }) && presets::Bank::load(path).is_ok() {
+            format!(
+                "{} is an object (a bank of modes), not a material (a damping law): give it with --object",
+                path.display()
+            )
+        } else {
+            file_error(path, &e)
+        }
+    })?;
     warn_unknown(path, &unknown, say);
     Ok(material)
 }

@@ -103,6 +103,29 @@ fn argument_errors_are_one_line_and_exit_1() {
     assert!(!Path::new(out).exists());
 }
 
+/// A file in the wrong place says what it is: a material given as the object, an object (a
+/// bank) given as the material, a folder given as the mesh (each was "not a valid preset:
+/// missing field …" or "cannot tell the mesh format").
+#[test]
+fn a_file_in_the_wrong_place_says_what_it_is() {
+    let dir = scratch("wrong-place");
+    let out = dir.join("x.wav");
+    let out = out.to_str().unwrap();
+    let factory = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../presets/factory");
+    let material = factory.join("materials/glass-sterling-rayleigh.json");
+    let bank = factory.join("banks/fem-bar.json");
+    let (material, bank) = (material.to_str().unwrap(), bank.to_str().unwrap());
+    let e = error_line(&struck(&dir, &["render", "--object", material, "--notes", "60:100", "--out", out]));
+    assert!(e.contains("is a material") && e.contains("--material"), "{e}");
+    let e = error_line(&struck(&dir, &["render", "--material", bank, "--notes", "60:100", "--out", out]));
+    assert!(e.contains("is an object") && e.contains("--object"), "{e}");
+    let mesh_dir = dir.to_str().unwrap();
+    let bank_out = dir.join("b.json");
+    let e = error_line(&struck(&dir, &["bank", "build", "--mesh", mesh_dir, "--out", bank_out.to_str().unwrap()]));
+    assert!(e.contains("is a folder"), "{e}");
+    assert!(!Path::new(out).exists() && !bank_out.exists());
+}
+
 #[test]
 fn negative_numbers_are_values_not_options() {
     let dir = scratch("negative");

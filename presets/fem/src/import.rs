@@ -102,6 +102,12 @@ impl MeshFileKind {
     /// # Errors
     /// [`FemError::InvalidOptions`] for another or no extension.
     pub fn of(path: &Path) -> Result<MeshFileKind, FemError> {
+        if path.is_dir() {
+            return Err(FemError::InvalidOptions(format!(
+                "{} is a folder: give a mesh file in it (.msh, .obj or .stl)",
+                path.display()
+            )));
+        }
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
         match ext.as_str() {
             "msh" => Ok(MeshFileKind::Gmsh),
