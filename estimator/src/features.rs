@@ -192,6 +192,12 @@ pub struct ImpactFit {
     /// The search stopped early: its rejected peaks used up [`REJECT_BUDGET_BINS`].
     #[serde(default)]
     pub search_stopped: bool,
+    /// Partials dropped as steady hum (decaying slower than `min_decay_per_s`) that were as
+    /// strong as the strongest kept one (or any, when none was kept): their frequencies, Hz,
+    /// strongest first. An object that rings for minutes (a large bell, a singing bowl) loses
+    /// its partials here; the report says so.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub steady_hz: Vec<f64>,
 }
 
 /// Budget of the fits rejected in one impact, in bins fitted (the sum of the rejected
@@ -1147,6 +1153,21 @@ impl<'a> Search<'a> {
         let amax = features.iter().fold(0.0f64, |m, f| m.max(f.amplitude));
         let amin = amax * 10f64.powf(opts.min_rel_amplitude_db / 20.0);
         features.retain(|f| f.amplitude >= amin && f.amplitude >= opts.min_amplitude);
+        // Steady partials at least as strong as the strongest kept one.
+        let kept_max = features.iter().fold(0.0f64, |m, f| m.max(f.amplitude));
+        let mut steady: Vec<(f64, f64)> = self
+            .modes
+            .iter()
+            .map(|m| (m.omega / std::f64::consts::TAU, 2.0 * m.b.norm(), m.d))
+            .filter(|&(f, a, d)| {
+                f >= opts.min_freq_hz
+                    && f < top_hz
+                    && (0.0..opts.min_decay_per_s).contains(&d)
+                    && a >= kept_max.max(opts.min_amplitude)
+            })
+            .map(|(f, a, _)| (f, a))
+            .collect();
+        steady.sort_by(|a, b| b.1.total_cmp(&a.1));
         let (mut features, mut components) = group_partials(features, duration);
         features.sort_by(|a, b| b.amplitude.total_cmp(&a.amplitude));
         components.sort_by(|a, b| b.amplitude.total_cmp(&a.amplitude));
@@ -1159,6 +1180,7 @@ impl<'a> Search<'a> {
             rejected_peaks: self.rejected,
             search_stopped: self.stopped(),
             repaired_clicks: self.clicks,
+            steady_hz: steady.iter().map(|s| s.0).collect(),
         }
     }
 }

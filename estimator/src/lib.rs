@@ -450,11 +450,33 @@ pub fn extract_features(
                     fit.features.len()
                 ));
             }
+            let steady = |hz: &[f64]| -> String {
+                let list: Vec<String> = hz.iter().take(3).map(|f| format!("{f:.1} Hz")).collect();
+                format!(
+                    "{}{} decay{} slower than {} 1/s (a T60 over {:.0} s) and {} taken as steady hum; for an object that rings that long, lower --min-decay",
+                    list.join(", "),
+                    if hz.len() > 3 { ", …" } else { "" },
+                    if hz.len() == 1 { "s" } else { "" },
+                    extract.min_decay_per_s,
+                    1000f64.ln() / extract.min_decay_per_s.max(1e-300),
+                    if hz.len() == 1 { "was" } else { "were" }
+                )
+            };
+            if !fit.steady_hz.is_empty() && !fit.features.is_empty() {
+                report.warnings.push(format!(
+                    "{name}: the impact at {at:.3} s: its strongest partial(s) {}",
+                    steady(&fit.steady_hz)
+                ));
+            }
             if fit.features.is_empty() {
                 report.skipped.push(SkippedImpact {
                     file: name.clone(),
                     onset_s: s.start as f64 / fs,
-                    reason: "no modal features found (noise or a dull thud); tap a freely ringing object".into(),
+                    reason: if fit.steady_hz.is_empty() {
+                        "no modal features found (noise or a dull thud); tap a freely ringing object".into()
+                    } else {
+                        format!("no modal features kept: {}", steady(&fit.steady_hz))
+                    },
                 });
             } else {
                 used += 1;

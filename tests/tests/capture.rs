@@ -42,6 +42,7 @@ fn estimator_recovers_the_material_the_plugin_played() {
         out: out.clone(),
         report: Some(report.clone()),
         no_residual: false,
+        min_decay_per_s: None,
     };
     estimate(&args).unwrap();
     let m = presets::Material::load(&out).unwrap();
@@ -130,6 +131,7 @@ fn a_captured_material_plays_each_modes_recorded_support_on_its_object() {
         out: material.clone(),
         report: Some(report.clone()),
         no_residual: true,
+        min_decay_per_s: None,
     };
     let said = estimate(&args).unwrap();
     let m = presets::Material::load(&material).unwrap();
@@ -303,6 +305,7 @@ fn a_bank_captured_from_a_recording_plays_its_partials_with_their_decays() {
         out: material.clone(),
         report: None,
         no_residual: true,
+        min_decay_per_s: None,
     };
     estimate(&est).unwrap();
     let m = presets::Material::load(&material).unwrap();
@@ -420,6 +423,7 @@ fn a_pitch_the_instrument_cannot_play_is_not_stored() {
         out: material.clone(),
         report: Some(report.clone()),
         no_residual: true,
+        min_decay_per_s: None,
     };
     let said = estimate(&est).unwrap();
     let rep: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();

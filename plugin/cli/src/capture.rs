@@ -32,11 +32,11 @@ fn progress_printer(label: &'static str) -> impl Fn(f32) {
 ///
 /// # Errors
 /// The estimator's one-line reason (unreadable file, silent recording, …).
-pub fn features(files: &[PathBuf], channel: Option<usize>, json: bool) -> Result<(), String> {
+pub fn features(files: &[PathBuf], channel: Option<usize>, json: bool, min_decay: Option<f64>) -> Result<(), String> {
     if files.is_empty() {
         return Err("give at least one WAV file".into());
     }
-    let opts = estimator::Options { channel, ..estimator::Options::default() };
+    let opts = estimator::Options { channel, extract: extract_options(min_decay)?, ..estimator::Options::default() };
     let cancel = AtomicBool::new(false);
     let report =
         estimator::extract_features(files, &opts, &progress_printer("features"), &cancel).map_err(|e| e.to_string())?;
@@ -78,6 +78,23 @@ pub struct EstimateArgs {
     pub report: Option<PathBuf>,
     /// Keep no residual with the material.
     pub no_residual: bool,
+    /// Partials decaying slower than this (1/s) are steady hum (default: the extractor's 0.05).
+    pub min_decay_per_s: Option<f64>,
+}
+
+/// The feature extractor's options with `--min-decay` (1/s) if given.
+///
+/// # Errors
+/// A decay that is not a number from 0 to under the extractor's fastest.
+fn extract_options(min_decay: Option<f64>) -> Result<estimator::features::ExtractOptions, String> {
+    let mut extract = estimator::features::ExtractOptions::default();
+    if let Some(d) = min_decay {
+        if !(d.is_finite() && d >= 0.0 && d < extract.max_decay_per_s) {
+            return Err(format!("--min-decay {d}: takes a decay from 0 to under {} 1/s", extract.max_decay_per_s));
+        }
+        extract.min_decay_per_s = d;
+    }
+    Ok(extract)
 }
 
 /// `struck estimate …`: fits the material and writes it (and the report).
@@ -124,6 +141,7 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
         channel: args.channel,
         object_lambdas: bank.map(|b| b.lambdas.clone()),
         object_gains: bank.map(presets::Bank::max_gains),
+        extract: extract_options(args.min_decay_per_s)?,
         ..estimator::Options::default()
     };
     let cancel = AtomicBool::new(false);

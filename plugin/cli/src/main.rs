@@ -62,6 +62,10 @@ enum Command {
         /// Machine-readable output ({"impacts": [...]}).
         #[arg(long)]
         json: bool,
+        /// Partials decaying slower than this (1/s) are taken as steady hum [default: 0.05, a
+        /// T60 of 138 s]; lower it for an object that rings for minutes.
+        #[arg(long)]
+        min_decay: Option<f64>,
     },
     /// Estimate a material (damping law) from recordings of a struck object.
     #[command(allow_negative_numbers = true)]
@@ -92,6 +96,10 @@ enum Command {
         /// §6.1, is kept: about 45 KB at 48 kHz).
         #[arg(long)]
         no_residual: bool,
+        /// Partials decaying slower than this (1/s) are taken as steady hum [default: 0.05, a
+        /// T60 of 138 s]; lower it for an object that rings for minutes.
+        #[arg(long)]
+        min_decay: Option<f64>,
     },
     /// Write a recording's residual for listening (Ren 2013 §6.1): what remains of one impact
     /// once the modes the material represents are taken out (the click of contact, noise).
@@ -221,8 +229,10 @@ fn run(cli: Cli) -> Result<(), String> {
         Command::Params { json } => cli::print_params(json),
         Command::Modes { sound, note, velocity, json } => cli::print_modes(&sound.options(), note, velocity, json),
         Command::Bank { command } => struck_cli::banks::run(command),
-        Command::Features { files, channel, json } => struck_cli::capture::features(&files, channel, json),
-        Command::Estimate { files, model, method, object, channel, out, report, no_residual } => {
+        Command::Features { files, channel, json, min_decay } => {
+            struck_cli::capture::features(&files, channel, json, min_decay)
+        }
+        Command::Estimate { files, model, method, object, channel, out, report, no_residual, min_decay } => {
             let summary = struck_cli::capture::estimate(&struck_cli::capture::EstimateArgs {
                 files,
                 model,
@@ -232,6 +242,7 @@ fn run(cli: Cli) -> Result<(), String> {
                 out,
                 report,
                 no_residual,
+                min_decay_per_s: min_decay,
             })?;
             eprintln!("{summary}");
             Ok(())
