@@ -1164,6 +1164,11 @@ impl<'a> Search<'a> {
                     && f < top_hz
                     && (0.0..opts.min_decay_per_s).contains(&d)
                     && a >= kept_max.max(opts.min_amplitude)
+                    // Over the noise as a kept feature must be (its decay taken as at least
+                    // the impact's length: a steady fit of noise is not a partial).
+                    && (noise_var <= 0.0
+                        || a * a * fs / (4.0 * d.max(1.0 / duration) * noise_var)
+                            >= 10f64.powf(opts.min_feature_snr_db / 10.0))
             })
             .map(|(f, a, _)| (f, a))
             .collect();
