@@ -142,19 +142,20 @@ def main():
         assert e_pressed < 0.01 * e_plain, f"pressure left {e_pressed / e_plain:.3f} of the late energy"
         return f"CC 74 moves the sound by {d_timbre:.2e}; pressure: late energy x{e_pressed / e_plain:.1e}"
 
-    def state_round_trip():
-        a = state["plugin"]
-        # Normalised values, as a host stores them: a larger object, a softer mallet.
+    def carries_state(a, save, restore, what):
+        """Changes two parameters of `a` (normalised values, as a host stores them: a larger
+        object, a softer mallet), saves its state with `save`, restores it into a new
+        instance with `restore`: the parameters and the render must follow."""
         a.parameters["size"].raw_value = 0.6
         a.parameters["mallet_hardness"].raw_value = 0.1
         changed = render(a, sr, seconds, messages)
-        saved = a.raw_state
+        saved = save(a)
         b = pedalboard.load_plugin(vst3)
         default = render(b, sr, seconds, messages)
-        b.raw_state = saved
+        restore(b, saved)
         size, hard = b.parameters["size"].raw_value, b.parameters["mallet_hardness"].raw_value
-        assert abs(size - 0.6) < 1e-4, f"size is {size} (normalised) after restoring the state"
-        assert abs(hard - 0.1) < 1e-4, f"hardness is {hard} (normalised) after restoring the state"
+        assert abs(size - 0.6) < 1e-4, f"size is {size} (normalised) after restoring the {what}"
+        assert abs(hard - 0.1) < 1e-4, f"hardness is {hard} (normalised) after restoring the {what}"
         restored = render(b, sr, seconds, messages)
         d_same = float(np.max(np.abs(restored - changed)))
         d_default = float(np.max(np.abs(default - changed)))
@@ -162,29 +163,20 @@ def main():
         assert d_default > 1e-3, f"the change made no difference ({d_default:.2e})"
         return f"{len(saved)} bytes; restored vs changed {d_same:.1e}, default vs changed {d_default:.2e}"
 
+    def state_round_trip():
+        return carries_state(state["plugin"], lambda p: p.raw_state, lambda p, s: setattr(p, "raw_state", s), "state")
+
     def preset_round_trip():
         # A .vstpreset as pedalboard writes and reads it (`preset_data`: JUCE's VST3 preset
         # file, restored through the component's setState alone). JUCE kept its cached
         # parameter values and sent them back at the next block, so the instance played its
         # defaults until the plugin asked the host to re-read its parameters (stop 41).
-        a = pedalboard.load_plugin(vst3)
-        a.parameters["size"].raw_value = 0.6
-        a.parameters["mallet_hardness"].raw_value = 0.1
-        changed = render(a, sr, seconds, messages)
-        preset = a.preset_data
-        assert bytes(preset[:4]) == b"VST3", f"not a .vstpreset: {bytes(preset[:4])!r}"
-        b = pedalboard.load_plugin(vst3)
-        default = render(b, sr, seconds, messages)
-        b.preset_data = preset
-        size, hard = b.parameters["size"].raw_value, b.parameters["mallet_hardness"].raw_value
-        assert abs(size - 0.6) < 1e-4, f"size is {size} (normalised) after loading the preset"
-        assert abs(hard - 0.1) < 1e-4, f"hardness is {hard} (normalised) after loading the preset"
-        restored = render(b, sr, seconds, messages)
-        d_same = float(np.max(np.abs(restored - changed)))
-        d_default = float(np.max(np.abs(default - changed)))
-        assert d_same <= 1e-6, f"the preset's instance differs from the changed one by {d_same:.2e}"
-        assert d_default > 1e-3, f"the change made no difference ({d_default:.2e})"
-        return f"{len(preset)} bytes; restored vs changed {d_same:.1e}, default vs changed {d_default:.2e}"
+        def save(p):
+            preset = p.preset_data
+            assert bytes(preset[:4]) == b"VST3", f"not a .vstpreset: {bytes(preset[:4])!r}"
+            return preset
+
+        return carries_state(pedalboard.load_plugin(vst3), save, lambda p, s: setattr(p, "preset_data", s), "preset")
 
     def effect_loads():
         t0 = time.perf_counter()
