@@ -248,6 +248,7 @@ fn bank_capture_args(wav: &std::path::Path, id: &str, out: PathBuf) -> struck_cl
         range_db: 40.0,
         min_q: 5.0,
         below_db: 20.0,
+        min_decay_per_s: None,
         young: 200e9,
         density: 7850.0,
         poisson: 0.3,

@@ -191,6 +191,10 @@ pub enum BankCommand {
         /// at) only within this many dB of its energy, so keys tune the object's fundamental.
         #[arg(long, default_value_t = 20.0)]
         below_db: f64,
+        /// Partials decaying slower than this (1/s) are taken as steady hum [default: 0.05, a
+        /// T60 of 138 s]; lower it for an object that rings for minutes.
+        #[arg(long)]
+        min_decay: Option<f64>,
         /// The recorded object's material (--young, --density, --poisson; steel by default):
         /// the mallet's contact on it, and the pitch of a material captured from it.
         #[command(flatten)]
@@ -420,6 +424,7 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
             range_db,
             min_q,
             below_db,
+            min_decay,
             material,
             size,
             id,
@@ -437,6 +442,7 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
                 range_db,
                 min_q,
                 below_db,
+                min_decay_per_s: min_decay,
                 young: material.young,
                 density: material.density,
                 poisson: material.poisson,

@@ -370,6 +370,8 @@ pub struct BankCaptureArgs {
     pub min_q: f64,
     /// Keep partials below the strongest-energy one only within this many dB of its energy.
     pub below_db: f64,
+    /// Partials decaying slower than this (1/s) are steady hum (default: the extractor's 0.05).
+    pub min_decay_per_s: Option<f64>,
     /// Young's modulus (Pa) and density (kg/m³) of the recorded object.
     pub young: f64,
     /// Density, kg/m³.
@@ -422,7 +424,11 @@ pub fn bank_from_recording(args: &BankCaptureArgs) -> Result<String, String> {
     let material = fem::Material { young: args.young, density: args.density, poisson: args.poisson };
     material.validate().map_err(|e| e.to_string())?;
     output::check_output(&args.out, &[args.file.as_path()]).map_err(|e| e.to_string())?;
-    let opts = estimator::Options { channel: args.channel, ..estimator::Options::default() };
+    let opts = estimator::Options {
+        channel: args.channel,
+        extract: extract_options(args.min_decay_per_s)?,
+        ..estimator::Options::default()
+    };
     let cancel = AtomicBool::new(false);
     let feats =
         estimator::extract_features(std::slice::from_ref(&args.file), &opts, &progress_printer("capture"), &cancel)

@@ -130,7 +130,8 @@ fn a_file_in_the_wrong_place_says_what_it_is() {
 /// with a 440 Hz partial decaying at 0.02 1/s (T60 345 s) and a 1187 Hz one at 0.03 1/s, 8 s,
 /// written here. The extractor takes partials slower than 0.05 1/s as steady hum (thesis
 /// §4.2.2), and said only "no modal features found (noise or a dull thud)"; it now names them
-/// and `--min-decay`, with which both are found at their decays (within 5 %).
+/// and `--min-decay`, with which both are found at their decays (within 5 %), and `bank
+/// capture` makes a bank from 440 Hz.
 #[test]
 fn partials_taken_as_hum_are_named_and_min_decay_finds_them() {
     let dir = scratch("slow-decay");
@@ -163,6 +164,15 @@ fn partials_taken_as_hum_are_named_and_min_decay_finds_them() {
     }
     let e = error_line(&struck(&dir, &["features", "--min-decay", "-1", wav]));
     assert!(e.contains("--min-decay"), "{e}");
+    // `bank capture` likewise: the bowl's own modes, from 440 Hz.
+    let bank = dir.join("bowl-bank.json");
+    let e = error_line(&struck(&dir, &["bank", "capture", wav, "--out", bank.to_str().unwrap()]));
+    assert!(e.contains("steady hum"), "{e}");
+    let o = struck(&dir, &["bank", "capture", wav, "--min-decay", "0.005", "--out", bank.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let b: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&bank).unwrap()).unwrap();
+    let lowest = b["lambdas"][0].as_f64().unwrap().sqrt() / std::f64::consts::TAU;
+    assert!((lowest / 440.0 - 1.0).abs() < 1e-3, "lowest mode {lowest} Hz");
 }
 
 #[test]
