@@ -1173,6 +1173,16 @@ impl<'a> Search<'a> {
             .map(|(f, a, _)| (f, a))
             .collect();
         steady.sort_by(|a, b| b.1.total_cmp(&a.1));
+        // Not a kept partial's slow member (within 0.5 % of a kept feature), and a doublet
+        // named once.
+        let near = |a: f64, b: f64| (a - b).abs() <= 0.005 * b;
+        let mut named: Vec<(f64, f64)> = Vec::new();
+        for st in steady {
+            if !features.iter().any(|f| near(st.0, f.freq_hz)) && !named.iter().any(|n| near(st.0, n.0)) {
+                named.push(st);
+            }
+        }
+        let steady = named;
         let (mut features, mut components) = group_partials(features, duration);
         features.sort_by(|a, b| b.amplitude.total_cmp(&a.amplitude));
         components.sort_by(|a, b| b.amplitude.total_cmp(&a.amplitude));

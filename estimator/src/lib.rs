@@ -453,7 +453,7 @@ pub fn extract_features(
             let steady = |hz: &[f64]| -> String {
                 let list: Vec<String> = hz.iter().take(3).map(|f| format!("{f:.1} Hz")).collect();
                 format!(
-                    "{}{} decay{} slower than {} 1/s (a T60 over {:.0} s) and {} taken as steady hum; for an object that rings that long, lower --min-decay",
+                    "{}{} decay{} slower than {} 1/s (a T60 over {:.0} s) and {} taken as steady hum; for an object that rings that long, lower the minimum decay (--min-decay)",
                     list.join(", "),
                     if hz.len() > 3 { ", …" } else { "" },
                     if hz.len() == 1 { "s" } else { "" },
@@ -464,7 +464,12 @@ pub fn extract_features(
             };
             if !fit.steady_hz.is_empty() && !fit.features.is_empty() {
                 report.warnings.push(format!(
-                    "{name}: the impact at {at:.3} s: its strongest partial(s) {}",
+                    "{name}: the impact at {at:.3} s: {} {}",
+                    if fit.steady_hz.len() == 1 {
+                        "a partial as strong as any kept,"
+                    } else {
+                        "partials as strong as any kept,"
+                    },
                     steady(&fit.steady_hz)
                 ));
             }
@@ -475,7 +480,11 @@ pub fn extract_features(
                     reason: if fit.steady_hz.is_empty() {
                         "no modal features found (noise or a dull thud); tap a freely ringing object".into()
                     } else {
-                        format!("no modal features kept: {}", steady(&fit.steady_hz))
+                        // A hum in the room under a thud, or an object that rings for minutes.
+                        format!(
+                            "no modal features found (noise or a dull thud; tap a freely ringing object): {}",
+                            steady(&fit.steady_hz)
+                        )
                     },
                 });
             } else {

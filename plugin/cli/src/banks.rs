@@ -168,6 +168,7 @@ pub enum BankCommand {
     /// A bank of a recorded object's own modes: the partials of one impact of a recording, at
     /// the point it was struck (play it at any pitch with any material; `estimate --object`
     /// with it records each mode's support as recorded).
+    #[command(allow_negative_numbers = true)]
     Capture {
         /// The recording (WAV).
         file: PathBuf,

@@ -82,6 +82,9 @@ pub struct EstimateArgs {
     pub min_decay_per_s: Option<f64>,
 }
 
+/// Largest `--min-decay`, 1/s (a T60 of 0.7 s: above it real modes would be taken as hum).
+const MAX_MIN_DECAY: f64 = 10.0;
+
 /// The feature extractor's options with `--min-decay` (1/s) if given.
 ///
 /// # Errors
@@ -89,8 +92,8 @@ pub struct EstimateArgs {
 fn extract_options(min_decay: Option<f64>) -> Result<estimator::features::ExtractOptions, String> {
     let mut extract = estimator::features::ExtractOptions::default();
     if let Some(d) = min_decay {
-        if !(d.is_finite() && d >= 0.0 && d < extract.max_decay_per_s) {
-            return Err(format!("--min-decay {d}: takes a decay from 0 to under {} 1/s", extract.max_decay_per_s));
+        if !(d.is_finite() && (0.0..=MAX_MIN_DECAY).contains(&d)) {
+            return Err(format!("--min-decay {d}: takes a decay from 0 to {MAX_MIN_DECAY} 1/s"));
         }
         extract.min_decay_per_s = d;
     }
@@ -433,6 +436,9 @@ pub fn bank_from_recording(args: &BankCaptureArgs) -> Result<String, String> {
     let feats =
         estimator::extract_features(std::slice::from_ref(&args.file), &opts, &progress_printer("capture"), &cancel)
             .map_err(|e| e.to_string())?;
+    for w in &feats.warnings {
+        warn(w);
+    }
     let n = feats.impacts.len();
     let imp = feats.impacts.get(args.impact - 1).ok_or_else(|| {
         format!("{}: --impact {}, but the recording holds {n} impact(s)", args.file.display(), args.impact)

@@ -100,13 +100,11 @@ impl MeshFileKind {
     /// The kind for `path`'s extension (case-insensitive).
     ///
     /// # Errors
-    /// [`FemError::InvalidOptions`] for another or no extension.
+    /// [`FemError::InvalidOptions`] for another or no extension, or a folder (looked up on
+    /// the file system).
     pub fn of(path: &Path) -> Result<MeshFileKind, FemError> {
         if path.is_dir() {
-            return Err(FemError::InvalidOptions(format!(
-                "{} is a folder: give a mesh file in it (.msh, .obj or .stl)",
-                path.display()
-            )));
+            return Err(FemError::InvalidOptions("a folder, not a mesh file (.msh, .obj or .stl)".into()));
         }
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
         match ext.as_str() {
