@@ -118,6 +118,10 @@ impl Feature {
     }
 }
 
+/// The largest `min_decay_per_s` the tools take, 1/s (a T60 of 0.7 s): above it real modes
+/// would be taken as steady hum.
+pub const MAX_MIN_DECAY_PER_S: f64 = 10.0;
+
 /// Thresholds of the extraction. `Default` gives the values used in the tests.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]

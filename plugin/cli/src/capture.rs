@@ -2,6 +2,7 @@
 //! §3–5). Progress goes to stderr; results are JSON.
 
 use crate::cli::{end_progress_line, outln, show_progress, warn};
+use estimator::features::MAX_MIN_DECAY_PER_S;
 use presets::{output, DampingSpec, Material, SCHEMA_VERSION};
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
@@ -82,9 +83,6 @@ pub struct EstimateArgs {
     pub min_decay_per_s: Option<f64>,
 }
 
-/// Largest `--min-decay`, 1/s (a T60 of 0.7 s: above it real modes would be taken as hum).
-const MAX_MIN_DECAY: f64 = 10.0;
-
 /// The feature extractor's options with `--min-decay` (1/s) if given.
 ///
 /// # Errors
@@ -92,8 +90,8 @@ const MAX_MIN_DECAY: f64 = 10.0;
 fn extract_options(min_decay: Option<f64>) -> Result<estimator::features::ExtractOptions, String> {
     let mut extract = estimator::features::ExtractOptions::default();
     if let Some(d) = min_decay {
-        if !(d.is_finite() && (0.0..=MAX_MIN_DECAY).contains(&d)) {
-            return Err(format!("--min-decay {d}: takes a decay from 0 to {MAX_MIN_DECAY} 1/s"));
+        if !(d.is_finite() && (0.0..=MAX_MIN_DECAY_PER_S).contains(&d)) {
+            return Err(format!("--min-decay {d}: takes a decay from 0 to {MAX_MIN_DECAY_PER_S} 1/s"));
         }
         extract.min_decay_per_s = d;
     }
@@ -279,6 +277,10 @@ pub struct ResidualArgs {
     pub impact: usize,
     /// At most this much of the impact, s.
     pub seconds: f64,
+    /// Analyse this channel only (default: mix to mono).
+    pub channel: Option<usize>,
+    /// `--min-decay` (1/s): partials decaying slower are steady hum (default 0.05).
+    pub min_decay_per_s: Option<f64>,
 }
 
 /// `struck residual FILE --material M --out R.wav` (Ren 2013 §6.1; issue 15): the impact's
@@ -303,20 +305,21 @@ pub fn residual(args: &ResidualArgs) -> Result<String, String> {
     let law = material.damping.to_damping().map_err(|e| format!("{}: {e}", args.material.display()))?;
     let support = material.support_c();
     let cancel = AtomicBool::new(false);
-    let feats = estimator::extract_features(
-        std::slice::from_ref(&args.file),
-        &estimator::Options::default(),
-        &progress_printer("features"),
-        &cancel,
-    )
-    .map_err(|e| e.to_string())?;
+    let opts = estimator::Options {
+        channel: args.channel,
+        extract: extract_options(args.min_decay_per_s)?,
+        ..estimator::Options::default()
+    };
+    let feats =
+        estimator::extract_features(std::slice::from_ref(&args.file), &opts, &progress_printer("features"), &cancel)
+            .map_err(|e| e.to_string())?;
     end_progress_line();
     let n = feats.impacts.len();
     let imp = feats
         .impacts
         .get(args.impact - 1)
         .ok_or_else(|| format!("--impact {}: the recording has {n} analysed impact(s)", args.impact))?;
-    let rec = estimator::load_wav(&args.file, None).map_err(|e| e.to_string())?;
+    let rec = estimator::load_wav(&args.file, args.channel).map_err(|e| e.to_string())?;
     let fs = f64::from(rec.sample_rate);
     let (x, r) = estimator::residual::impact_residual(&rec.samples, fs, imp, &law, support, args.seconds);
     let len = x.len();

@@ -103,6 +103,7 @@ enum Command {
     },
     /// Write a recording's residual for listening (Ren 2013 §6.1): what remains of one impact
     /// once the modes the material represents are taken out (the click of contact, noise).
+    #[command(allow_negative_numbers = true)]
     Residual {
         /// The recording (WAV).
         file: PathBuf,
@@ -118,6 +119,13 @@ enum Command {
         /// At most this much of the impact, s.
         #[arg(long, default_value_t = 2.0)]
         seconds: f64,
+        /// Analyse this channel only (default: mix to mono), as given to `estimate`.
+        #[arg(long)]
+        channel: Option<usize>,
+        /// Partials decaying slower than this (1/s) are taken as steady hum [default: 0.05]; give
+        /// the value the material was estimated with.
+        #[arg(long)]
+        min_decay: Option<f64>,
     },
     /// Build mode banks by FEM or from a recording, or show a bank.
     Bank {
@@ -247,13 +255,15 @@ fn run(cli: Cli) -> Result<(), String> {
             eprintln!("{summary}");
             Ok(())
         }
-        Command::Residual { file, material, out, impact, seconds } => {
+        Command::Residual { file, material, out, impact, seconds, channel, min_decay } => {
             let summary = struck_cli::capture::residual(&struck_cli::capture::ResidualArgs {
                 file,
                 material,
                 out,
                 impact,
                 seconds,
+                channel,
+                min_decay_per_s: min_decay,
             })?;
             eprintln!("{summary}");
             Ok(())
@@ -307,7 +317,7 @@ fn main() -> ExitCode {
     // Ctrl-C (or a kill) during a long render or build removes the unfinished output's
     // temporary file; the destination is untouched either way.
     presets::output::install_interrupt_cleanup();
-    let cli = match Cli::try_parse() {
+    let cli = match Cli::try_parse_from(help_of_help(std::env::args_os().collect())) {
         Ok(cli) => cli,
         Err(e) => match e.kind() {
             // `--help` and `--version` are not errors: clap prints them to stdout.
@@ -326,6 +336,23 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => fail(&e),
     }
+}
+
+/// `struck help --help` (or `struck bank help -h`): clap's generated `help` subcommand takes
+/// only subcommand names, so it refused its own `--help`; it is read as `struck --help`
+/// (`struck bank --help`), whose text describes `help` too. Anything else is left as given.
+fn help_of_help(mut args: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> {
+    let mut cmd = Cli::command();
+    for i in 1..args.len() {
+        let Some(arg) = args[i].to_str() else { break };
+        if arg == "help" && args.get(i + 1).is_some_and(|a| a == "--help" || a == "-h") {
+            args.remove(i);
+            break;
+        }
+        let Some(sub) = cmd.find_subcommand(arg).cloned() else { break };
+        cmd = sub;
+    }
+    args
 }
 
 /// Prints `struck: error: MESSAGE` as one line on stderr (after ending any progress line)

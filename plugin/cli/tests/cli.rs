@@ -190,6 +190,56 @@ fn partials_taken_as_hum_are_named_and_min_decay_finds_them() {
     let b: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&bank).unwrap()).unwrap();
     let lowest = b["lambdas"][0].as_f64().unwrap().sqrt() / std::f64::consts::TAU;
     assert!((lowest / 440.0 - 1.0).abs() < 1e-3, "lowest mode {lowest} Hz");
+    // `residual` takes it too: a bowl of five such partials, the material estimated from it
+    // with `--min-decay` represents them, so what is left of the first 2 s is a small part of
+    // the recording (without `--min-decay` the residual found only hum and said so).
+    let five = dir.join("bowl5.wav");
+    let mut w = hound::WavWriter::create(&five, spec).unwrap();
+    // A Rayleigh law, d = 0.01 + 0.03 (f / 5011 Hz)² 1/s, under full scale.
+    let partials = [(440.0, 0.4), (1187.0, 0.2), (2213.0, 0.12), (3490.0, 0.08), (5011.0, 0.05)];
+    for i in 0..8 * 44_100 {
+        let t = f64::from(i) / 44_100.0;
+        let x: f64 = partials
+            .iter()
+            .map(|&(f, a)| {
+                let d = 0.01 + 0.03 * (f / 5011.0f64).powi(2);
+                a * (-d * t).exp() * (std::f64::consts::TAU * f * t).sin()
+            })
+            .sum();
+        w.write_sample(x as f32).unwrap();
+    }
+    w.finalize().unwrap();
+    let wav = five.to_str().unwrap();
+    let m = dir.join("bowl-material.json");
+    let o = struck(&dir, &["estimate", wav, "--min-decay", "0.005", "--no-residual", "--out", m.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let r = dir.join("bowl-residual.wav");
+    let args = ["residual", wav, "--material", m.to_str().unwrap(), "--out", r.to_str().unwrap()];
+    let e = error_line(&struck(&dir, &args));
+    assert!(e.contains("steady hum") && !r.exists(), "{e}");
+    let o = struck(&dir, &[&args[..], &["--min-decay", "0.005"]].concat());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let energy = |p: &Path| -> f64 {
+        let mut rd = hound::WavReader::open(p).unwrap();
+        rd.samples::<f32>().take(2 * 44_100).map(|v| f64::from(v.unwrap()).powi(2)).sum()
+    };
+    let (left, recorded) = (energy(&r), energy(Path::new(wav)));
+    assert!(left < 0.01 * recorded, "residual energy {left} of the recording's {recorded}");
+}
+
+/// clap's generated `help` subcommand takes subcommand names only and refused `struck help
+/// --help` ("unrecognized subcommand"); it prints the help that describes `help`.
+#[test]
+fn help_of_help_is_help() {
+    let dir = scratch("help-help");
+    for args in [&["help", "--help"][..], &["help", "-h"], &["bank", "help", "--help"]] {
+        let o = struck(&dir, args);
+        assert_eq!(o.status.code(), Some(0), "{args:?}: {}", stderr(&o));
+        let out = String::from_utf8_lossy(&o.stdout);
+        assert!(out.contains("Usage:") && out.contains("help"), "{args:?}: {out}");
+    }
+    let o = struck(&dir, &["bank", "help", "--help"]);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("capture"));
 }
 
 #[test]

@@ -7,6 +7,7 @@ use super::plot::{series_color, Axis, Plot};
 use crate::params::StruckParams;
 use crate::shared::{CaptureRecord, CapturedObject, Clip, EditorShared};
 use egui::{self, Color32, RichText, Stroke};
+use estimator::features::MAX_MIN_DECAY_PER_S;
 use estimator::{EstimateReport, Method, ModelKind};
 use presets::{DampingSpec, Material, SCHEMA_VERSION};
 use std::path::{Path, PathBuf};
@@ -48,6 +49,9 @@ pub(super) struct CapturePanel {
     pub model: ModelKind,
     pub method: Method,
     pub recorded_object: bool,
+    /// Partials decaying slower than this (1/s) are taken as steady hum (the CLI's
+    /// `--min-decay`; the extractor's default 0.05, a T60 of 138 s).
+    pub min_decay_per_s: f64,
     pub job: Option<Job>,
     pub message: Option<String>,
     pub save_name: String,
@@ -73,6 +77,7 @@ impl Default for CapturePanel {
             model: ModelKind::Rayleigh,
             method: Method::Emg,
             recorded_object: false,
+            min_decay_per_s: estimator::features::ExtractOptions::default().min_decay_per_s,
             job: None,
             message: None,
             save_name: "My material".into(),
@@ -153,6 +158,10 @@ impl CapturePanel {
             method: self.method,
             object_lambdas,
             object_gains,
+            extract: estimator::features::ExtractOptions {
+                min_decay_per_s: self.min_decay_per_s.clamp(0.0, MAX_MIN_DECAY_PER_S),
+                ..estimator::features::ExtractOptions::default()
+            },
             ..estimator::Options::default()
         };
         let (p, c, r, f) = (progress.clone(), cancel.clone(), result.clone(), files.clone());
@@ -379,6 +388,20 @@ impl CapturePanel {
                     ui.selectable_value(&mut c.method, m, m.name());
                 }
             });
+            ui.end_row();
+            ui.label("Minimum decay");
+            ui.add(
+                egui::DragValue::new(&mut c.min_decay_per_s)
+                    .range(0.0..=MAX_MIN_DECAY_PER_S)
+                    .speed(0.001)
+                    .max_decimals(3)
+                    .suffix(" 1/s"),
+            )
+            .accessible_name("Minimum decay, 1/s")
+            .on_hover_text(
+                "Partials decaying slower than this are taken as steady hum (0.05 1/s: a T60 of 138 s); \
+                 lower it for an object that rings for minutes",
+            );
             ui.end_row();
         });
         if let Some(o) = object {
