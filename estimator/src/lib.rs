@@ -369,6 +369,15 @@ pub fn load_wav(path: &Path, channel: Option<usize>) -> Result<Recording, Estima
     wav::load_wav(path, channel)
 }
 
+/// A frequency for a message: "40 Hz", "950 Hz", "12.6 kHz".
+fn hz(f: f64) -> String {
+    if f < 1000.0 {
+        format!("{f:.0} Hz")
+    } else {
+        format!("{:.1} kHz", f / 1000.0)
+    }
+}
+
 /// Finds the impacts in `files` and extracts each one's modal features.
 /// `progress` receives 0..1; `cancel` stops the work between impacts and inside the
 /// extraction loop.
@@ -422,6 +431,11 @@ pub fn extract_features(
             ExtractOptions { min_amplitude: opts.extract.min_amplitude.max(quant_step), ..opts.extract.clone() };
         let nimp = pieces.len().max(1);
         let mut used = 0;
+        // Partials left out as contact noise in this file's impacts: count, band, and which
+        // impacts (by their index in `pieces`); the impacts kept, by the same index.
+        let mut contact = (0usize, f64::INFINITY, 0.0f64);
+        let mut contact_in = std::collections::BTreeSet::new();
+        let mut kept = Vec::new();
         for (ii, s) in pieces.iter().enumerate() {
             if cancel.load(Ordering::Relaxed) {
                 return Err(EstimateError::Cancelled);
@@ -473,6 +487,10 @@ pub fn extract_features(
                     steady(&fit.steady_hz)
                 ));
             }
+            if let (Some(lo), Some(hi)) = (fit.contact_noise.first(), fit.contact_noise.last()) {
+                contact = (contact.0 + fit.contact_noise.len(), contact.1.min(lo.freq_hz), contact.2.max(hi.freq_hz));
+                contact_in.insert(ii);
+            }
             if fit.features.is_empty() {
                 report.skipped.push(SkippedImpact {
                     file: name.clone(),
@@ -489,6 +507,7 @@ pub fn extract_features(
                 });
             } else {
                 used += 1;
+                kept.push(ii);
                 report.impacts.push(ImpactFeatures {
                     file: name.clone(),
                     onset_s: s.start as f64 / fs,
@@ -504,6 +523,48 @@ pub fn extract_features(
                 });
             }
             progress((fi as f32 + (ii + 1) as f32 / nimp as f32) / nfiles as f32);
+        }
+        // Brief partials that no other tap of this recording repeats are contact noise too.
+        let first = report.impacts.len() - kept.len();
+        let mine = &mut report.impacts[first..];
+        let lists: Vec<&[Feature]> = mine.iter().map(|m| m.features.as_slice()).collect();
+        let unrepeated = features::unrepeated_brief(&lists);
+        for ((imp, flags), &ii) in mine.iter_mut().zip(&unrepeated).zip(&kept) {
+            let mut k = 0;
+            imp.features.retain(|f| {
+                let out = flags[k];
+                k += 1;
+                if out {
+                    contact = (contact.0 + 1, contact.1.min(f.freq_hz), contact.2.max(f.freq_hz));
+                    contact_in.insert(ii);
+                }
+                !out
+            });
+        }
+        // An impact of nothing but such partials is a click, not a strike of the object.
+        let mut k = first;
+        while k < report.impacts.len() {
+            if report.impacts[k].features.is_empty() {
+                let imp = report.impacts.remove(k);
+                used -= 1;
+                report.skipped.push(SkippedImpact {
+                    file: name.clone(),
+                    onset_s: imp.onset_s,
+                    reason: "only brief partials that no other tap repeats (a click or the contact's noise, not the object ringing)"
+                        .into(),
+                });
+            } else {
+                k += 1;
+            }
+        }
+        if contact.0 > 0 {
+            report.warnings.push(format!(
+                "{name}: {} brief partial(s) at {}–{} in {} impact(s) are the strike's contact noise (a click), not modes: they overlap into a broadband burst or no other tap repeats them; left out (they stay in the residual)",
+                contact.0,
+                hz(contact.1),
+                hz(contact.2),
+                contact_in.len()
+            ));
         }
         // The strike an impact starts with: its onset, before a gradual attack was left out
         // (the strikes inside it count from where its analysis starts).
