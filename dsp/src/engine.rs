@@ -1184,7 +1184,12 @@ impl ModeSet<'_> {
                 if amps[m] == 0.0 || amps[m].abs() < threshold {
                     continue;
                 }
+                // The level is the object's and the material's, not the player's: the
+                // release and pressure damping (`extra`) are left out of the decays it sees,
+                // or a note released at its own note-on's sample (a zero-length note of a
+                // step sequencer) would be raised by up to 10 dB to make up for its damping.
                 let (d, omega) = poles[m];
+                let d = (d - self.extra).max(0.0);
                 let f = omega / (2.0 * PI);
                 let r = f64::from(gains[m]) * exciter::pulse_spectrum(f, contact_ref);
                 let rk = r * exciter::k_weighting(f);
@@ -1692,13 +1697,27 @@ impl Engine {
         self.residual_clip.as_deref()
     }
 
-    /// Releases a note: it rings on, damped by the release damping; a lasting contact ends
-    /// here. Realtime-safe.
+    /// Releases a note: it rings on, damped by the release damping from this sample on (its
+    /// poles are rebuilt here, not at the next control tick: a note released a sample after
+    /// its note-on then sounds as one released at it); a lasting contact ends here.
+    /// Realtime-safe.
     pub fn note_off(&mut self, note: NoteId) {
-        for v in self.voices.iter_mut().filter(|v| v.matches(&note)) {
-            v.released = true;
-            v.dirty = true;
-            v.lasting = false;
+        for v in 0..self.voices.len() {
+            let voice = &mut self.voices[v];
+            if !voice.matches(&note) {
+                continue;
+            }
+            voice.released = true;
+            voice.lasting = false;
+            // A strike still pending plans its poles with the release; otherwise they change now.
+            if voice.pending.is_some() || self.params.release_damping == 0.0 {
+                voice.dirty = true;
+                continue;
+            }
+            if voice.held_from != usize::MAX {
+                self.flush_resident();
+            }
+            self.rebuild(v);
         }
     }
 
