@@ -483,6 +483,8 @@ struct Voice {
     position_offset: f32,
     pressure: f32,
     released: bool,
+    /// Its note-off came while the sustain pedal held its channel: released at pedal up.
+    sustained: bool,
     pending: Option<f32>,
     start: u64,
     /// Sum of |y|² over the modes at the last energy tick ([`ENERGY_TICKS`]) or strike.
@@ -545,6 +547,7 @@ impl Voice {
             position_offset: 0.0,
             pressure: 0.0,
             released: false,
+            sustained: false,
             pending: None,
             start: 0,
             energy: 0.0,
@@ -602,6 +605,7 @@ impl Voice {
         self.energy = 0.0;
         debug_assert!(self.held_from == usize::MAX, "a voice's modes are stored back before it is cleared");
         self.lasting = false;
+        self.sustained = false;
         self.speed = None;
         self.input_heard = false;
         self.input_silent_run = u32::MAX;
@@ -1388,6 +1392,8 @@ pub struct Engine {
     user_texture: Option<Box<Texture>>,
     /// The mod wheel's speed, m/s, once moved (see [`Engine::set_wheel_speed`]).
     wheel_speed: Option<f64>,
+    /// Sustain pedal (CC 64) down, one bit per MIDI channel ([`Engine::set_sustain`]).
+    sustain: u16,
     /// Audio in is wanted, and where its contact starts on the strike path.
     input_on: bool,
     input_position: f32,
@@ -1441,6 +1447,7 @@ impl Engine {
             pool: max_voices,
             user_texture: None,
             wheel_speed: None,
+            sustain: 0,
             input_on: false,
             input_position: 0.5,
             residual_clip: None,
@@ -1501,6 +1508,7 @@ impl Engine {
         self.variation_rng = Noise::new(VARIATION_SEED);
         self.num_terminated = 0;
         self.wheel_speed = None;
+        self.sustain = 0;
         self.residuals.clear();
         self.params = self.target;
         self.glide = Glide {
@@ -1659,6 +1667,7 @@ impl Engine {
         }
         voice.note.voice_id = note.voice_id.or(voice.note.voice_id);
         voice.released = false;
+        voice.sustained = false;
         voice.dirty = true;
         voice.position = strike.position;
         voice.pending = Some(strike.velocity);
@@ -1699,25 +1708,68 @@ impl Engine {
 
     /// Releases a note: it rings on, damped by the release damping from this sample on (its
     /// poles are rebuilt here, not at the next control tick: a note released a sample after
-    /// its note-on then sounds as one released at it); a lasting contact ends here.
-    /// Realtime-safe.
+    /// its note-on then sounds as one released at it); a lasting contact ends here. While
+    /// the sustain pedal holds the note's channel ([`Engine::set_sustain`]) the release waits
+    /// for the pedal to come up (the contact still ends: the mallet is lifted). Realtime-safe.
     pub fn note_off(&mut self, note: NoteId) {
         for v in 0..self.voices.len() {
+            let held = self.pedal_holds(self.voices[v].note.channel);
             let voice = &mut self.voices[v];
             if !voice.matches(&note) {
                 continue;
             }
-            voice.released = true;
             voice.lasting = false;
-            // A strike still pending plans its poles with the release; otherwise they change now.
-            if voice.pending.is_some() || self.params.release_damping == 0.0 {
+            if held {
+                voice.sustained = true;
                 voice.dirty = true;
-                continue;
+            } else {
+                self.release(v);
             }
-            if voice.held_from != usize::MAX {
-                self.flush_resident();
+        }
+    }
+
+    /// Voice `v` released now: the release damping from this sample on.
+    fn release(&mut self, v: usize) {
+        let voice = &mut self.voices[v];
+        voice.released = true;
+        voice.sustained = false;
+        // A strike still pending plans its poles with the release; otherwise they change now.
+        if voice.pending.is_some() || self.params.release_damping == 0.0 {
+            voice.dirty = true;
+            return;
+        }
+        if voice.held_from != usize::MAX {
+            self.flush_resident();
+        }
+        self.rebuild(v);
+    }
+
+    /// Whether the sustain pedal holds notes of `channel`: its own pedal, or the pedal of the
+    /// first channel (MIDI channel 1), the master channel of an MPE lower zone, whose pedal
+    /// holds the notes of every member channel.
+    fn pedal_holds(&self, channel: u8) -> bool {
+        let down = |c: u8| c < 16 && self.sustain & (1 << c) != 0;
+        down(channel) || down(0)
+    }
+
+    /// The sustain pedal (CC 64, down at ≥ 64 of 127) of MIDI `channel` (0..16): while it
+    /// is down, note-offs on the channel (on every channel, for the first: an MPE zone's
+    /// master) leave their notes ringing undamped, as a vibraphone's damper pedal does; when it
+    /// comes up they are released at this sample. Sample-accurate; realtime-safe.
+    pub fn set_sustain(&mut self, channel: u8, down: bool) {
+        if channel >= 16 {
+            return;
+        }
+        if down {
+            self.sustain |= 1 << channel;
+            return;
+        }
+        self.sustain &= !(1 << channel);
+        for v in 0..self.voices.len() {
+            let voice = &self.voices[v];
+            if voice.active && voice.sustained && !self.pedal_holds(voice.note.channel) {
+                self.release(v);
             }
-            self.rebuild(v);
         }
     }
 

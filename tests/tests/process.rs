@@ -430,3 +430,55 @@ fn all_sound_off_and_all_notes_off_act_on_their_channel() {
     assert!(both > 1.1 * alone, "both notes ring: {both} vs channel 1 alone {alone}");
     assert!((after - alone).abs() < 0.05 * alone, "after CC 123 on channel 0: {after}, channel 1 alone {alone}");
 }
+
+/// The sustain pedal (CC 64, a black-box tester's finding: it was ignored): a note-off while
+/// the pedal is down leaves the note ringing as if still held (release damping 200 s⁻¹ not
+/// applied: the same samples as a note never released, until the pedal comes up), and the
+/// pedal coming up releases it at that sample (then as a note released there). The first
+/// channel's pedal holds every channel's notes (an MPE zone's master); another channel's
+/// pedal holds only its own.
+#[test]
+fn the_sustain_pedal_holds_released_notes_until_it_comes_up() {
+    use nice_plug::midi::{Channel, VoiceID};
+    use nice_plug::prelude::NoteEvent;
+    use struck::offline::{note_off, TimedEvent};
+    let sr = SR as usize;
+    let pedal = |sample: usize, channel: u8, down: bool| TimedEvent {
+        sample: sample as u64,
+        event: NoteEvent::MidiCC { timing: 0, channel, cc: 64, value: if down { 1.0 } else { 0.0 } },
+    };
+    let on = |channel: u8| {
+        let mut e = struck_cli::cli::note_events(&[note(60, 100, None)], f64::from(SR)).remove(0);
+        if let NoteEvent::NoteOn { channel: c, voice_id, .. } = &mut e.event {
+            *c = Channel::Number(channel);
+            *voice_id = VoiceID::Wildcard;
+        }
+        e
+    };
+    let off = |sample: usize, channel: u8| {
+        let mut e = note_off(60);
+        if let NoteEvent::NoteOff { channel: c, voice_id, .. } = &mut e {
+            *c = Channel::Number(channel);
+            *voice_id = VoiceID::Wildcard;
+        }
+        TimedEvent { sample: sample as u64, event: e }
+    };
+    let play = |events: &[TimedEvent]| {
+        let mut h = host("bar", "steel-sterling-rayleigh", SR, &[("release", 200.0)]);
+        h.render(events, sr, 512).0[0].clone()
+    };
+    let (release_at, up_at) = (sr / 10, sr / 2);
+    let held = play(&[on(0)]);
+    let released_at_up = play(&[on(0), off(up_at, 0)]);
+    let released = play(&[on(0), off(release_at, 0)]);
+    let pedalled = play(&[pedal(0, 0, true), on(0), off(release_at, 0), pedal(up_at, 0, false)]);
+    assert_eq!(pedalled, released_at_up, "pedal up at 0.5 s: as the note released there");
+    assert_eq!(pedalled[..up_at], held[..up_at], "under the pedal the note rings as if held");
+    let late = |x: &[f32]| rms(&x[sr / 4..up_at]);
+    assert!(late(&released) < 1e-3 * late(&held), "release damping must show: {} vs {}", late(&released), late(&held));
+    // A pedal on channel 2 holds channel 2's note, not channel 1's; channel 1's holds both.
+    let on_channel = |c: u8, pedal_channel: u8| play(&[pedal(0, pedal_channel, true), on(c), off(release_at, c)]);
+    assert_eq!(on_channel(1, 1)[..up_at], play(&[on(1)])[..up_at], "channel 2's pedal, channel 2's note");
+    assert_eq!(on_channel(0, 1), released, "channel 2's pedal does not hold channel 1's note");
+    assert_eq!(on_channel(1, 0)[..up_at], play(&[on(1)])[..up_at], "channel 1's pedal holds every channel");
+}

@@ -5,8 +5,9 @@ use nice_plug::prelude::NoteEvent;
 use struck::offline::TimedEvent;
 
 /// Reads the note-ons, note-offs, channel and polyphonic pressure, CC 1 (mod wheel: a lasting
-/// contact's speed) and CC 74 of every track of a MIDI file, honouring tempo changes, as
-/// events at absolute samples of `sample_rate`.
+/// contact's speed), CC 64 (sustain pedal), CC 74, CC 120 (All Sound Off) and CC 123 (All
+/// Notes Off) of every track of a MIDI file, honouring tempo changes, as events at absolute
+/// samples of `sample_rate`.
 ///
 /// # Errors
 /// A one-line reason if the bytes are not a MIDI file this can read (SMPTE timing is
@@ -81,7 +82,7 @@ pub fn read_midi(bytes: &[u8], sample_rate: f64) -> Result<Vec<TimedEvent>, Stri
                         pressure: f32::from(vel.as_int()) / 127.0,
                     }),
                     midly::MidiMessage::Controller { controller, value }
-                        if controller.as_int() == 74 || controller.as_int() == 1 =>
+                        if matches!(controller.as_int(), 1 | 64 | 74 | 120 | 123) =>
                     {
                         Some(NoteEvent::MidiCC {
                             timing: 0,

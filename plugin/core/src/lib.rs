@@ -417,6 +417,8 @@ impl<V: Variant> StruckPlugin<V> {
             NoteEvent::MidiCC { channel, cc: 123, .. } => {
                 engine.note_off(NoteId { voice_id: None, channel, key: NoteId::ANY })
             }
+            // The sustain pedal: note-offs wait for it to come up (a damper pedal).
+            NoteEvent::MidiCC { channel, cc: 64, value, .. } => engine.set_sustain(channel, value >= 0.5),
             // MPE timbre (CC 74) on a member channel → strike position of that channel's sounding
             // notes, and of its next ones.
             NoteEvent::MidiCC { channel, cc: 74, value, .. } => {
