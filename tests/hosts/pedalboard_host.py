@@ -142,6 +142,27 @@ def main():
         assert e_pressed < 0.01 * e_plain, f"pressure left {e_pressed / e_plain:.3f} of the late energy"
         return f"CC 74 moves the sound by {d_timbre:.2e}; pressure: late energy x{e_pressed / e_plain:.1e}"
 
+    def parameters_take_numbers():
+        # A pipeline sets parameters by value (`p.size = 2.0`). pedalboard reads a parameter's
+        # texts over its range and takes it as a number only if each text parses as one
+        # after a known unit suffix is stripped ("x", "%", "dB", "Hz", ...); "×1.000" and
+        # "×1.000 (+0.0 st)" made Size, Stiffness and Decay scale lists of texts, and
+        # `p.size = 2.0` raised ValueError (a black-box tester, stop 42).
+        plugin = pedalboard.load_plugin(vst3)
+        listed = {"object", "material", "damping_model", "support", "key_mode", "mallet", "pitch_reference",
+                  "excitation", "texture", "contact_direction", "path_ends"}
+        texts = [k for k, v in plugin.parameters.items() if v.type is str and k not in listed]
+        assert not texts, f"taken as lists of texts: {texts}"
+        # pedalboard sets the nearest of the values it sampled over the range (1,000 steps),
+        # so a value lands within a step (0.4 % of 0.5 on Decay scale's skewed range).
+        for name, value in (("size", 2.0), ("stiffness", 4.0), ("decay_scale", 0.5)):
+            setattr(plugin, name, value)
+            got = float(getattr(plugin, name))
+            assert abs(got / value - 1.0) < 0.01, f"{name} set to {value} reads back {got}"
+        big = render(plugin, sr, 0.5, [(bytes([0x90, 60, 100]), 0.0)])
+        assert float(np.max(np.abs(big))) > 1e-3, "silent after setting size, stiffness and decay scale"
+        return f"{len(plugin.parameters)} parameters; size 2.0, stiffness 4.0, decay scale 0.5 set by value"
+
     def carries_state(a, save, restore, what):
         """Changes two parameters of `a` (normalised values, as a host stores them: a larger
         object, a softer mallet), saves its state with `save`, restores it into a new
@@ -208,6 +229,7 @@ def main():
     if "plugin" in state:
         check("the MIDI phrase renders as the CLAP binary renders it", phrase_matches_clap)
         check("MPE CC 74 and channel pressure reach the plugin", expression_reaches_the_plugin)
+        check("continuous parameters are numbers to pedalboard and take values", parameters_take_numbers)
         check("raw_state carries a changed parameter into a new instance", state_round_trip)
         check("a .vstpreset (preset_data) carries a changed parameter into a new instance", preset_round_trip)
     if fx_vst3:

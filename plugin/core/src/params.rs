@@ -453,7 +453,7 @@ fn material_from_name(lib: &Arc<Library>) -> StringToValue<i32> {
 }
 
 /// The first number in `text` (after an optional `×`, `x` or `*`), e.g. "-12 dB" → −12,
-/// "×0.050 (+51.9 st)" → 0.05, "4.0 1/s" → 4.
+/// "0.050x" → 0.05, "4.0 1/s" → 4.
 fn leading_number(text: &str) -> Option<f32> {
     let t = text.trim().trim_start_matches(['×', '*', 'x', 'X']).trim_start();
     let end = t
@@ -494,19 +494,14 @@ fn s2v_number() -> StringToValue<f32> {
     Arc::new(leading_number)
 }
 
-/// Formats a multiplier with its pitch change in semitones (pitch ∝ sqrt(ratio) when
-/// `sqrt_law`, ∝ 1/ratio otherwise).
-fn ratio_with_semitones(sqrt_law: bool) -> ValueToString<f32> {
-    Arc::new(move |v| {
-        // The semitones follow from the value as written, so the text round-trips.
-        let text = significant(v, 4, 5);
-        let shown: f32 = text.parse().unwrap_or(v);
-        let st = if sqrt_law { 6.0 * shown.log2() } else { -12.0 * shown.log2() };
-        format!("×{text} ({st:+.1} st)")
-    })
+/// Formats a multiplier as "0.5000x": a number with a suffix that hosts which read a
+/// parameter's text as a number take (pedalboard strips "x", "%", "dB"…; a leading "×" or a
+/// "(+12.0 st)" after it made it list the values as text, so `p.size = 2.0` was refused).
+fn multiplier() -> ValueToString<f32> {
+    Arc::new(|v| format!("{}x", significant(v, 4, 5)))
 }
 
-/// Parses what [`ratio_with_semitones`] writes, a bare multiplier ("0.05", "×0.05"), or a
+/// Parses what [`multiplier`] writes, a bare multiplier ("0.05", "×0.05", "0.05x"), or a
 /// pitch change alone ("+12 st", "-7st"), the inverse of the semitone law.
 fn s2v_ratio_or_semitones(sqrt_law: bool) -> StringToValue<f32> {
     Arc::new(move |s| {
@@ -592,7 +587,7 @@ impl StruckParams {
                 1.0,
                 FloatRange::Skewed { min: 0.05, max: 20.0, factor: FloatRange::skew_factor(-2.0) },
             )
-            .with_value_to_string(Arc::new(|v| format!("×{v:.3}")))
+            .with_value_to_string(multiplier())
             .with_string_to_value(s2v_number()),
             modulus_ratio: FloatParam::new(
                 "Stiffness γ/γ₀",
@@ -603,7 +598,7 @@ impl StruckParams {
                     factor: FloatRange::skew_factor(-2.6),
                 },
             )
-            .with_value_to_string(ratio_with_semitones(true))
+            .with_value_to_string(multiplier())
             .with_string_to_value(s2v_ratio_or_semitones(true)),
             material_pitch: BoolParam::new("Material sets pitch", false),
             root_note: IntParam::new("Root note", 60, IntRange::Linear { min: 0, max: 127 }),
@@ -614,7 +609,7 @@ impl StruckParams {
                 1.0,
                 FloatRange::Skewed { min: 0.05, max: 20.0, factor: FloatRange::skew_factor(-2.0) },
             )
-            .with_value_to_string(ratio_with_semitones(false))
+            .with_value_to_string(multiplier())
             .with_string_to_value(s2v_ratio_or_semitones(false)),
             strike_position: FloatParam::new("Strike position", 0.3, FloatRange::Linear { min: 0.0, max: 1.0 })
                 .with_poly_modulation_id(POSITION_POLY_MOD_ID)
