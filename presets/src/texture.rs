@@ -205,6 +205,14 @@ impl TextureFile {
                     }
                 };
                 let heights = samples?;
+                // A silent recording has no relief: it would play as the factory *Smooth*
+                // without a word; most likely the wrong file. (A flat row of an image can be
+                // meant, as against its spiral.)
+                if heights.len() >= 2 && heights.iter().all(|&h| h == heights[0]) {
+                    return Err(format!(
+                        "{shown}: silent (every sample the same): a texture WAV's samples are its heights, and a surface without relief plays as the factory texture Smooth"
+                    ));
+                }
                 TextureFile::new(&name, DEFAULT_TEXEL_MM, &heights).map_err(|e| format!("{shown}: {e}"))
             }
             "png" => {

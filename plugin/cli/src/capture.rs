@@ -301,7 +301,12 @@ pub fn residual(args: &ResidualArgs) -> Result<String, String> {
     }
     let inputs = [args.file.as_path(), args.material.as_path()];
     output::check_output(&args.out, &inputs).map_err(|e| e.to_string())?;
-    let material = crate::cli::load_material(&args.material, true)?;
+    // A factory material by id, name or index (as `render --material` takes), or a file.
+    let lib = Library::factory();
+    let material = match crate::cli::resolve_material(&lib, &args.material.to_string_lossy(), true)? {
+        crate::cli::MaterialChoice::Factory(i) => lib.materials[i].clone(),
+        crate::cli::MaterialChoice::File(m) => *m,
+    };
     let law = material.damping.to_damping().map_err(|e| format!("{}: {e}", args.material.display()))?;
     let support = material.support_c();
     let cancel = AtomicBool::new(false);

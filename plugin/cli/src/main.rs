@@ -107,7 +107,8 @@ enum Command {
     Residual {
         /// The recording (WAV).
         file: PathBuf,
-        /// The material (JSON, e.g. from `struck estimate`) whose modes represent the recording.
+        /// The material whose modes represent the recording: a JSON file (e.g. from `struck
+        /// estimate`) or a factory material's id, name or index.
         #[arg(long)]
         material: PathBuf,
         /// The residual WAV to write (32-bit float, the recording's rate).
@@ -127,7 +128,7 @@ enum Command {
         #[arg(long)]
         min_decay: Option<f64>,
     },
-    /// Build mode banks by FEM or from a recording, or show a bank.
+    /// Build mode banks by FEM or from a recording, or show a bank's summary (`bank info`).
     Bank {
         #[command(subcommand)]
         command: struck_cli::banks::BankCommand,
@@ -140,7 +141,9 @@ enum Command {
         /// Notes "key:velocity@position+start_seconds~held_seconds", comma separated;
         /// `@position`, `+start` and `~held` are optional (position: the strike-position
         /// parameter; start: 0; held: until the end, so the release damping is heard after it).
-        #[arg(long)]
+        // A value starting with "-" ("-1:100") is the notes' (their own range check says what
+        // is wrong), not an unknown option.
+        #[arg(long, allow_hyphen_values = true)]
         notes: Option<String>,
         /// A standard MIDI file to play (with or instead of --notes).
         #[arg(long)]

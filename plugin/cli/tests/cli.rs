@@ -1483,3 +1483,75 @@ fn an_input_in_wrong_units_is_warned_about() {
     let line = err.lines().find(|l| l.contains("not scaled to ±1")).unwrap_or_else(|| panic!("no warning: {err}"));
     assert!(line.starts_with("warning: --input: ") && line.contains("5.0e29×") && line.len() < 250, "{line}");
 }
+
+/// A black-box tester's smaller findings (stop 42), each a clear word now: `--notes -1:100`
+/// reaches the notes' own range check (clap took it for an unknown option); `residual` takes
+/// a factory material as `render` does (it said "could not access preset file"); a silent
+/// WAV as `--texture` is refused (it played as Smooth without a word); a modulus or density
+/// in the wrong units is warned about (`--young 200` built a bar of 0–6 Hz).
+#[test]
+fn small_mistakes_get_clear_words() {
+    let dir = scratch("small-mistakes");
+    let out = dir.join("x.wav");
+    let e = error_line(&struck(&dir, &["render", "--notes", "-1:100", "--out", out.to_str().unwrap()]));
+    assert!(e.contains("key must be 0..=127"), "{e}");
+
+    // A recording of a few partials, and its residual under a factory material.
+    let spec = hound::WavSpec {
+        channels: 1,
+        sample_rate: 48_000,
+        bits_per_sample: 32,
+        sample_format: hound::SampleFormat::Float,
+    };
+    let rec = dir.join("tap.wav");
+    let mut w = hound::WavWriter::create(&rec, spec).unwrap();
+    for i in 0..48_000 {
+        let t = f64::from(i) / 48_000.0;
+        let x: f64 = [(523.0, 4.0), (1410.0, 9.0), (2750.0, 20.0)]
+            .iter()
+            .map(|&(f, d)| 0.2 * (-d * t).exp() * (std::f64::consts::TAU * f * t).sin())
+            .sum();
+        w.write_sample(x as f32).unwrap();
+    }
+    w.finalize().unwrap();
+    let res = dir.join("res.wav");
+    let o = struck(
+        &dir,
+        &["residual", rec.to_str().unwrap(), "--material", "glass-ren2013", "--out", res.to_str().unwrap()],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(res.is_file());
+
+    // A silent texture.
+    let silent = dir.join("silent.wav");
+    let mut w = hound::WavWriter::create(&silent, spec).unwrap();
+    for _ in 0..4800 {
+        w.write_sample(0.0f32).unwrap();
+    }
+    w.finalize().unwrap();
+    let e = error_line(&struck(
+        &dir,
+        &[
+            "render",
+            "--notes",
+            "60:100",
+            "--excitation",
+            "scrape",
+            "--texture",
+            silent.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ],
+    ));
+    assert!(e.contains("silent (every sample the same)"), "{e}");
+    assert!(!out.exists());
+
+    // Units: GPa typed as Pa, g/cm³ as kg/m³ (a coarse bar, a few modes: the warning is
+    // said before the build).
+    let bank = dir.join("b.json");
+    let args = ["bank", "build", "--shape", "bar", "--dims", "0.3,0.02,0.01", "--resolution", "4", "--modes", "4"];
+    let o = struck(&dir, &[&args[..], &["--young", "200", "--out", bank.to_str().unwrap()]].concat());
+    assert!(stderr(&o).contains("--young 200 Pa is softer than any struck solid"), "{}", stderr(&o));
+    let o = struck(&dir, &[&args[..], &["--density", "7.85", "--out", bank.to_str().unwrap()]].concat());
+    assert!(stderr(&o).contains("--density 7.85 kg/m³ is lighter"), "{}", stderr(&o));
+}
