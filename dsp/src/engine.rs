@@ -1185,15 +1185,23 @@ impl ModeSet<'_> {
             let mut count = 0usize;
             for &m in &obj.by_lambda {
                 let m = usize::from(m);
-                if amps[m] == 0.0 || amps[m].abs() < threshold {
+                // The level is the object's and the material's, not the player's: the
+                // release and pressure damping (`extra`) are left out of the modes it sees
+                // (their decays, and the modes that damping over-damps), or a note released
+                // at its own note-on's sample (a zero-length note of a step sequencer) would
+                // be raised by up to 10 dB to make up for its damping.
+                let (d, omega, a) = if self.extra > 0.0 {
+                    let lambda = obj.lambdas[m] * self.scale;
+                    let Some((d, omega)) = mode_pole(lambda, self.damping, self.support_of(m), 0.0, self.fs) else {
+                        continue;
+                    };
+                    (d, omega, (f64::from(gains[m]) * exciter::pulse_spectrum(omega / (2.0 * PI), contact)) as f32)
+                } else {
+                    (poles[m].0, poles[m].1, amps[m])
+                };
+                if a == 0.0 || a.abs() < threshold {
                     continue;
                 }
-                // The level is the object's and the material's, not the player's: the
-                // release and pressure damping (`extra`) are left out of the decays it sees,
-                // or a note released at its own note-on's sample (a zero-length note of a
-                // step sequencer) would be raised by up to 10 dB to make up for its damping.
-                let (d, omega) = poles[m];
-                let d = (d - self.extra).max(0.0);
                 let f = omega / (2.0 * PI);
                 let r = f64::from(gains[m]) * exciter::pulse_spectrum(f, contact_ref);
                 let rk = r * exciter::k_weighting(f);
@@ -1969,8 +1977,9 @@ impl Engine {
             let env = contact_env!(self);
             let seed = self.strikes.wrapping_mul(0x9E37_79B9) ^ u32::from(voice.note.key);
             voice.contact = ContactState::start(position, p.contact.direction, seed, &env.surface(voice.excitation));
-            // A note released at its own note-on's sample only strikes.
-            voice.lasting = !voice.released;
+            // A note released at its own note-on's sample only strikes (also when the sustain
+            // pedal holds its release back: the mallet is lifted all the same).
+            voice.lasting = !voice.released && !voice.sustained;
         }
         voice.contact_len = (contact * fs).ceil().max(1.0) as usize + PULSE_PREROLL;
         voice.contact_pos = 0;

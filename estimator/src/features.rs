@@ -1349,7 +1349,8 @@ pub fn contact_noise(partials: &[Feature]) -> Vec<bool> {
 pub const REPEAT_MIN_IMPACTS: usize = 3;
 /// How close (relative) a partial of another impact must be to repeat one: a mode's
 /// frequency varies much less from strike to strike (the grouping's 0.5 % of
-/// [`group_partials`]).
+/// [`group_partials`]); or within three of the two frequencies' combined uncertainty
+/// (`sigma_freq_hz`), when that is wider (a weak, heavily damped mode's).
 pub const REPEAT_TOLERANCE: f64 = 0.005;
 
 /// Which brief partials (d ≥ [`BRIEF_DECAY_PER_S`]) of each impact of one recording are found
@@ -1370,7 +1371,11 @@ pub fn unrepeated_brief(impacts: &[&[Feature]]) -> Vec<Vec<bool>> {
         for (k, f) in feats.iter().enumerate() {
             let repeats = || {
                 impacts.iter().enumerate().any(|(j, other)| {
-                    j != i && other.iter().any(|o| (o.freq_hz - f.freq_hz).abs() <= REPEAT_TOLERANCE * f.freq_hz)
+                    j != i
+                        && other.iter().any(|o| {
+                            let tol = (REPEAT_TOLERANCE * f.freq_hz).max(3.0 * o.sigma_freq_hz.hypot(f.sigma_freq_hz));
+                            (o.freq_hz - f.freq_hz).abs() <= tol
+                        })
                 })
             };
             out[i][k] = f.decay_per_s >= BRIEF_DECAY_PER_S && !repeats();

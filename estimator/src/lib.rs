@@ -559,10 +559,9 @@ pub fn extract_features(
         }
         if contact.0 > 0 {
             report.warnings.push(format!(
-                "{name}: {} brief partial(s) at {}–{} in {} impact(s) are the strike's contact noise (a click), not modes: they overlap into a broadband burst or no other tap repeats them; left out (they stay in the residual)",
+                "{name}: {} brief partial(s) at {} in {} impact(s) are the strike's contact noise (a click), not modes: they overlap into a broadband burst or no other tap repeats them; left out (they stay in the residual)",
                 contact.0,
-                hz(contact.1),
-                hz(contact.2),
+                if contact.1 == contact.2 { hz(contact.1) } else { format!("{}–{}", hz(contact.1), hz(contact.2)) },
                 contact_in.len()
             ));
         }

@@ -102,6 +102,7 @@ fn a_mallets_click_is_not_taken_for_modes() {
         assert!((a2 / ALPHA.1 - 1.0).abs() < 0.01, "{name}: alpha2 {a2:e} for {:e}", ALPHA.1);
         let _ = std::fs::remove_file(&p);
     }
+    let _ = std::fs::remove_dir(std::env::temp_dir().join(format!("struck-contact-{}", std::process::id())));
 }
 
 fn feature(freq_hz: f64, decay_per_s: f64) -> Feature {

@@ -481,4 +481,12 @@ fn the_sustain_pedal_holds_released_notes_until_it_comes_up() {
     assert_eq!(on_channel(1, 1)[..up_at], play(&[on(1)])[..up_at], "channel 2's pedal, channel 2's note");
     assert_eq!(on_channel(0, 1), released, "channel 2's pedal does not hold channel 1's note");
     assert_eq!(on_channel(1, 0)[..up_at], play(&[on(1)])[..up_at], "channel 1's pedal holds every channel");
+    // A lasting contact (scrape) of a zero-length note under the pedal: the mallet is lifted
+    // at the note-off all the same, and at pedal up the ring is released and dies away (it
+    // was struck again by the contact for ever: the strike planned after the note-off took
+    // the unreleased note for a held one).
+    let mut h = host("bar", "steel-sterling-rayleigh", SR, &[("release", 200.0), ("excite", 1.0)]);
+    let (x, _) = h.render(&[pedal(0, 0, true), on(0), off(0, 0), pedal(sr / 10, 0, false)], 2 * sr, 512);
+    let (early, late) = (rms(&x[0][..sr / 10]), rms(&x[0][3 * sr / 2..]));
+    assert!(early > 1e-4 && late < 1e-4 * early, "scrape under the pedal: {early:.2e} then {late:.2e}");
 }

@@ -35,13 +35,13 @@ impl MaterialArgs {
         m.validate().map_err(|e| e.to_string())?;
         if m.young < SOFTEST_YOUNG_PA {
             warn(&format!(
-                "--young {} Pa is softer than any struck solid (soft rubber is about 1e6 Pa): it is in pascals (steel 200e9, glass 63e9, oak 11e9)",
+                "--young {} Pa is softer than any struck solid (soft rubber is about 1e6 Pa): --young takes pascals (steel 200e9, glass 63e9, oak 11e9)",
                 m.young
             ));
         }
         if m.density < LIGHTEST_DENSITY {
             warn(&format!(
-                "--density {} kg/m³ is lighter than any solid but an aerogel: it is in kg/m³ (steel 7850, glass 2500, water 1000), not g/cm³",
+                "--density {} kg/m³ is lighter than any solid but an aerogel: --density takes kg/m³ (steel 7850, glass 2500, water 1000), not g/cm³",
                 m.density
             ));
         }

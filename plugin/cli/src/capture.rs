@@ -303,9 +303,13 @@ pub fn residual(args: &ResidualArgs) -> Result<String, String> {
     output::check_output(&args.out, &inputs).map_err(|e| e.to_string())?;
     // A factory material by id, name or index (as `render --material` takes), or a file.
     let lib = Library::factory();
-    let material = match crate::cli::resolve_material(&lib, &args.material.to_string_lossy(), true)? {
-        crate::cli::MaterialChoice::Factory(i) => lib.materials[i].clone(),
-        crate::cli::MaterialChoice::File(m) => *m,
+    let material = match args.material.to_str() {
+        Some(query) if !args.material.is_file() => match crate::cli::resolve_material(&lib, query, true)? {
+            crate::cli::MaterialChoice::Factory(i) => lib.materials[i].clone(),
+            crate::cli::MaterialChoice::File(m) => *m,
+        },
+        // A file (any path, UTF-8 or not).
+        _ => crate::cli::load_material(&args.material, true)?,
     };
     let law = material.damping.to_damping().map_err(|e| format!("{}: {e}", args.material.display()))?;
     let support = material.support_c();

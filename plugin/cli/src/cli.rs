@@ -597,6 +597,11 @@ pub fn parse_notes(text: &str) -> Result<Vec<NoteSpec>, String> {
             "bad note '{entry}': {why} (expected key:velocity@position+start_seconds~held_seconds, e.g. 60:100@0.25+0.5~1)"
         )
     };
+    // `--notes` takes values that start with "-" (so "-1:100" meets the key's range check):
+    // an option there is a missing value ("--notes --out x.wav").
+    if text.trim_start().starts_with("--") {
+        return Err(format!("--notes needs its notes before the next option (found '{}')", text.trim()));
+    }
     let mut out = Vec::new();
     for entry in text.split(',').map(str::trim).filter(|e| !e.is_empty()) {
         let (rest, held) = match entry.split_once('~') {

@@ -320,7 +320,15 @@ fn main() -> ExitCode {
     // Ctrl-C (or a kill) during a long render or build removes the unfinished output's
     // temporary file; the destination is untouched either way.
     presets::output::install_interrupt_cleanup();
-    let cli = match Cli::try_parse_from(help_of_help(std::env::args_os().collect())) {
+    let args: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    // `--notes` takes values that start with "-" ("-1:100" meets the key's range check), so
+    // an option right after it would be taken as its value.
+    if let Some(i) = args.iter().position(|a| a == "--notes") {
+        if let Some(next) = args.get(i + 1).and_then(|a| a.to_str()).filter(|a| a.starts_with("--")) {
+            return fail(&format!("--notes needs its notes before the next option (found '{next}')"));
+        }
+    }
+    let cli = match Cli::try_parse_from(help_of_help(args)) {
         Ok(cli) => cli,
         Err(e) => match e.kind() {
             // `--help` and `--version` are not errors: clap prints them to stdout.

@@ -419,6 +419,8 @@ impl<V: Variant> StruckPlugin<V> {
             }
             // The sustain pedal: note-offs wait for it to come up (a damper pedal).
             NoteEvent::MidiCC { channel, cc: 64, value, .. } => engine.set_sustain(channel, value >= 0.5),
+            // Reset All Controllers lifts the pedal too.
+            NoteEvent::MidiCC { channel, cc: 121, .. } => engine.set_sustain(channel, false),
             // MPE timbre (CC 74) on a member channel → strike position of that channel's sounding
             // notes, and of its next ones.
             NoteEvent::MidiCC { channel, cc: 74, value, .. } => {
