@@ -58,21 +58,7 @@ fn taps(name: &str, burst_ms: f64, burst_db: f64) -> PathBuf {
             x[at + i] += 0.3 * (ring[i] / peak + burst.get(i).copied().unwrap_or(0.0));
         }
     }
-    let dir = std::env::temp_dir().join(format!("struck-contact-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join(format!("{name}.wav"));
-    let spec = hound::WavSpec {
-        channels: 1,
-        sample_rate: FS as u32,
-        bits_per_sample: 32,
-        sample_format: hound::SampleFormat::Float,
-    };
-    let mut w = hound::WavWriter::create(&p, spec).unwrap();
-    for &v in &x {
-        w.write_sample(v as f32).unwrap();
-    }
-    w.finalize().unwrap();
-    p
+    common::write_wav("contact", name, FS, &x)
 }
 
 /// A 2 ms click 40 dB and 20 dB under the ring: the fitted law within 1 % of the one the

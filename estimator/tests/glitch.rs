@@ -43,21 +43,7 @@ fn bell(seed: u64) -> Vec<f64> {
 }
 
 fn write(name: &str, x: &[f64]) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("struck-glitch-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join(format!("{name}.wav"));
-    let spec = hound::WavSpec {
-        channels: 1,
-        sample_rate: FS as u32,
-        bits_per_sample: 32,
-        sample_format: hound::SampleFormat::Float,
-    };
-    let mut w = hound::WavWriter::create(&p, spec).unwrap();
-    for &v in x {
-        w.write_sample(v as f32).unwrap();
-    }
-    w.finalize().unwrap();
-    p
+    common::write_wav("glitch", name, FS, x)
 }
 
 fn features(p: &PathBuf) -> FeaturesReport {

@@ -20,3 +20,23 @@ impl Gen {
         (-2.0 * self.u().max(1e-300).ln()).sqrt() * (std::f64::consts::TAU * self.u()).cos()
     }
 }
+
+/// Writes `x` as a mono 32-bit float WAV at `fs` Hz to `NAME.wav` in a folder of the system's
+/// temporary directory named after `tag` and this process.
+pub fn write_wav(tag: &str, name: &str, fs: f64, x: &[f64]) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("struck-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join(format!("{name}.wav"));
+    let spec = hound::WavSpec {
+        channels: 1,
+        sample_rate: fs as u32,
+        bits_per_sample: 32,
+        sample_format: hound::SampleFormat::Float,
+    };
+    let mut w = hound::WavWriter::create(&p, spec).unwrap();
+    for &v in x {
+        w.write_sample(v as f32).unwrap();
+    }
+    w.finalize().unwrap();
+    p
+}
