@@ -440,3 +440,23 @@ fn a_zero_length_note_is_as_loud_as_one_released_a_sample_later() {
         );
     }
 }
+
+/// A note-off whose release damping over-damps the note's modes (a black-box tester: the
+/// steel sphere shell at key 21, release 300–500 s⁻¹, went to exact silence within a sample of
+/// its note-off — a click): over-damped modes creep back at their slow root, so the sound
+/// falls away continuously. Measured through `process()`: the 32 samples after the note-off
+/// keep most of the level of the 32 before, and the note is silent half a second later.
+#[test]
+fn a_release_that_over_damps_the_modes_does_not_cut_the_sound() {
+    let sr = f64::from(SR);
+    let off = (0.2 * sr) as usize;
+    for release in [300.0f32, 500.0] {
+        let mut h = host("fem-sphere-shell", "metal-ren2013", SR, &[("release", release), ("safety", 0.0)]);
+        let n = struck_cli::cli::NoteSpec { duration_s: Some(0.2), ..note(21, 100, Some(0.5)) };
+        let x = render(&mut h, &[n], 1.0, 512);
+        let (before, after) = (peak(&x[off - 32..off]), peak(&x[off..off + 32]));
+        assert!(before > 1e-3, "release {release}: the note did not sound ({before})");
+        assert!(after > 0.3 * before, "release {release}: {after} after the note-off, {before} before");
+        assert!(peak(&x[off + (0.5 * sr) as usize..]) < 1e-3 * before, "release {release}: still sounding");
+    }
+}
