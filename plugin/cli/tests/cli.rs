@@ -54,6 +54,21 @@ fn error_line(o: &Output) -> String {
     hits[0]["struck: error: ".len()..].to_string()
 }
 
+/// Writes `n` samples `sample(i)` as a mono 32-bit float WAV at `rate` Hz.
+fn write_float_wav(path: &Path, rate: u32, n: usize, sample: impl Fn(usize) -> f64) {
+    let spec = hound::WavSpec {
+        channels: 1,
+        sample_rate: rate,
+        bits_per_sample: 32,
+        sample_format: hound::SampleFormat::Float,
+    };
+    let mut w = hound::WavWriter::create(path, spec).unwrap();
+    for i in 0..n {
+        w.write_sample(sample(i) as f32).unwrap();
+    }
+    w.finalize().unwrap();
+}
+
 /// Names of the files in `dir`.
 fn listing(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> =
@@ -136,20 +151,11 @@ fn a_file_in_the_wrong_place_says_what_it_is() {
 fn partials_taken_as_hum_are_named_and_min_decay_finds_them() {
     let dir = scratch("slow-decay");
     let wav = dir.join("bowl.wav");
-    let spec = hound::WavSpec {
-        channels: 1,
-        sample_rate: 44_100,
-        bits_per_sample: 32,
-        sample_format: hound::SampleFormat::Float,
-    };
-    let mut w = hound::WavWriter::create(&wav, spec).unwrap();
-    for i in 0..8 * 44_100 {
-        let t = f64::from(i) / 44_100.0;
-        let x = 0.5 * (-0.02 * t).exp() * (std::f64::consts::TAU * 440.0 * t).sin()
-            + 0.2 * (-0.03 * t).exp() * (std::f64::consts::TAU * 1187.0 * t).sin();
-        w.write_sample(x as f32).unwrap();
-    }
-    w.finalize().unwrap();
+    write_float_wav(&wav, 44_100, 8 * 44_100, |i| {
+        let t = i as f64 / 44_100.0;
+        0.5 * (-0.02 * t).exp() * (std::f64::consts::TAU * 440.0 * t).sin()
+            + 0.2 * (-0.03 * t).exp() * (std::f64::consts::TAU * 1187.0 * t).sin()
+    });
     let wav = wav.to_str().unwrap();
     let e = error_line(&struck(&dir, &["features", wav]));
     assert!(e.contains("steady hum") && e.contains("440.0 Hz") && e.contains("--min-decay"), "{e}");
@@ -168,14 +174,11 @@ fn partials_taken_as_hum_are_named_and_min_decay_finds_them() {
     }
     // A partial that decays is kept, the steady one beside it named in a warning.
     let mixed = dir.join("mixed.wav");
-    let mut w = hound::WavWriter::create(&mixed, spec).unwrap();
-    for i in 0..8 * 44_100 {
-        let t = f64::from(i) / 44_100.0;
-        let x = 0.5 * (-0.02 * t).exp() * (std::f64::consts::TAU * 440.0 * t).sin()
-            + 0.3 * (-1.5 * t).exp() * (std::f64::consts::TAU * 1187.0 * t).sin();
-        w.write_sample(x as f32).unwrap();
-    }
-    w.finalize().unwrap();
+    write_float_wav(&mixed, 44_100, 8 * 44_100, |i| {
+        let t = i as f64 / 44_100.0;
+        0.5 * (-0.02 * t).exp() * (std::f64::consts::TAU * 440.0 * t).sin()
+            + 0.3 * (-1.5 * t).exp() * (std::f64::consts::TAU * 1187.0 * t).sin()
+    });
     let o = struck(&dir, &["features", mixed.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let (out, err) = (String::from_utf8_lossy(&o.stdout), stderr(&o));
@@ -194,21 +197,18 @@ fn partials_taken_as_hum_are_named_and_min_decay_finds_them() {
     // with `--min-decay` represents them, so what is left of the first 2 s is a small part of
     // the recording (without `--min-decay` the residual found only hum and said so).
     let five = dir.join("bowl5.wav");
-    let mut w = hound::WavWriter::create(&five, spec).unwrap();
     // A Rayleigh law, d = 0.01 + 0.03 (f / 5011 Hz)² 1/s, under full scale.
     let partials = [(440.0, 0.4), (1187.0, 0.2), (2213.0, 0.12), (3490.0, 0.08), (5011.0, 0.05)];
-    for i in 0..8 * 44_100 {
-        let t = f64::from(i) / 44_100.0;
-        let x: f64 = partials
+    write_float_wav(&five, 44_100, 8 * 44_100, |i| {
+        let t = i as f64 / 44_100.0;
+        partials
             .iter()
             .map(|&(f, a)| {
                 let d = 0.01 + 0.03 * (f / 5011.0f64).powi(2);
                 a * (-d * t).exp() * (std::f64::consts::TAU * f * t).sin()
             })
-            .sum();
-        w.write_sample(x as f32).unwrap();
-    }
-    w.finalize().unwrap();
+            .sum()
+    });
     let wav = five.to_str().unwrap();
     let m = dir.join("bowl-material.json");
     let o = struck(&dir, &["estimate", wav, "--min-decay", "0.005", "--no-residual", "--out", m.to_str().unwrap()]);
@@ -1200,17 +1200,7 @@ fn render_input_plays_the_samples_as_they_are() {
     let dir = scratch("input-exact");
     let (click, out) = (dir.join("click.wav"), dir.join("out.wav"));
     let write = |path: &Path, at: Option<usize>| {
-        let spec = hound::WavSpec {
-            channels: 1,
-            sample_rate: 48_000,
-            bits_per_sample: 32,
-            sample_format: hound::SampleFormat::Float,
-        };
-        let mut w = hound::WavWriter::create(path, spec).unwrap();
-        for i in 0..24_000 {
-            w.write_sample(if Some(i) == at { 0.5f32 } else { 0.0 }).unwrap();
-        }
-        w.finalize().unwrap();
+        write_float_wav(path, 48_000, 24_000, |i| if Some(i) == at { 0.5 } else { 0.0 })
     };
     write(&click, Some(4_800));
     let o = struck(&dir, &["render", "--input", click.to_str().unwrap(), "--out", out.to_str().unwrap()]);
@@ -1499,23 +1489,14 @@ fn small_mistakes_get_clear_words() {
     assert!(e.contains("--notes needs its notes before the next option"), "{e}");
 
     // A recording of a few partials, and its residual under a factory material.
-    let spec = hound::WavSpec {
-        channels: 1,
-        sample_rate: 48_000,
-        bits_per_sample: 32,
-        sample_format: hound::SampleFormat::Float,
-    };
     let rec = dir.join("tap.wav");
-    let mut w = hound::WavWriter::create(&rec, spec).unwrap();
-    for i in 0..48_000 {
-        let t = f64::from(i) / 48_000.0;
-        let x: f64 = [(523.0, 4.0), (1410.0, 9.0), (2750.0, 20.0)]
+    write_float_wav(&rec, 48_000, 48_000, |i| {
+        let t = i as f64 / 48_000.0;
+        [(523.0, 4.0), (1410.0, 9.0), (2750.0, 20.0)]
             .iter()
             .map(|&(f, d)| 0.2 * (-d * t).exp() * (std::f64::consts::TAU * f * t).sin())
-            .sum();
-        w.write_sample(x as f32).unwrap();
-    }
-    w.finalize().unwrap();
+            .sum()
+    });
     let res = dir.join("res.wav");
     let o = struck(
         &dir,
@@ -1526,11 +1507,7 @@ fn small_mistakes_get_clear_words() {
 
     // A silent texture.
     let silent = dir.join("silent.wav");
-    let mut w = hound::WavWriter::create(&silent, spec).unwrap();
-    for _ in 0..4800 {
-        w.write_sample(0.0f32).unwrap();
-    }
-    w.finalize().unwrap();
+    write_float_wav(&silent, 48_000, 4800, |_| 0.0);
     let e = error_line(&struck(
         &dir,
         &[
