@@ -7,8 +7,9 @@
 //!   made for a strike of velocity 1;
 //! - **brightness** of the mallet at that velocity: the clip holds the force spectrum of a
 //!   velocity-1 strike (contact time T₁); a softer strike's longer contact Tᵥ takes off
-//!   highs by the ratio of the two force spectra. Each half-sine pulse spectrum is taken
-//!   as 1/(1 + (f/f_c)²) with f_c = 0.8/T (the pulse's −6 dB point, 2fT ≈ 1.6), so the ratio
+//!   highs by the ratio of the two force spectra. Each pulse spectrum is taken
+//!   as 1/(1 + (f/f_c)²) with f_c = 0.8/T (the pulse's −6 dB point: fT = 0.82 for the
+//!   symmetric half-sine, 0.83–0.90 for the mallets' skewed pulses), so the ratio
 //!   is (1 + (f/f₁)²)/(1 + (f/fᵥ)²): two first-order pole–zero sections (bilinear, with
 //!   pre-warping), unity at DC;
 //! - **pitch** with the key: the clip is made at one key's tuning (`lambda_factor`); a note
@@ -83,7 +84,7 @@ pub struct Residuals {
     players: [Player; PLAYERS],
 }
 
-/// The corner of a half-sine pulse's spectrum taken as 1/(1 + (f/f_c)²), × 1/T.
+/// The corner of a force pulse's spectrum taken as 1/(1 + (f/f_c)²), × 1/T.
 pub const CORNER_TIMES_CONTACT: f64 = 0.8;
 
 impl Residuals {
