@@ -585,17 +585,21 @@ impl Voice {
         }
     }
 
+    /// Whether an event for `note` is this voice's: the same voice id when both have one,
+    /// and the same channel and key (or wildcards). A host that gives two sounding notes the
+    /// same id (a misuse of CLAP's note ids, a black-box tester's finding) gets two voices:
+    /// the id alone made the second note-on restrike the first note's voice at the first
+    /// note's pitch, and one note-off released both.
     fn matches(&self, note: &NoteId) -> bool {
         self.active
             && !self.input
             && self.note.voice_id != Some(INPUT_VOICE_ID)
             && match (note.voice_id, self.note.voice_id) {
                 (Some(a), Some(b)) => a == b,
-                _ => {
-                    (note.channel == NoteId::ANY || self.note.channel == note.channel)
-                        && (note.key == NoteId::ANY || self.note.key == note.key)
-                }
+                _ => true,
             }
+            && (note.channel == NoteId::ANY || self.note.channel == note.channel)
+            && (note.key == NoteId::ANY || self.note.key == note.key)
     }
 
     fn clear(&mut self) {
@@ -2629,6 +2633,31 @@ mod tests {
         let a: Vec<f32> = (0..20).map(|k| if k % 2 == 0 { 1.0 } else { -1.0 }).collect();
         let b: Vec<f32> = (0..20).map(|_| 1.0).collect();
         ObjectModes::new(lambdas, &[a, b])
+    }
+
+    /// Two notes the host gave the same voice id (keys 60 and 64): two voices, each at its
+    /// own key's tuning; a note-off naming the id and key 60 releases only that one, and one
+    /// naming the id with any key releases the other too.
+    #[test]
+    fn two_notes_with_one_voice_id_are_two_voices() {
+        let mut e = Engine::new(vec![two_point_object()], 4, 48_000.0);
+        e.reset();
+        let id = |key: u8| NoteId { voice_id: Some(7), channel: 0, key };
+        e.note_on(id(60), Strike { velocity: 1.0, position: 0.2, lambda_factor: 1.0 });
+        e.note_on(id(64), Strike { velocity: 1.0, position: 0.2, lambda_factor: 1.26 });
+        let mut out = vec![0.0f32; 256];
+        e.render(&mut out);
+        assert_eq!(e.active_voices(), 2);
+        let voice = |e: &Engine, key: u8| {
+            e.voices.iter().find(|v| v.active && v.note.key == key).map(|v| (v.lambda_factor, v.released))
+        };
+        assert_eq!(voice(&e, 60), Some((1.0, false)));
+        assert_eq!(voice(&e, 64), Some((1.26, false)));
+        e.note_off(id(60));
+        assert_eq!(voice(&e, 60), Some((1.0, true)));
+        assert_eq!(voice(&e, 64), Some((1.26, false)));
+        e.note_off(id(NoteId::ANY));
+        assert_eq!(voice(&e, 64), Some((1.26, true)));
     }
 
     /// `contact_push` against a direct quadrature of ∫₀ᵗ F(s)·e^(−d(t−s))·sin(ω(t−s)) ds
