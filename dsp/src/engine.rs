@@ -2659,6 +2659,23 @@ impl Engine {
 mod tests {
     use super::*;
 
+    /// ∫ₐᵇ f by Simpson's rule on 4000 intervals (the tests' quadrature, independent of the
+    /// engine's closed forms).
+    fn simpson(f: &dyn Fn(f64) -> f64, a: f64, b: f64) -> f64 {
+        let n = 4000;
+        let h = (b - a) / n as f64;
+        let weight = |i: usize| {
+            if i == 0 || i == n {
+                1.0
+            } else if i % 2 == 1 {
+                4.0
+            } else {
+                2.0
+            }
+        };
+        (0..=n).map(|i| weight(i) * f(a + i as f64 * h)).sum::<f64>() * h / 3.0
+    }
+
     fn two_point_object() -> ObjectModes {
         let lambdas: Vec<f64> = (1..=20).map(|k| (2.0 * PI * 220.0 * k as f64).powi(2)).collect();
         let a: Vec<f32> = (0..20).map(|k| if k % 2 == 0 { 1.0 } else { -1.0 }).collect();
@@ -2728,27 +2745,11 @@ mod tests {
             let mut want = 0.0f64;
             for k in 1..=24 {
                 let t = contact * k as f64 / 24.0;
-                let n = 4000;
-                let h = t / n as f64;
                 let y = |s: f64| -> f64 {
                     let f = (-skew * s / contact).exp() * (big_omega * s).sin() / area;
                     modes.iter().map(|&(d, w, g)| f64::from(g) * f * (-d * (t - s)).exp() * (w * (t - s)).sin()).sum()
                 };
-                let simpson: f64 = (0..=n)
-                    .map(|j| {
-                        let c = if j == 0 || j == n {
-                            1.0
-                        } else if j % 2 == 1 {
-                            4.0
-                        } else {
-                            2.0
-                        };
-                        c * y(j as f64 * h)
-                    })
-                    .sum::<f64>()
-                    * h
-                    / 3.0;
-                want = want.max(simpson.abs());
+                want = want.max(simpson(&y, 0.0, t).abs());
             }
             assert!((got / want - 1.0).abs() < 1e-3, "contact {contact} skew {skew}: {got} vs {want}");
         }
@@ -3325,39 +3326,15 @@ mod tests {
             };
             assert!(lossless || skew > 0.5, "{mallet:?} skew {skew}");
             let force = |tau: f64| (-skew * tau / t_c).exp() * (PI * tau / t_c).sin();
-            let area = {
-                let n = 4000;
-                let hq = t_c / n as f64;
-                (0..=n)
-                    .map(|i| {
-                        force(i as f64 * hq)
-                            * if i == 0 || i == n {
-                                1.0
-                            } else if i % 2 == 1 {
-                                4.0
-                            } else {
-                                2.0
-                            }
-                    })
-                    .sum::<f64>()
-                    * hq
-                    / 3.0
-            };
+            let area = simpson(&force, 0.0, t_c);
             let d = c / 2.0;
             let omega = ((2.0 * PI * freq).powi(2) - d * d).sqrt();
             let len = (3.0 * t_c * fs) as usize + 100;
             let mut out = vec![0.0f32; len];
             e.render(&mut out);
             let exact = |t: f64| -> f64 {
-                let end = t.min(t_c);
-                let n = 4000;
-                let hq = end / n as f64;
                 let f = |tau: f64| force(tau) / area * (-d * (t - tau)).exp() * (omega * (t - tau)).sin();
-                let mut sum = f(0.0) + f(end);
-                for i in 1..n {
-                    sum += f(i as f64 * hq) * if i % 2 == 1 { 4.0 } else { 2.0 };
-                }
-                0.7 * sum * hq / 3.0
+                0.7 * simpson(&f, 0.0, t.min(t_c))
             };
             // Output sample n is the instant n/fs after the note-on (the force starts at 0).
             let want: Vec<f64> = (0..len).map(|n| exact(n as f64 / fs)).collect();
@@ -3409,24 +3386,6 @@ mod tests {
                 (-d1 * (t - tau), w1 * (t - tau))
             };
             re.exp() * im.sin()
-        };
-        let simpson = |f: &dyn Fn(f64) -> f64, a: f64, b: f64| -> f64 {
-            let n = 4000;
-            let hq = (b - a) / n as f64;
-            (0..=n)
-                .map(|i| {
-                    f(a + i as f64 * hq)
-                        * if i == 0 || i == n {
-                            1.0
-                        } else if i % 2 == 1 {
-                            4.0
-                        } else {
-                            2.0
-                        }
-                })
-                .sum::<f64>()
-                * hq
-                / 3.0
         };
         let area = simpson(&force, 0.0, t_c);
         let exact = |t: f64| -> f64 {
