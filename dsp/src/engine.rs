@@ -502,10 +502,6 @@ struct Voice {
     /// starts: see [`PULSE_PREROLL`]), and how many have been rendered.
     contact_len: usize,
     contact_pos: usize,
-    /// Phase step of the pulse's sine per sample, π·h/T.
-    contact_step: f64,
-    /// The pulse's decay per sample, β·h (see [`exciter::Mallet::skew`]).
-    contact_decay: f64,
     /// Per slot, the exact correction added to the state after the pulse's last, partial
     /// sample (see [`pulse_drive`]).
     corr_re: Vec<f32>,
@@ -568,8 +564,6 @@ impl Voice {
             mode_of_slot: vec![0; max_modes],
             contact_len: 0,
             contact_pos: 0,
-            contact_step: 0.0,
-            contact_decay: 0.0,
             corr_re: vec![0.0; max_modes],
             corr_im: vec![0.0; max_modes],
             corr_out: 0.0,
@@ -714,6 +708,9 @@ struct PulseShape {
     cis_ah: C64,
     cis_a0: C64,
     last: (f64, f64),
+    /// a·h and β·h: the signals' phase and decay per sample.
+    phase_step: f64,
+    decay_step: f64,
 }
 
 impl PulseShape {
@@ -732,14 +729,25 @@ impl PulseShape {
         PulseShape {
             h,
             a,
-            amp: (beta * beta + a * a) / (a * (1.0 + (-skew).exp())),
+            amp: exciter::pulse_amplitude(contact_s, skew),
             beta,
             e_bh: (-beta * h).exp(),
             sigma0,
             cis_ah: cis(a * h),
             cis_a0: cis(a * sigma0),
             last: (e_last * sl, e_last * cl),
+            phase_step: PI / (contact_s * fs),
+            decay_step: skew / (contact_s * fs),
         }
+    }
+
+    /// The mode-independent signals of sample `k` of the pulse, e^(−βkh)·(sin, cos)(akh).
+    #[inline]
+    fn signals(&self, k: usize) -> (f32, f32) {
+        let k = k as f64;
+        let (s, c) = (self.phase_step * k).sin_cos();
+        let e = (-self.decay_step * k).exp();
+        ((e * s) as f32, (e * c) as f32)
     }
 
     /// (P, Q, corr) of the mode with decay `d` and pole `pole` = e^((−d + iω)h) (its
@@ -1060,10 +1068,7 @@ fn render_voice(voice: &mut Voice, buf: &mut [Vec<f32>; 3], lanes: &mut [f32], e
             let t = voice.contact_pos + j;
             (u0[j], u1[j]) = if in_contact {
                 if (PULSE_PREROLL..voice.contact_len).contains(&t) {
-                    let k = (t - PULSE_PREROLL) as f64;
-                    let (s, c) = (voice.contact_step * k).sin_cos();
-                    let e = (-voice.contact_decay * k).exp();
-                    ((e * s) as f32, (e * c) as f32)
+                    voice.shape.signals(t - PULSE_PREROLL)
                 } else {
                     (0.0, 0.0)
                 }
@@ -1391,7 +1396,7 @@ fn contact_push(gains: &[f32], amps: &[f32], poles: &[(f64, f64)], threshold: f3
             ek = cmul(ek, step);
         }
     }
-    let amp = (beta * beta + big_omega * big_omega) / (big_omega * (1.0 + (-skew).exp()));
+    let amp = exciter::pulse_amplitude(contact_s, skew);
     let mut peak = 0.0f64;
     for (k, f) in free.iter().enumerate() {
         let t = (k + 1) as f64 * dt;
@@ -2055,8 +2060,6 @@ impl Engine {
         }
         voice.contact_len = (contact * fs).ceil().max(1.0) as usize + PULSE_PREROLL;
         voice.contact_pos = 0;
-        voice.contact_step = PI / (contact * fs);
-        voice.contact_decay = p.mallet.skew / (contact * fs);
         if noise > 0.0 {
             voice.noise_left = burst;
             voice.noise_env = 1.0;
