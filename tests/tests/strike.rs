@@ -42,10 +42,10 @@ fn centroid(object: &str, material: &str, set: &[(&str, f32)], key: u8, velocity
 /// Issue 11 part 2: the reference strike (velocity 127, centre of the path) of every factory
 /// object, in four materials, at sizes 0.5–2 and keys 36–96, measured by BS.1770's
 /// K-weighting run over the rendered samples, is within ±3 dB of the reference −20 dBFS —
-/// unless reaching it would take the mallet's push over full scale: a felt on a small
-/// wooden object barely rings, and the push that would make it −20 dBFS loud peaks over
-/// 0 dBFS. Those strikes are quieter, never louder, with their push at the cap (−1 dBFS);
-/// they are counted and printed.
+/// unless reaching it would take the strike's output while the mallet touches over full
+/// scale (wood at size 0.5 at key 96: modes deep in the pulse's roll-off, starting in phase).
+/// Those strikes are quieter, never louder, with their push at the cap (−1 dBFS); they are
+/// counted and printed (8 of 612; 31 while the modes were heard as deflection).
 #[test]
 fn reference_strikes_play_at_one_loudness() {
     let mut worst = (0.0f64, String::new());
@@ -73,7 +73,11 @@ fn reference_strikes_play_at_one_loudness() {
     println!("largest deviation from −20 dBFS: {:.2} dB ({})", worst.0, worst.1);
     println!("{} of {} strikes quieter with the push at the cap: {capped:#?}", capped.len(), objects().len() * 36);
     assert!(worst.0 <= 3.0, "{}", worst.1);
-    assert!(capped.len() <= 36, "{} strikes held at the cap (30 at stop 41)", capped.len());
+    assert!(
+        capped.len() <= 16,
+        "{} strikes held at the cap (8 at stop 44; 31 while the modes were heard as deflection)",
+        capped.len()
+    );
 }
 
 /// Issue 11 part 2: *Mallet hardness* 0 → 1 changes the reference loudness by ≤ 3 dB on
@@ -247,15 +251,18 @@ fn chords_never_go_over_with_the_safety_on() {
     println!("loudest chord without the safety: {:+.1} dBFS", db(f64::from(loudest_raw)));
 }
 
-/// A single strike never passes full scale without the output safety, and the push of the
-/// mallet stays at the cap: soft mallets on small objects (high keys) barely ring — the
-/// object follows the force and springs back — and normalising the ring's loudness had raised
-/// that push far over full scale (+35 dBFS on the circular plate at key 127 with the felt at
-/// hardness 0, +10 dBFS on the bar at key 115 as it is made; 93 of 320 strikes of a sweep
-/// over 8 objects were over 0 dBFS). Every factory object, glass and metal, keys 84–127,
-/// hardness 0–0.5, velocity 127, safety off: the peak while the mallet touches and the whole
-/// strike's peak are at most 0 dBFS (the cap is −1 dBFS, computed at 24 instants of the
-/// contact; the peak between them is measured up to 7 % higher, −0.4 dBFS).
+/// A single strike never passes full scale without the output safety, and its output while
+/// the mallet touches stays at the cap. Normalising the ring's loudness raises a strike whose
+/// modes lie deep in the pulse's roll-off (a soft mallet at the top keys, most on a damped
+/// material) far: when the output was the modes' deflection, the object following the force
+/// was a push up to +35 dBFS (the circular plate at key 127 with the felt at hardness 0; 93 of
+/// 320 strikes of a sweep over 8 objects were over 0 dBFS); heard as velocity, the modes start
+/// in phase at the force's corner and such a strike peaked at +4.8 dBFS within its first two
+/// samples (the sphere shell, glass, key 127, hardness 0) until the cap looked at those
+/// samples. Every factory object, glass and metal, keys 84–127, hardness 0–0.5, velocity 127,
+/// safety off: the peak while the mallet touches and the whole strike's peak are at most
+/// 0 dBFS (the cap is −1 dBFS, computed at the contact's first samples and 24 instants;
+/// measured: the loudest −1.0 dBFS, 16 of the 612 strikes held at the cap).
 #[test]
 fn a_soft_strike_on_a_small_object_does_not_go_over() {
     let mut loudest = (0.0f32, 0.0f32, String::new());
@@ -284,6 +291,55 @@ fn a_soft_strike_on_a_small_object_does_not_go_over() {
         db(f64::from(loudest.0)),
         loudest.2
     );
+}
+
+/// A soft mallet at the top keys is heard as the object's ring, not as a thump: the output
+/// split at a quarter of the key's frequency (every mode is above it; brick-wall, by FFT over
+/// the first 0.17 s), the part below peaks at most 3 dB over the part above. When the output
+/// was the modes' deflection, the object following the force's slow bump was that part,
+/// 20–48 dB over the ring (a black-box tester's felt and rubber strikes at keys 72–108), and
+/// *Normalise level* raised it to full scale: here all 40 cases failed, by up to +35.2 dB.
+/// Heard as velocity (`dsp::engine`'s `pickup`), what is left under the modes is the force's
+/// slope over ω², the ring's own order: measured −5.4 to +1.0 dB. Felt and rubber at
+/// hardness 0, keys 96 and 108, velocities 30 and 100, five objects, the default material.
+#[test]
+fn a_soft_mallet_at_the_top_keys_rings_rather_than_thumps() {
+    use rustfft::{num_complex::Complex, FftPlanner};
+    let n = 8192;
+    let fft = FftPlanner::<f64>::new().plan_fft_forward(n);
+    let ifft = FftPlanner::<f64>::new().plan_fft_inverse(n);
+    let mut worst = f64::NEG_INFINITY;
+    for object in ["bar", "circular-plate", "fem-bell", "fem-block", "fem-tubular-chime"] {
+        for mallet in [0.0f32, 1.0] {
+            for key in [96u8, 108] {
+                for velocity in [30u8, 100] {
+                    let mut h = host(object, "glass-ren2013", SR, &[("mallet", mallet), ("hard", 0.0)]);
+                    let x = render(&mut h, &[note(key, velocity, Some(0.5))], 0.2, 512);
+                    let mut spectrum: Vec<Complex<f64>> =
+                        (0..n).map(|i| Complex::new(f64::from(x.get(i).copied().unwrap_or(0.0)), 0.0)).collect();
+                    fft.process(&mut spectrum);
+                    let cut = 440.0 * 2f64.powf((f64::from(key) - 69.0) / 12.0) / 4.0;
+                    let bin = (cut * n as f64 / f64::from(SR)).round() as usize;
+                    let band_peak = |low: bool| {
+                        let mut b: Vec<Complex<f64>> = spectrum
+                            .iter()
+                            .enumerate()
+                            .map(|(i, &c)| if (i.min(n - i) < bin) == low { c } else { Complex::new(0.0, 0.0) })
+                            .collect();
+                        ifft.process(&mut b);
+                        b.iter().map(|c| c.re.abs() / n as f64).fold(0.0, f64::max)
+                    };
+                    let (low, ring) = (band_peak(true), band_peak(false));
+                    let ratio = db(low / ring);
+                    let what = format!("{object}, mallet {mallet}, key {key}, velocity {velocity}");
+                    println!("{what}: under {cut:.0} Hz {:+.1} dB against the ring", ratio);
+                    assert!(ring > 0.0 && low < 1.41 * ring, "{what}: the thump is {ratio:+.1} dB over the ring");
+                    worst = worst.max(ratio);
+                }
+            }
+        }
+    }
+    println!("largest: {worst:+.1} dB");
 }
 
 /// Issue 11 part 3: with *Pitch reference* = *Strongest mode*, the mode heard loudest at the
