@@ -24,7 +24,12 @@
 //! Units: the contact signal is an impulse per sample in units of the impulse of a velocity-1
 //! strike (2·m·v_max, the mallet's mass rebounding from the fastest strike speed), the unit
 //! the engine's strike drive uses, so the engine scales both the same way. The mass cancels:
-//! a meso impulse is v·Δs / (2·v_max).
+//! a meso impulse is v·Δs / (2·v_max). The strike's pulse is heard through the modes'
+//! velocity (the engine's `pickup`), a lasting contact's impulses (and audio in, and the
+//! noise burst) through their deflection, Im z: the same ring for an impulse, a quarter
+//! period apart; only a force slow against a mode (the contact's slow components under
+//! high modes) is heard more as deflection, its quasi-static part (not measured here; the
+//! contact's signal is a train of short impulses).
 
 use crate::exciter::{Noise, FASTEST_STRIKE_M_PER_S};
 

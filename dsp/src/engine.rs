@@ -529,7 +529,7 @@ struct Voice {
     /// next: the drive is interpolated linearly between them over the interval.
     gain_from: Vec<f32>,
     gain_to: Vec<f32>,
-    /// The level of a unit impulse for this note ([`StrikePlan::norm`]).
+    /// The level of a unit impulse for this note ([`StrikePlan::impulse_norm`]).
     contact_norm: f32,
     /// The audio-in voice: its lasting contact is driven by the input signal.
     input: bool,
@@ -798,10 +798,12 @@ impl PulseShape {
     }
 }
 
-/// What a mode sounds of its state z (ż = (−d + iω)·z + F) while a strike's pulse drives it:
-/// Im(w·z) with w = i − d/ω, the mode's velocity scaled to ring as Im z does
-/// (x = Im z/ω is its displacement, ẋ = Re z − (d/ω)·Im z). After the pulse that is the same
-/// ring (amplitude ×√(1 + d²/ω²), a quarter period earlier); under the pulse it drops the
+/// What a mode sounds of its state z (ż = κ·z + F, κ = −d + iω) while a strike's pulse
+/// drives it: Im(w·z) with w = κ/|κ|, the mode's velocity ẋ = Im(κ·z)/ω (x = Im z/ω is its
+/// displacement) times ω/|κ| = ω/ωₙ: |w| = 1, so after the pulse it is the same ring as
+/// Im z, its phase moved by arg w (a quarter period for a lightly damped mode), at the
+/// amplitude the level normalisation and the quality threshold assume. Under the pulse it
+/// drops the
 /// quasi-static push: a mode far above 1/T follows the force as z ≈ F/(d − iω), whose Im z ≈
 /// F/ω is a bump the length of the contact, while its velocity is ≈ F′/ω², smaller by about
 /// ωT/π. Summed over the modes of a small object struck by a soft mallet, that bump was the
@@ -811,14 +813,19 @@ impl PulseShape {
 /// none; the bank's gains already weight each mode's ring as heard, so the pickup only has to
 /// leave out the deflection: velocity does (acceleration would add the force itself, a click
 /// the length of the contact over every mode, which a microphone a little away does not hear
-/// as such). An over-damped pole (ω = 0: a release inside the pulse over-damps a low mode)
-/// takes w = 0: the rest of the pulse does not drive it, as a strike does not drive a mode
-/// that does not ring (w = i, its creeping state heard, made a zero-length note 0.3 dB
-/// quieter than one released a sample later on the bar at key 28, with 500 s⁻¹ of release).
+/// as such). The scale ω/ωₙ keeps the state as large as z: the velocity itself, i − d/ω,
+/// grows without bound towards critical damping and hid a real part d/ω times z in the state
+/// that a later change of the pole (pressure or damping released) turned into output (a
+/// reviewer's simulation: 33 times the ring at d/ω = 100). An over-damped pole (ω = 0: a
+/// release inside the pulse over-damps a low mode) takes w = 0, where Im(w·z) tends as ω → 0:
+/// the rest of the pulse does not drive it, as a strike does not drive a mode that does not
+/// ring (w = i, its creeping state heard, made a zero-length note 0.3 dB quieter than one
+/// released a sample later on the bar at key 28, with 500 s⁻¹ of release).
 #[inline]
 fn pickup(d: f64, omega: f64) -> C64 {
     if omega > 0.0 {
-        (-d / omega, 1.0)
+        let n = d.hypot(omega);
+        (-d / n, omega / n)
     } else {
         C0
     }
@@ -1166,7 +1173,7 @@ impl Jitter {
 
 /// A mode remembered for the loudness cross terms: (ω, d, K-weighted amplitude, amplitude,
 /// e^((−d + iω)τ) once computed).
-type Recent = (f64, f64, f64, f64, Option<C64>);
+type Recent = (f64, f64, f64, f64, f64, f64, Option<C64>);
 
 /// How a strike will play: its contact time, the level factor applied to every mode's
 /// gain, and the strongest mode's amplitude (for the quality threshold).
@@ -1174,8 +1181,12 @@ type Recent = (f64, f64, f64, f64, Option<C64>);
 struct StrikePlan {
     contact_s: f64,
     level: f32,
-    /// The level without the velocity's share: a unit impulse's (a lasting contact's scale).
-    norm: f32,
+    /// The level an ideal impulse would get (a unit-area force of no duration, whose spectrum
+    /// is 1): a lasting contact's and audio in's, whose forces are trains of such impulses.
+    /// (With the mallet's level they were raised by what the mallet's pulse takes from the
+    /// ring: a felt at hardness 0 rolling on the bell at key 96 peaked at +36.6 dBFS with the
+    /// safety off, a black-box tester's finding, where the strike is −1 dBFS.)
+    impulse_norm: f32,
     peak: f32,
     /// The push's peak at level 1 (0 without *Normalise level*: not capped).
     push: f32,
@@ -1244,6 +1255,8 @@ impl ModeSet<'_> {
         let skew = p.mallet.skew;
         let tau = LOUDNESS_WINDOW_S;
         let mut peak = 0.0f32;
+        // The largest gain of a mode that rings: the impulse's peak (see `impulse_norm`).
+        let mut peak_gain = 0.0f32;
         for m in 0..obj.num_modes() {
             let lambda = obj.lambdas[m] * self.scale;
             let Some((d, omega)) = mode_pole(lambda, self.damping, self.support_of(m), self.extra, self.fs) else {
@@ -1255,6 +1268,7 @@ impl ModeSet<'_> {
             poles[m] = (d, omega);
             amps[m] = (f64::from(gains[m]) * exciter::pulse_spectrum(omega / (2.0 * PI), contact, skew)) as f32;
             peak = peak.max(amps[m].abs());
+            peak_gain = peak_gain.max(gains[m].abs());
         }
         if peak <= 0.0 {
             return None;
@@ -1262,11 +1276,15 @@ impl ModeSet<'_> {
         // The loudness of the modes that will ring (above the quality threshold), in ascending
         // frequency for the cross terms of close ones.
         let (mut weighted, mut flat) = (0.0f64, 0.0f64);
+        // The same for an ideal impulse (a unit-area force of no duration): a lasting
+        // contact's and audio in's level (see `StrikePlan::impulse_norm`).
+        let (mut weighted_i, mut flat_i) = (0.0f64, 0.0f64);
         let threshold = peak * 10f32.powf(-p.quality_db / 20.0);
+        let threshold_i = peak_gain * 10f32.powf(-p.quality_db / 20.0);
         if p.normalize {
             // The last modes, a ring, for cross terms: (ω, d, K-weighted amplitude, amplitude,
-            // e^((−d + iω)τ) as (re, im)).
-            let mut recent: [Recent; COHERENT_MAX] = [(0.0, 0.0, 0.0, 0.0, None); COHERENT_MAX];
+            // both again for the impulse, e^((−d + iω)τ) as (re, im)).
+            let mut recent: [Recent; COHERENT_MAX] = [(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, None); COHERENT_MAX];
             let mut count = 0usize;
             for &m in &obj.by_lambda {
                 let m = usize::from(m);
@@ -1285,22 +1303,36 @@ impl ModeSet<'_> {
                 } else {
                     (poles[m].0, poles[m].1, amps[m])
                 };
-                if a == 0.0 || a.abs() < threshold {
+                // The modes the strike rings, and the ones an impulse would ring (the strike's
+                // quality threshold on its own peak).
+                let strikes = a != 0.0 && a.abs() >= threshold;
+                let impulse = omega > 0.0 && gains[m].abs() >= threshold_i;
+                if !strikes && !impulse {
                     continue;
                 }
                 let f = omega / (2.0 * PI);
-                let r = f64::from(gains[m]) * exciter::pulse_spectrum(f, contact_ref, skew);
+                let r = if strikes { f64::from(gains[m]) * exciter::pulse_spectrum(f, contact_ref, skew) } else { 0.0 };
                 // Loudness is what is heard: a mode over 20 kHz (rendered at 96 and 192 kHz, and
                 // up to 24 kHz at 48 kHz) adds none. (Counted, with the K-filter's shelf held
                 // over 23.9 kHz, they made a steel strike at key 108 5.8 dB quieter at 192 kHz
                 // than at 48 kHz, a black-box tester's finding.) The unweighted cap and the
                 // push count them: they are in the waveform.
-                let rk = if f <= AUDIBLE_HZ { r * exciter::k_weighting(f) } else { 0.0 };
+                let kw = if f <= AUDIBLE_HZ { exciter::k_weighting(f) } else { 0.0 };
+                let rk = r * kw;
+                let ri = if impulse { f64::from(gains[m]) } else { 0.0 };
+                let rki = ri * kw;
                 // Mean square over the window: ½·r²·mean(e^(−2dt)) for the mode itself, and
                 // r·r'·mean(cos(Δω t)·e^(−(d + d')t)) with each close earlier mode.
                 let w = window_mean(2.0 * d * tau, 0.0, (0.0, 0.0));
                 weighted += 0.5 * rk * rk * w;
                 flat += 0.5 * r * r * w;
+                weighted_i += 0.5 * rki * rki * w;
+                flat_i += 0.5 * ri * ri * w;
+                if !strikes {
+                    // A mode only the impulse rings (over the mallet's roll-off): its own
+                    // power, not its cross terms (the strike's are kept as they were).
+                    continue;
+                }
                 // e^((−d + iω)τ) of a mode, computed once and only for modes with a close
                 // neighbour; a pair's end factor is e₁·conj(e₂).
                 let cis_tau = |d: f64, omega: f64| {
@@ -1310,31 +1342,36 @@ impl ModeSet<'_> {
                 };
                 let mut e = None;
                 for k in 0..count.min(COHERENT_MAX) {
-                    let (o2, d2, rk2, r2, e2) = recent[k];
+                    let (o2, d2, rk2, r2, rki2, ri2, e2) = recent[k];
                     if (omega - o2).abs() >= 2.0 * PI * COHERENT_HZ {
                         continue;
                     }
                     let e1 = *e.get_or_insert_with(|| cis_tau(d, omega));
                     let e2 = e2.unwrap_or_else(|| cis_tau(d2, o2));
-                    recent[k].4 = Some(e2);
+                    recent[k].6 = Some(e2);
                     // e^(−(D − iΔω)τ), D = d + d₂, Δω = ω − ω₂.
                     let end = (e1.0 * e2.0 + e1.1 * e2.1, e1.1 * e2.0 - e1.0 * e2.1);
                     let c = window_mean((d + d2) * tau, -(omega - o2) * tau, end);
                     weighted += rk * rk2 * c;
                     flat += r * r2 * c;
+                    weighted_i += rki * rki2 * c;
+                    flat_i += ri * ri2 * c;
                 }
-                recent[count % COHERENT_MAX] = (omega, d, rk, r, e);
+                recent[count % COHERENT_MAX] = (omega, d, rk, r, rki, ri, e);
                 count += 1;
             }
         }
-        let (weighted, flat) = (weighted.max(0.0), flat.max(0.0));
-        let norm = if p.normalize {
-            let by_a = if weighted > 0.0 { REFERENCE_RMS / weighted.sqrt() } else { f64::INFINITY };
-            let cap = if flat > 0.0 { MAX_UNWEIGHTED_RMS / flat.sqrt() } else { 1.0 };
-            by_a.min(cap) as f32
-        } else {
-            obj.norm
+        let level_of = |weighted: f64, flat: f64| {
+            if p.normalize {
+                let (weighted, flat) = (weighted.max(0.0), flat.max(0.0));
+                let by_a = if weighted > 0.0 { REFERENCE_RMS / weighted.sqrt() } else { f64::INFINITY };
+                let cap = if flat > 0.0 { MAX_UNWEIGHTED_RMS / flat.sqrt() } else { 1.0 };
+                by_a.min(cap) as f32
+            } else {
+                obj.norm
+            }
         };
+        let (norm, impulse_norm) = (level_of(weighted, flat), level_of(weighted_i, flat_i));
         // The push's peak per unit level (see `contact_push`), for the cap the strike applies
         // once its force is final (after *Variation*'s jitter).
         let push =
@@ -1342,7 +1379,7 @@ impl ModeSet<'_> {
         Some(StrikePlan {
             contact_s: contact,
             level: exciter::velocity_gain(velocity, p.velocity_sensitivity) * norm,
-            norm,
+            impulse_norm,
             peak,
             push,
         })
@@ -1377,8 +1414,8 @@ const PUSH_GRID: usize = 24;
 /// output at those instants. Heard as velocity, a mode far above 1/T no longer follows the
 /// force as a push (see [`pickup`]); the cap binds on strikes whose level the normalisation
 /// raises far (modes deep in the pulse's roll-off: soft mallets at the top keys on a damped
-/// material) and that start with their modes in phase. Realtime-safe: per mode one `exp`,
-/// one `sin_cos` and a rotation per instant.
+/// material) and that start with their modes in phase. Realtime-safe: per mode two `exp`,
+/// two `sin_cos` and a rotation per instant; per instant one [`k_series`].
 fn contact_push(
     gains: &[f32],
     amps: &[f32],
@@ -1390,8 +1427,8 @@ fn contact_push(
 ) -> f64 {
     const INSTANTS: usize = PUSH_ONSET + PUSH_GRID;
     // Modes with |κ|·T ≤ SLOW take z as the series Σₙ κⁿ/n!·Gₙ(t), n = 0..TERMS, with
-    // Gₙ(t) = ∫₀ᵗ F(s)·(t − s)ⁿ ds the same for every mode (the terms left out: under 0.1 %
-    // of the response at |κ|·T = 1.5): their sums Σ gₘ·Im(w·κₘⁿ)/n! replace a loop over the
+    // Gₙ(t) = ∫₀ᵗ F(s)·(t − s)ⁿ ds the same for every mode (the terms left out: within
+    // 1.5e-3 of the peak at |κ|·T = 1.5, the most for heavily damped modes, d/ω ≥ 10): their sums Σ gₘ·Im(w·κₘⁿ)/n! replace a loop over the
     // instants per mode.
     const SLOW: f64 = 1.5;
     const TERMS: usize = 8;
@@ -1402,10 +1439,10 @@ fn contact_push(
         |k: usize| if k < PUSH_ONSET { ((k + 1) as f64 * h).min(contact_s) } else { (k + 1 - PUSH_ONSET) as f64 * dt };
     let big_omega = PI / contact_s;
     let beta = skew / contact_s;
-    // Im z = −A/2·Re[e^(c₊t)/(c₊ − κ) − e^(c₋t)/(c₋ − κ) − e^(κt)·w], w = 1/(c₊ − κ) − 1/(c₋ − κ):
-    // the forced part is e^(−βt)·[cos Ωt·Re(1/(c₊ − κ) − 1/(c₋ − κ)) − sin Ωt·Im(1/(c₊ − κ) + 1/(c₋ − κ))],
-    // summed over the modes once (`cos_sum`, `sin_sum`); the free part Re(e^(κt)·w) is summed
-    // at each instant (`free`).
+    // With the pickup p (`pick`), Im(p·z) = −A/2·Re[e^(c₊t)·u₊ − e^(c₋t)·u₋ − e^(κt)·(u₊ − u₋)],
+    // u± = p/(c± − κ): the forced part is e^(−βt)·[cos Ωt·Re(u₊ − u₋) − sin Ωt·Im(u₊ + u₋)],
+    // summed over the modes once (`cos_sum`, `sin_sum`); the free part Re(e^(κt)·(u₊ − u₋)) is
+    // summed at each instant (`free`).
     let (mut cos_sum, mut sin_sum) = (0.0f64, 0.0f64);
     let mut free = [0.0f64; INSTANTS];
     let mut series = [0.0f64; TERMS];
@@ -1445,7 +1482,7 @@ fn contact_push(
         let (ip, im) = (cmul(pick, inv(dp)), cmul(pick, inv(dm)));
         cos_sum += g * (ip.0 - im.0);
         sin_sum -= g * (ip.1 + im.1);
-        let w = (g * (ip.0 - im.0), g * (ip.1 - im.1));
+        let u = (g * (ip.0 - im.0), g * (ip.1 - im.1));
         // e^(κ·t_k) by rotation: by e^(κh) over the onset, by e^(κ·dt) over the grid.
         let rotation = |step: f64| {
             let (sn, cs) = (omega * step).sin_cos();
@@ -1457,7 +1494,7 @@ fn contact_push(
             let step = rotation(dt);
             let mut ek = step;
             for f in steps.iter_mut() {
-                *f += ek.0 * w.0 - ek.1 * w.1;
+                *f += ek.0 * u.0 - ek.1 * u.1;
                 ek = cmul(ek, step);
             }
         }
@@ -2139,13 +2176,13 @@ impl Engine {
             voice.drive_gain[k] = g;
             energy += (a * level) * (a * level);
             if lasting {
-                let g = self.gains[m] * plan.norm;
+                let g = self.gains[m] * plan.impulse_norm;
                 voice.gain_from[k] = g;
                 voice.gain_to[k] = g;
             }
         }
         if lasting {
-            voice.contact_norm = plan.norm;
+            voice.contact_norm = plan.impulse_norm;
             let env = contact_env!(self);
             let seed = self.strikes.wrapping_mul(0x9E37_79B9) ^ u32::from(voice.note.key);
             voice.contact = ContactState::start(position, p.contact.direction, seed, &env.surface(voice.excitation));
@@ -2451,11 +2488,11 @@ impl Engine {
             let Some(k) = voice.bank.push(ModeCoeffs::new(d, omega, fs)) else { break };
             voice.slot_of_mode[m] = k as u16;
             voice.mode_of_slot[k] = m as u16;
-            let g = self.gains[m] * plan.norm;
+            let g = self.gains[m] * plan.impulse_norm;
             voice.gain_from[k] = g;
             voice.gain_to[k] = g;
         }
-        voice.contact_norm = plan.norm;
+        voice.contact_norm = plan.impulse_norm;
         voice.apply_contact_gains();
         let env = contact_env!(self);
         voice.contact = ContactState::start(voice.position, p.contact.direction, 1, &env.surface(Excitation::Scrape));
@@ -2490,7 +2527,7 @@ impl Engine {
         };
         (0..n)
             .filter(|&m| obj.contact_takes(m, poles[m].1 > 0.0, p.quality_db))
-            .map(|m| (m, poles[m].1 / (2.0 * PI), poles[m].0, gains[m] * plan.norm))
+            .map(|m| (m, poles[m].1 / (2.0 * PI), poles[m].0, gains[m] * plan.impulse_norm))
             .collect()
     }
 
@@ -2824,14 +2861,52 @@ mod tests {
     }
 
     /// `contact_push` against a direct quadrature of the heard response (velocity, see
-    /// [`pickup`]) ∫₀ᵗ F(s)·e^(−d(t−s))·[cos(ω(t−s)) − (d/ω)·sin(ω(t−s))] ds
+    /// [`pickup`]) ∫₀ᵗ F(s)·e^(−d(t−s))·[ω·cos(ω(t−s)) − d·sin(ω(t−s))]/√(ω² + d²) ds
     /// (Simpson, 4000 intervals; nothing shared with its closed forms and series): modes
     /// below, around and far above the pulse's 1/(2T), light and heavy decays, both signs,
     /// a 0.1 ms and a 1.5 ms contact, the symmetric half-sine and skewed pulses (a mode at
     /// d = β too); the largest |Σ gₘ·rₘ| over its instants (the first samples at 48 kHz and a
-    /// grid of 24) within 0.1 %.
+    /// grid of 24) within 0.1 %; and in-phase modes far above 1/T, whose largest is at one of
+    /// the onset's samples (the grid alone misses it).
     #[test]
     fn the_push_of_a_strike_is_its_modes_response_to_the_pulse() {
+        let fs = 48_000.0;
+        // (got, want, whether the largest is at one of the onset's samples).
+        let check = |contact: f64, skew: f64, modes: &[(f64, f64, f32)]| -> (f64, f64, bool) {
+            let poles: Vec<(f64, f64)> = modes.iter().map(|m| (m.0, m.1)).collect();
+            let gains: Vec<f32> = modes.iter().map(|m| m.2).collect();
+            let amps = vec![1.0f32; modes.len()];
+            let got = contact_push(&gains, &amps, &poles, 0.0, contact, skew, fs);
+            let big_omega = PI / contact;
+            // The unit-area pulse's amplitude by quadrature.
+            let area = {
+                let n = 20_000;
+                let h = contact / n as f64;
+                (0..n)
+                    .map(|j| (-skew * (j as f64 + 0.5) / n as f64).exp() * (PI * (j as f64 + 0.5) / n as f64).sin())
+                    .sum::<f64>()
+                    * h
+            };
+            let (mut want, mut at_onset) = (0.0f64, false);
+            let onset = (1..=PUSH_ONSET).map(|k| (k as f64 / fs, true)).filter(|&(t, _)| t <= contact);
+            for (t, early) in onset.chain((1..=PUSH_GRID).map(|k| (contact * k as f64 / PUSH_GRID as f64, false))) {
+                let y = |s: f64| -> f64 {
+                    let f = (-skew * s / contact).exp() * (big_omega * s).sin() / area;
+                    modes
+                        .iter()
+                        .map(|&(d, w, g)| {
+                            let (sn, cs) = (w * (t - s)).sin_cos();
+                            f64::from(g) * f * (-d * (t - s)).exp() * (w * cs - d * sn) / w.hypot(d)
+                        })
+                        .sum()
+                };
+                let v = simpson(&y, 0.0, t).abs();
+                if v > want {
+                    (want, at_onset) = (v, early);
+                }
+            }
+            (got, want, at_onset)
+        };
         for (contact, skew) in [(1e-4f64, 0.0), (1.5e-3, 0.0), (1e-4, 0.86), (1.5e-3, 2.76), (1.5e-3, 8.0)] {
             let fc = 0.5 / contact;
             let modes: Vec<(f64, f64, f32)> = [0.02, 0.1, 0.3, 0.7, 1.0, 1.3, 2.5, 6.0, 20.0, 60.0]
@@ -2845,37 +2920,19 @@ mod tests {
                     (d, 2.0 * PI * f, if k % 2 == 0 { 1.0 } else { -0.6 })
                 })
                 .collect();
-            let poles: Vec<(f64, f64)> = modes.iter().map(|m| (m.0, m.1)).collect();
-            let gains: Vec<f32> = modes.iter().map(|m| m.2).collect();
-            let amps = vec![1.0f32; modes.len()];
-            let fs = 48_000.0;
-            let got = contact_push(&gains, &amps, &poles, 0.0, contact, skew, fs);
-            let big_omega = PI / contact;
-            // The unit-area pulse's amplitude by quadrature.
-            let area = {
-                let n = 20_000;
-                let h = contact / n as f64;
-                (0..n)
-                    .map(|j| (-skew * (j as f64 + 0.5) / n as f64).exp() * (PI * (j as f64 + 0.5) / n as f64).sin())
-                    .sum::<f64>()
-                    * h
-            };
-            let mut want = 0.0f64;
-            let onset = (1..=PUSH_ONSET).map(|k| k as f64 / fs).filter(|&t| t <= contact);
-            for t in onset.chain((1..=PUSH_GRID).map(|k| contact * k as f64 / PUSH_GRID as f64)) {
-                let y = |s: f64| -> f64 {
-                    let f = (-skew * s / contact).exp() * (big_omega * s).sin() / area;
-                    modes
-                        .iter()
-                        .map(|&(d, w, g)| {
-                            let (sn, cs) = (w * (t - s)).sin_cos();
-                            f64::from(g) * f * (-d * (t - s)).exp() * (cs - d / w * sn)
-                        })
-                        .sum()
-                };
-                want = want.max(simpson(&y, 0.0, t).abs());
-            }
+            let (got, want, _) = check(contact, skew, &modes);
             assert!((got / want - 1.0).abs() < 1e-3, "contact {contact} skew {skew}: {got} vs {want}");
+        }
+        // Modes far above 1/T with one sign start in phase at the force's corner: the largest
+        // output is at the onset's samples, between the grid's instants.
+        for (contact, skew) in [(1.5e-3, 2.76), (4e-3, 1.53), (6e-4, 2.76)] {
+            let modes: Vec<(f64, f64, f32)> = [9000.0, 11_500.0, 13_700.0, 16_100.0, 18_900.0, 21_300.0]
+                .iter()
+                .map(|&f| (30.0, 2.0 * PI * f, 1.0))
+                .collect();
+            let (got, want, at_onset) = check(contact, skew, &modes);
+            assert!(at_onset, "contact {contact} skew {skew}: the largest is on the grid");
+            assert!((got / want - 1.0).abs() < 1e-3, "contact {contact} skew {skew}: {got} vs {want} (onset)");
         }
     }
 
@@ -3418,8 +3475,8 @@ mod tests {
     /// Issue 11 part 1: during and after the contact, the output is the convolution of the
     /// unit-area force pulse e^(−βt)·sin(πt/T) (the mallet's skew, and the symmetric
     /// half-sine; a mode at the pulse's own ω = π/T decaying at its β too) with the mode's
-    /// heard impulse response (its velocity, see [`pickup`]) e^(−dt)·[cos(ω_d t) −
-    /// (d/ω_d)·sin(ω_d t)], computed here by
+    /// heard impulse response (its velocity, see [`pickup`]) e^(−dt)·[ω_d·cos(ω_d t) −
+    /// d·sin(ω_d t)]/√(ω_d² + d²), computed here by
     /// Simpson quadrature of the integral with the pulse's area found by quadrature too (an
     /// independent calculation, including the pulse's partial last sample), within 1e-4 of
     /// the peak.
@@ -3467,7 +3524,7 @@ mod tests {
             let exact = |t: f64| -> f64 {
                 let f = |tau: f64| {
                     let (sn, cs) = (omega * (t - tau)).sin_cos();
-                    force(tau) / area * (-d * (t - tau)).exp() * (cs - d / omega * sn)
+                    force(tau) / area * (-d * (t - tau)).exp() * (omega * cs - d * sn) / omega.hypot(d)
                 };
                 0.7 * simpson(&f, 0.0, t.min(t_c))
             };
@@ -3512,7 +3569,7 @@ mod tests {
         let (w0, w1) = ((lambda - d0 * d0).sqrt(), (lambda - d1 * d1).sqrt());
         let t0 = (n0 - 1) as f64 / fs;
         // Im(w·e^(a + ib)) for the response of a unit force at τ seen at t, heard with the
-        // pickup w = i − d/ω of the pole that drove it (see `pickup`): `before` for a force
+        // pickup w = (−d + iω)/√(ω² + d²) of the pole that drove it (see `pickup`): `before` for a force
         // up to t₀ (both ends of the piece before the switch are the old pole's).
         let response = |t: f64, tau: f64, before: bool| -> f64 {
             let (re, im) = if t <= t0 {
@@ -3522,8 +3579,8 @@ mod tests {
             } else {
                 (-d1 * (t - tau), w1 * (t - tau))
             };
-            let pick = if before { d0 / w0 } else { d1 / w1 };
-            re.exp() * (im.cos() - pick * im.sin())
+            let (d, w) = if before { (d0, w0) } else { (d1, w1) };
+            re.exp() * (w * im.cos() - d * im.sin()) / w.hypot(d)
         };
         let area = simpson(&force, 0.0, t_c);
         let exact = |t: f64| -> f64 {
@@ -3633,7 +3690,8 @@ mod tests {
             let skew = mallet.mallet().skew;
             let force = |s: f64| (-skew * s / t_c).exp() * (PI * s / t_c).sin();
             let area = simpson(&force, 0.0, t_c);
-            let t_peak = (1.0 / skew.max(1e-9)).atan() * t_c / PI;
+            // F′ = 0: tan(πt/T) = π/skew.
+            let t_peak = (PI / skew.max(1e-9)).atan() * t_c / PI;
             // Velocity 1 without normalisation: the object's fixed level.
             let level = f64::from(obj.norm);
             let push: f64 = freqs
