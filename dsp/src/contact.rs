@@ -57,10 +57,12 @@ pub const BALL_ECCENTRICITY: f64 = 0.15;
 /// velocity-1 strike's impulse.
 pub const MICRO_LEVEL: f64 = 16.0;
 /// The contact's level against a strike's: a scrape at full force and 0.2 m/s on the factory
-/// bar plays 2–7 dB under a velocity-127 strike's first 0.25 s (RMS over 0.5–1.5 s, measured
-/// with `struck render`: grooves −2.4, fine grit −5.2, coarse grit −6.7, bumps −7.3, smooth
-/// −7.4 dB).
-pub const CONTACT_GAIN: f64 = 4.0;
+/// bar plays 2–8 dB under a velocity-127 strike's first 0.25 s (RMS over 0.5–1.5 s, measured
+/// with `struck render`, the default wood mallet: grooves −2.8, fine grit −5.6, coarse grit
+/// −7.1, bumps −7.6, smooth −7.8 dB). 6 since the contact is scaled as an ideal impulse, not
+/// as the mallet's strike (4 before: the wood mallet's level was 3.6 dB over the impulse's on
+/// the bar at key 60); the same for every mallet now.
+pub const CONTACT_GAIN: f64 = 6.0;
 /// At most this many texture samples either side of the contact are read for the envelope
 /// of a flat or a ball (a wider tool reads every ⌈half-width / this⌉-th texel).
 pub const MAX_ENVELOPE_HALF: i64 = 48;
