@@ -180,7 +180,18 @@ fn an_input_impulse_is_a_strike_with_an_ideal_contact() {
     x[0] = (sr / AUDIO_IN_RATE) as f32;
     // Key 60 at root 60 with the keys not retuning the object: the object's own pitch, as
     // audio in plays it.
-    let set = [("pos", 0.3), ("speed", 0.0), ("mallet", 5.0), ("hard", 1.0), ("keytune", 0.0), ("root", 60.0)];
+    // *Normalise level* off: the comparison is of the excitations; with it on, this strike's
+    // modes start in phase and peak over the push cap just after the 10 µs contact, so the
+    // strike is held 0.3 dB under (the input is scaled as an ideal impulse, uncapped).
+    let set = [
+        ("pos", 0.3),
+        ("speed", 0.0),
+        ("mallet", 5.0),
+        ("hard", 1.0),
+        ("keytune", 0.0),
+        ("root", 60.0),
+        ("levelnorm", 0.0),
+    ];
     let mut h = host(&set, x.clone(), x);
     let (input, _) = h.render(&[], n, 512);
     let modes = h.plugin().engine().expect("engine").input_modes(0.3);
