@@ -1419,8 +1419,8 @@ const PUSH_POST: usize = 6;
 /// output at those instants. Heard as velocity, a mode far above 1/T no longer follows the
 /// force as a push (see [`pickup`]); the cap binds on strikes whose level the normalisation
 /// raises far (modes deep in the pulse's roll-off: soft mallets at the top keys on a damped
-/// material) and that start with their modes in phase. Realtime-safe: per mode two `exp`,
-/// two `sin_cos` and a rotation per instant; per instant one [`k_series`].
+/// material) and that start with their modes in phase. Realtime-safe: per mode three `exp`
+/// and `sin_cos` and a rotation per instant; per instant one [`k_series`].
 fn contact_push(
     gains: &[f32],
     amps: &[f32],
@@ -1489,7 +1489,12 @@ fn contact_push(
                 *term += g * power.1 / factorial;
                 end = (end.0 + g * power.0 / factorial * g_end[n], end.1 + g * power.1 / factorial * g_end[n]);
             }
-            ring_after(&mut post, end, d, omega, first, h);
+            let rotation = |t: f64| {
+                let (sn, cs) = (omega * t).sin_cos();
+                let e = (-d * t).exp();
+                (e * cs, e * sn)
+            };
+            ring_after(&mut post, cmul(end, rotation(first)), rotation(h));
             continue;
         }
         // c₊ − κ is 0 only for a mode with d = β at Ω exactly: that mode is taken 1e-6 higher,
@@ -1513,18 +1518,21 @@ fn contact_push(
             (e * cs, e * sn)
         };
         let (onset, grid) = free.split_at_mut(PUSH_ONSET);
-        for (steps, dt) in [(onset, h), (grid, dt)] {
-            let step = rotation(dt);
+        let step_h = rotation(h);
+        // e^(κT), the grid's last instant's rotation.
+        let mut e_kt = C0;
+        for (steps, step) in [(onset, step_h), (grid, rotation(dt))] {
             let mut ek = step;
             for f in steps.iter_mut() {
                 *f += ek.0 * u.0 - ek.1 * u.1;
+                e_kt = ek;
                 ek = cmul(ek, step);
             }
         }
         // p·z(T) = (i·A/2)·(e^(−βT) + e^(κT))·u (e^(c±T) = −e^(−βT)).
-        let e_kt = rotation(contact_s);
         let x = cmul((e_kt.0 + (-skew).exp(), e_kt.1), u);
-        ring_after(&mut post, (-0.5 * amp * x.1, 0.5 * amp * x.0), d, omega, first, h);
+        let z_t = (-0.5 * amp * x.1, 0.5 * amp * x.0);
+        ring_after(&mut post, cmul(z_t, rotation(first)), step_h);
     }
     let mut peak = 0.0f64;
     for (k, f) in free.iter().enumerate() {
@@ -1550,17 +1558,10 @@ fn contact_push(
     post.iter().fold(peak, |p, y| p.max(y.abs()))
 }
 
-/// Adds Im(z·e^(κ·(first + (k − 1)·h))), κ = −d + iω, to `post[k − 1]`, k = 1, 2, …: a mode
-/// ringing freely from z at the output samples `first`, `first + h`, … after it (see
-/// [`contact_push`]).
-fn ring_after(post: &mut [f64], z: C64, d: f64, omega: f64, first: f64, h: f64) {
-    let rotation = |t: f64| {
-        let (sn, cs) = (omega * t).sin_cos();
-        let e = (-d * t).exp();
-        (e * cs, e * sn)
-    };
-    let step = rotation(h);
-    let mut zk = cmul(z, rotation(first));
+/// Adds Im(z·stepᵏ⁻¹) to `post[k − 1]`, k = 1, 2, …: a mode ringing freely from z, at one
+/// output sample and the ones after it (`step` = e^(κh), κ = −d + iω; see [`contact_push`]).
+fn ring_after(post: &mut [f64], z: C64, step: C64) {
+    let mut zk = z;
     for y in post.iter_mut() {
         *y += zk.1;
         zk = cmul(zk, step);
