@@ -59,9 +59,11 @@ pub const MICRO_LEVEL: f64 = 16.0;
 /// The contact's level against a strike's: a scrape at full force and 0.2 m/s on the factory
 /// bar plays 2–8 dB under a velocity-127 strike's first 0.25 s (RMS over 0.5–1.5 s, measured
 /// with `struck render`, the default wood mallet: grooves −2.8, fine grit −5.6, coarse grit
-/// −7.1, bumps −7.6, smooth −7.8 dB). 6 since the contact is scaled as an ideal impulse, not
-/// as the mallet's strike (4 before: the wood mallet's level was 3.6 dB over the impulse's on
-/// the bar at key 60); the same for every mallet now.
+/// −7.1, bumps −7.6, smooth −7.8 dB). 6 since *Normalise level* scales the contact as an
+/// ideal impulse, not as the mallet's strike (4 before: the wood mallet's level was 3.6 dB
+/// over the impulse's on the bar at key 60), the same for every mallet; with it off the
+/// contact and the strike keep the object's fixed scale, and the contact is 3.5 dB louder
+/// against the strike than it was at 4.
 pub const CONTACT_GAIN: f64 = 6.0;
 /// At most this many texture samples either side of the contact are read for the envelope
 /// of a flat or a ball (a wider tool reads every ⌈half-width / this⌉-th texel).

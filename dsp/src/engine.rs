@@ -310,7 +310,9 @@ impl Default for ContactParams {
 /// full scale, held for a second, is this many strikes' impulse (so the response does not
 /// depend on the sample rate). An impulse of height fs/AUDIO_IN_RATE is a velocity-1 strike
 /// with an ideal (instant) contact. The value puts white noise through the factory objects at
-/// −8.6…+3.1 dB of the input's RMS (measured with `struck render --input`, 0.1 RMS noise).
+/// −16.8…−7.4 dB of the input's RMS (measured with `struck render --input`, 0.1 RMS noise, 8
+/// objects; −10.3…+2.2 dB while *Normalise level* scaled audio in as the selected mallet's
+/// strike, which raised it by what that mallet's pulse takes from the ring).
 pub const AUDIO_IN_RATE: f64 = 3000.0;
 
 /// The audio-in voice's note id (no host's: its end is not reported).
@@ -1224,7 +1226,8 @@ impl ModeSet<'_> {
 
     /// Fills `poles[m]` = (d, ω) and `amps[m]` = the mode's amplitude before the level (its
     /// gain times the pulse's spectrum; 0 for modes that do not ring) for a strike of
-    /// `velocity` with the contact time scaled by `contact_factor`, and returns the plan;
+    /// `velocity` with the contact time scaled by `contact_factor`, and returns the plan (with
+    /// the level an ideal impulse would get, for lasting contacts and audio in);
     /// `None` if no mode rings. Realtime-safe.
     ///
     /// Level (issue 11 part 2): with `normalize`, the strike is scaled so that a velocity-1
@@ -1277,7 +1280,8 @@ impl ModeSet<'_> {
         // frequency for the cross terms of close ones.
         let (mut weighted, mut flat) = (0.0f64, 0.0f64);
         // The same for an ideal impulse (a unit-area force of no duration): a lasting
-        // contact's and audio in's level (see `StrikePlan::impulse_norm`).
+        // contact's and audio in's level (see `StrikePlan::impulse_norm`). A mode only the
+        // impulse rings (past the mallet's roll-off) takes part with r = 0 for the strike.
         let (mut weighted_i, mut flat_i) = (0.0f64, 0.0f64);
         let threshold = peak * 10f32.powf(-p.quality_db / 20.0);
         let threshold_i = peak_gain * 10f32.powf(-p.quality_db / 20.0);
@@ -1328,11 +1332,7 @@ impl ModeSet<'_> {
                 flat += 0.5 * r * r * w;
                 weighted_i += 0.5 * rki * rki * w;
                 flat_i += 0.5 * ri * ri * w;
-                if !strikes {
-                    // A mode only the impulse rings (over the mallet's roll-off): its own
-                    // power, not its cross terms (the strike's are kept as they were).
-                    continue;
-                }
+
                 // e^((−d + iω)τ) of a mode, computed once and only for modes with a close
                 // neighbour; a pair's end factor is e₁·conj(e₂).
                 let cis_tau = |d: f64, omega: f64| {
@@ -2981,8 +2981,8 @@ mod tests {
             assert!((got / want - 1.0).abs() < 1e-3, "contact {contact} skew {skew}: {got} vs {want} (onset)");
         }
         // A hard mallet's contact of 2–3 samples: modes of opposite gains start in phase and
-        // add up just after it (2 and 8.25 kHz: at 1/(2·6.25 kHz) = 80 µs; a heavily damped
-        // low mode by the series, the others by the closed form).
+        // add up just after it (2 and 8.25 kHz: at 1/(2·6.25 kHz) = 80 µs; the 150 Hz and
+        // 2 kHz modes by the series, the 8.25 kHz one by the closed form).
         for (contact, skew) in [(3.9e-5, 0.86), (5.4e-5, 1.18), (3.1e-5, 0.86)] {
             let modes: Vec<(f64, f64, f32)> =
                 vec![(400.0, 2.0 * PI * 150.0, 0.05), (20.0, 2.0 * PI * 2000.0, 1.0), (20.0, 2.0 * PI * 8250.0, -1.0)];
