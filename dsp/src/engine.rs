@@ -1335,11 +1335,7 @@ impl ModeSet<'_> {
 
                 // e^((−d + iω)τ) of a mode, computed once and only for modes with a close
                 // neighbour; a pair's end factor is e₁·conj(e₂).
-                let cis_tau = |d: f64, omega: f64| {
-                    let (sn, cs) = (omega * tau).sin_cos();
-                    let m = (-d * tau).exp();
-                    (m * cs, m * sn)
-                };
+                let cis_tau = |d: f64, omega: f64| mode_rotation(d, omega, tau);
                 let mut e = None;
                 for k in 0..count.min(COHERENT_MAX) {
                     let (o2, d2, rk2, r2, rki2, ri2, e2) = recent[k];
@@ -1489,12 +1485,7 @@ fn contact_push(
                 *term += g * power.1 / factorial;
                 end = (end.0 + g * power.0 / factorial * g_end[n], end.1 + g * power.1 / factorial * g_end[n]);
             }
-            let rotation = |t: f64| {
-                let (sn, cs) = (omega * t).sin_cos();
-                let e = (-d * t).exp();
-                (e * cs, e * sn)
-            };
-            ring_after(&mut post, cmul(end, rotation(first)), rotation(h));
+            ring_after(&mut post, cmul(end, mode_rotation(d, omega, first)), mode_rotation(d, omega, h));
             continue;
         }
         // c₊ − κ is 0 only for a mode with d = β at Ω exactly: that mode is taken 1e-6 higher,
@@ -1512,11 +1503,7 @@ fn contact_push(
         sin_sum -= g * (ip.1 + im.1);
         let u = (g * (ip.0 - im.0), g * (ip.1 - im.1));
         // e^(κ·t_k) by rotation: by e^(κh) over the onset, by e^(κ·dt) over the grid.
-        let rotation = |step: f64| {
-            let (sn, cs) = (omega * step).sin_cos();
-            let e = (-d * step).exp();
-            (e * cs, e * sn)
-        };
+        let rotation = |t: f64| mode_rotation(d, omega, t);
         let (onset, grid) = free.split_at_mut(PUSH_ONSET);
         let step_h = rotation(h);
         // e^(κT), the grid's last instant's rotation.
@@ -1556,6 +1543,14 @@ fn contact_push(
         peak = peak.max(y.abs());
     }
     post.iter().fold(peak, |p, y| p.max(y.abs()))
+}
+
+/// e^(κt), κ = −d + iω: a mode's free evolution over `t` seconds.
+#[inline]
+fn mode_rotation(d: f64, omega: f64, t: f64) -> C64 {
+    let (sn, cs) = (omega * t).sin_cos();
+    let e = (-d * t).exp();
+    (e * cs, e * sn)
 }
 
 /// Adds Im(z·stepᵏ⁻¹) to `post[k − 1]`, k = 1, 2, …: a mode ringing freely from z, at one
