@@ -6,6 +6,11 @@
 /// Highest Caughey order supported (number of series terms).
 pub const MAX_CAUGHEY_TERMS: usize = 4;
 
+/// The exponents of the power and hybrid laws the plugin plays: its *Exponent* knob's range,
+/// which the estimator's fits keep to (a captured material must load into the *Custom*
+/// material's knobs).
+pub const EXPONENT_RANGE: (f64, f64) = (0.05, 2.0);
+
 /// A damping law c(λ). Every coefficient is in SI units so that c comes out in s⁻¹:
 /// λ is in rad²/s², so a term αⱼ λʲ has αⱼ in s⁻¹·(s²)ʲ = s^(2j−1).
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -21,10 +21,13 @@ pub const AUDIBLE_LAMBDA_MIN: f64 = (TWO_PI * 20.0) * (TWO_PI * 20.0);
 /// Highest such eigenvalue: (2π · 24 kHz)² rad²/s² (`presets::damping::AUDIBLE_LAMBDA_MAX`).
 pub const AUDIBLE_LAMBDA_MAX: f64 = (TWO_PI * 24_000.0) * (TWO_PI * 24_000.0);
 /// Exponent range of the power and hybrid laws, (0, 2] in the presets; the fits keep it in
-/// [`MIN_EXPONENT`, `MAX_EXPONENT`].
-pub const MAX_EXPONENT: f64 = 2.0;
-/// Smallest exponent the fits allow (> 0 as the presets require).
-pub const MIN_EXPONENT: f64 = 1e-3;
+/// [`MIN_EXPONENT`, `MAX_EXPONENT`], the plugin's *Exponent* knob
+/// ([`dsp::damping::EXPONENT_RANGE`]).
+pub const MAX_EXPONENT: f64 = dsp::damping::EXPONENT_RANGE.1;
+/// Smallest exponent the fits allow: the plugin's *Exponent* knob's least, 0.05 (it was
+/// 0.001, which the presets accept but the plugin cannot play: a black-box tester's
+/// power-law fit of a constant damping ended there, and `render` refused the material).
+pub const MIN_EXPONENT: f64 = dsp::damping::EXPONENT_RANGE.0;
 /// Lower limit of the EMG Gaussian spread σ, relative to the median c of the points. Without
 /// it the EMG likelihood of few points is largest as σ → 0 (the curve then runs along the
 /// lower hull, the density degenerates to a shifted exponential whose location MLE is the
@@ -169,7 +172,7 @@ pub fn check_physical(model: ModelKind, p: &[f64]) -> Result<(), String> {
         ModelKind::Rayleigh => &[0, 1],
         ModelKind::Power => &[0],
         ModelKind::Hybrid => &[0, 1],
-        ModelKind::Caughey => &[],
+        ModelKind::Caughey => &[0, 1, 2],
     };
     for &i in nonneg {
         if p[i] < 0.0 {
@@ -213,6 +216,14 @@ pub fn check_physical(model: ModelKind, p: &[f64]) -> Result<(), String> {
 /// that keep the law physically valid ([`check_physical`]): coefficients ≥ 0, exponents in
 /// [[`MIN_EXPONENT`], [`MAX_EXPONENT`]], and for Caughey c ≥ 0 on a log grid of the audible
 /// range (plus `cuts`, extra points in normalised x found by [`caughey_dip`]).
+///
+/// Caughey's three terms are each ≥ 0 too. A law with a negative term that stays ≥ 0 over
+/// 20 Hz–24 kHz is valid as a preset (the thesis's plastic bowl has one), but a captured
+/// material is played through the plugin's *Custom* knobs, which set each term by its c at
+/// 1 and 10 kHz from 0 up: a black-box tester's Caughey fits with α₂ < 0 (damping that falls
+/// with frequency) were written and then refused by `render`, and one with α₃ < 0 went
+/// negative above 24 kHz, where a larger *Size* or a higher key moves modes. With every term
+/// ≥ 0, c(λ) ≥ 0 at every λ; a falling damping is fitted as flat (its bound is said).
 fn curve_constraints(kind: ModelKind, d: &Data, n: usize, cuts: &[f64]) -> Constraints {
     let mut c = Constraints::default();
     match kind {
@@ -232,6 +243,9 @@ fn curve_constraints(kind: ModelKind, d: &Data, n: usize, cuts: &[f64]) -> Const
             c.bound(n, 2, MAX_EXPONENT, true, format!("exponent alpha3 <= {MAX_EXPONENT}"));
         }
         ModelKind::Caughey => {
+            c.bound(n, 0, 0.0, false, "alpha1 >= 0");
+            c.bound(n, 1, 0.0, false, "alpha2 >= 0");
+            c.bound(n, 2, 0.0, false, "alpha3 >= 0");
             let (lo, hi) = (AUDIBLE_LAMBDA_MIN / d.ls, AUDIBLE_LAMBDA_MAX / d.ls);
             let grid = (0..=CAUGHEY_GRID).map(|i| lo * (hi / lo).powf(i as f64 / CAUGHEY_GRID as f64));
             for x in grid.chain(cuts.iter().copied()) {
@@ -275,7 +289,7 @@ fn make_feasible(kind: ModelKind, d: &Data, a: &mut [f64]) -> bool {
             a[1] = a[1].max(0.0);
             a[2] = a[2].clamp(MIN_EXPONENT, MAX_EXPONENT);
         }
-        ModelKind::Caughey => {}
+        ModelKind::Caughey => a[..3].iter_mut().for_each(|v| *v = v.max(0.0)),
     }
     a.iter().all(|v| v.is_finite()) && curve_constraints(kind, d, a.len(), &[]).feasible(a, 1e-12)
 }
@@ -872,27 +886,33 @@ fn lb_fit(kind: ModelKind, d: &Data) -> Option<Vec<f64>> {
             Some(vec![la.exp(), p])
         }
         ModelKind::Caughey => {
-            // For fixed a₂ the LP in (a₀, a₁) is a hull line of c − a₂x²; its optimal value is
-            // concave in a₂ (partial maximisation of a linear objective over a convex set), so
-            // a golden-section search on a₂ finds the LP optimum. Candidates that make c
-            // negative somewhere in the audible range are infeasible; the Rayleigh LB
-            // (a₂ = 0, a₀, a₁ ≥ 0) is always feasible and kept if better.
+            // For fixed a₂ ≥ 0 the LP in (a₀, a₁ ≥ 0) is a hull line of c − a₂x² under those
+            // bounds; its optimal value is concave in a₂ (partial maximisation of a linear
+            // objective over a convex set), so a golden-section search on a₂ finds the LP
+            // optimum. (With a₂ of either sign and (a₀, a₁) free, most of the range was
+            // infeasible and the search fell back on the Rayleigh line: a black-box tester's
+            // clean Caughey data gave [0, α₂, 0], 0.03 s⁻¹ at 211 Hz for 1.04.) The Rayleigh
+            // LB (a₂ = 0) is kept if better.
             let cmax = cs_sorted.iter().fold(0.0f64, |m, v| m.max(v.abs())).max(1.0);
             let cons = curve_constraints(kind, d, 3, &[]);
             let value = |a2: f64, ys: &mut Vec<f64>| -> Option<(f64, Vec<f64>)> {
                 for i in 0..xs_sorted.len() {
                     ys[i] = cs_sorted[i] - a2 * xs_sorted[i] * xs_sorted[i];
                 }
-                let (a0, a1) = hull_line(&xs_sorted, ys)?;
+                let (a0, a1) = hull_line_nonneg(&xs_sorted, ys)?;
+                // Under every point (past some a₂ no line with a₀, a₁ ≥ 0 is).
+                if xs_sorted.iter().zip(ys.iter()).any(|(&x, &y)| a0 + a1 * x > y + 1e-12 * cmax) {
+                    return None;
+                }
                 let p = vec![a0, a1, a2];
-                if !cons.feasible(&p, 1e-12) || caughey_dip(d, &p).is_some() {
+                if !cons.feasible(&p, 1e-12) {
                     return None;
                 }
                 let v: f64 = xs_sorted.iter().map(|&x| a0 + a1 * x + a2 * x * x).sum();
                 Some((v, p))
             };
             let obj = |p: &[f64]| -> f64 { xs_sorted.iter().map(|&x| p[0] + p[1] * x + p[2] * x * x).sum() };
-            let gold = golden(-20.0 * cmax, 20.0 * cmax, 80, |a2| value(a2, &mut ys));
+            let gold = golden(0.0, 20.0 * cmax, 80, |a2| value(a2, &mut ys));
             let ray = hull_line_nonneg(&xs_sorted, &cs_sorted).map(|(a, b)| vec![a, b, 0.0]);
             match (gold, ray) {
                 (Some(g), Some(r)) => Some(if obj(&g) >= obj(&r) { g } else { r }),

@@ -192,6 +192,13 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
         residual,
     };
     material.validate().map_err(|e| format!("the fitted material is not valid ({e}); nothing was written"))?;
+    // A captured material is played through the *Custom* material's knobs (`render
+    // --material`, the editor's Apply): one they cannot hold is of no use to the plugin.
+    // (The fits keep to the knobs' lower ends; a law past their upper ends — base damping
+    // over 2000 s⁻¹ — is refused here rather than written and refused by `render`.)
+    struck::params::StruckParams::new(&Library::factory())
+        .custom_knobs_for(&damping)
+        .map_err(|e| format!("the fitted law is beyond what the plugin plays ({e}); nothing was written"))?;
     // Both files are complete on disk before either replaces anything.
     let mut material_file = staged(&args.out, material.to_json().as_bytes())?;
     let mut report_file = match &args.report {

@@ -547,9 +547,16 @@ impl StruckParams {
             .with_unit(" 1/s")
             .with_value_to_string(v2s_significant(4))
             .with_string_to_value(s2v_number()),
-            exponent: FloatParam::new("Exponent", 1.0, FloatRange::Linear { min: 0.05, max: 2.0 })
-                .with_value_to_string(formatters::v2s_f32_rounded(3))
-                .with_string_to_value(s2v_number()),
+            exponent: FloatParam::new(
+                "Exponent",
+                1.0,
+                FloatRange::Linear {
+                    min: dsp::damping::EXPONENT_RANGE.0 as f32,
+                    max: dsp::damping::EXPONENT_RANGE.1 as f32,
+                },
+            )
+            .with_value_to_string(formatters::v2s_f32_rounded(3))
+            .with_string_to_value(s2v_number()),
             caughey_10k_per_s: FloatParam::new(
                 "Caughey c at 10 kHz",
                 0.0,
