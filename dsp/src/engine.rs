@@ -40,16 +40,38 @@ pub const AUDIBLE_HZ: f64 = 20_000.0;
 /// Most unweighted RMS the normalisation may give a strike (−8 dBFS), so an object whose
 /// modes lie where K-weighting is deaf (under 30 Hz) is not raised without bound.
 pub const MAX_UNWEIGHTED_RMS: f64 = 0.4;
-/// Most the normalisation may raise a strike over an ideal impulse's level (60 dB, linear):
+/// How much of a mode at `f` Hz hearing takes in, for the reference of [`MAX_MALLET_BOOST`]:
+/// 1 up to 12 kHz, 0 from 20 kHz ([`AUDIBLE_HZ`]), a raised cosine in log frequency between
+/// (the threshold of hearing rises from about 11 dB SPL at 12.5 kHz to 43 at 16 kHz and 73
+/// at 18 kHz, ISO 389-7's free-field values; the K-weighting's shelf knows nothing of it).
+/// With the level's hard cut at
+/// 20 kHz, a mode the mallet hardly excites crossing it as *Size* or the key moved changed
+/// the reference by its whole loudness: 11 dB between sizes 0.965 and 0.96 on the circular
+/// plate at key 125 with felt at hardness 0 (a black-box tester's finding).
+#[inline]
+fn audible_taper(f: f64) -> f64 {
+    const FROM_HZ: f64 = 12_000.0;
+    if f <= FROM_HZ {
+        1.0
+    } else if f >= AUDIBLE_HZ {
+        0.0
+    } else {
+        let x = (f / FROM_HZ).ln() / (AUDIBLE_HZ / FROM_HZ).ln();
+        (0.5 * PI * x).cos().powi(2)
+    }
+}
+
+/// Most the normalisation may raise a strike over an ideal impulse's level (60 dB, linear;
+/// the impulse's K-weighted loudness taken with hearing's fall over 12–20 kHz,
+/// [`audible_taper`], so the ceiling moves smoothly as modes near 20 kHz come and go):
 /// what it makes up for is what the mallet's pulse takes from the modes, and a mallet far
 /// too soft for the object (rubber or felt at hardness 0 on a small wooden object at the
 /// top keys: its pulse 80–97 dB under an impulse at every mode, measured over the factory
 /// objects) leaves no ring to make up for, only the contact's click, which was raised to
 /// −1 dBFS. Beyond this such a strike is as quiet as the mallet makes it. On a scan of the
 /// 17 factory objects × 4 materials × 6 mallets at hardness 0/0.5/1 × keys 24–127 at
-/// velocity 100 it holds 4.4 % of the strikes (503 of those 536 are rubber and felt at
-/// hardness 0 from key 84 up, two at 72; the others felt and rubber at hardness 0.5, plastic
-/// and wood at 0).
+/// velocity 100 it holds 4.1 % of the strikes (502 rubber and felt at hardness 0 from key
+/// 84 up, two at 72, and one plastic at 0).
 pub const MAX_MALLET_BOOST: f64 = 1000.0;
 /// Modes closer than this (Hz) interfere within the loudness window: their cross terms are
 /// counted (the degenerate pairs of symmetric objects, struck between their nodes, cancel
@@ -881,14 +903,23 @@ pub fn support_quantile(m: usize, lambda_ref: f64) -> f64 {
     -(1.0 - u).ln()
 }
 
+/// Most a ringing mode may decay over one sample, d·h (e^(−10): 87 dB). A faster mode is
+/// over within its first sample and is not rendered: only a mode far above Nyquist that the
+/// damping brings close to critical (ω = √(λ − d²) small against its √λ) can be one, and
+/// its damped frequency then lands anywhere under Nyquist. One did on the circular plate in
+/// glass-ren2013 at key 125, size 0.995 (√λ 2.2 MHz, d = 1.4·10⁷ s⁻¹, ω/2π 22.8 kHz): its
+/// exact drive needs e^(d·h) = e^290, which no f32 holds, and the strike was silent
+/// (−240 dBFS; a black-box tester's finding, sizes 0.9945 and 0.9955 gave −4 dBFS).
+pub const MAX_DECAY_PER_SAMPLE: f64 = 10.0;
+
 /// Frequency data of one mode for a voice; `support_c` is the mode's own support damping
 /// (extra c, s⁻¹).
 #[inline]
 fn mode_pole(lambda: f64, damping: &Damping, support_c: f64, extra_d: f64, sample_rate: f64) -> Option<(f64, f64)> {
-    // SCIENCE.md §1: d = c/2, ω_d = sqrt(λ − d²); drop over-damped modes and modes at or
-    // above Nyquist.
+    // SCIENCE.md §1: d = c/2, ω_d = sqrt(λ − d²); drop over-damped modes, modes at or
+    // above Nyquist, and modes over within a sample (`MAX_DECAY_PER_SAMPLE`).
     let d = 0.5 * (damping.c(lambda) + support_c) + extra_d;
-    if !(d.is_finite() && lambda.is_finite()) || d < 0.0 || d * d >= lambda {
+    if !(d.is_finite() && lambda.is_finite()) || d < 0.0 || d * d >= lambda || d > MAX_DECAY_PER_SAMPLE * sample_rate {
         return None;
     }
     let omega = (lambda - d * d).sqrt();
@@ -1185,8 +1216,9 @@ impl Jitter {
 }
 
 /// A mode remembered for the loudness cross terms: (ω, d, K-weighted amplitude, amplitude,
-/// e^((−d + iω)τ) once computed).
-type Recent = (f64, f64, f64, f64, f64, f64, Option<C64>);
+/// both again for an impulse, the impulse's tapered K-weighted amplitude, e^((−d + iω)τ) once
+/// computed).
+type Recent = (f64, f64, f64, f64, f64, f64, f64, Option<C64>);
 
 /// How a strike will play: its contact time, the level factor applied to every mode's
 /// gain, and the strongest mode's amplitude (for the quality threshold).
@@ -1294,12 +1326,15 @@ impl ModeSet<'_> {
         // contact's and audio in's level (see `StrikePlan::impulse_norm`). A mode only the
         // impulse rings (past the mallet's roll-off) takes part with r = 0 for the strike.
         let (mut weighted_i, mut flat_i) = (0.0f64, 0.0f64);
+        // The impulse's loudness once more, with hearing's fall over 12–20 kHz
+        // ([`audible_taper`]): the reference of [`MAX_MALLET_BOOST`].
+        let mut weighted_c = 0.0f64;
         let threshold = peak * 10f32.powf(-p.quality_db / 20.0);
         let threshold_i = peak_gain * 10f32.powf(-p.quality_db / 20.0);
         if p.normalize {
             // The last modes, a ring, for cross terms: (ω, d, K-weighted amplitude, amplitude,
             // both again for the impulse, e^((−d + iω)τ) as (re, im)).
-            let mut recent: [Recent; COHERENT_MAX] = [(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, None); COHERENT_MAX];
+            let mut recent: [Recent; COHERENT_MAX] = [(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, None); COHERENT_MAX];
             let mut count = 0usize;
             for &m in &obj.by_lambda {
                 let m = usize::from(m);
@@ -1336,6 +1371,7 @@ impl ModeSet<'_> {
                 let rk = r * kw;
                 let ri = if impulse { f64::from(gains[m]) } else { 0.0 };
                 let rki = ri * kw;
+                let rkc = ri * exciter::k_weighting(f) * audible_taper(f);
                 // Mean square over the window: ½·r²·mean(e^(−2dt)) for the mode itself, and
                 // r·r'·mean(cos(Δω t)·e^(−(d + d')t)) with each close earlier mode.
                 let w = window_mean(2.0 * d * tau, 0.0, (0.0, 0.0));
@@ -1343,19 +1379,20 @@ impl ModeSet<'_> {
                 flat += 0.5 * r * r * w;
                 weighted_i += 0.5 * rki * rki * w;
                 flat_i += 0.5 * ri * ri * w;
+                weighted_c += 0.5 * rkc * rkc * w;
 
                 // e^((−d + iω)τ) of a mode, computed once and only for modes with a close
                 // neighbour; a pair's end factor is e₁·conj(e₂).
                 let cis_tau = |d: f64, omega: f64| mode_rotation(d, omega, tau);
                 let mut e = None;
                 for k in 0..count.min(COHERENT_MAX) {
-                    let (o2, d2, rk2, r2, rki2, ri2, e2) = recent[k];
+                    let (o2, d2, rk2, r2, rki2, ri2, rkc2, e2) = recent[k];
                     if (omega - o2).abs() >= 2.0 * PI * COHERENT_HZ {
                         continue;
                     }
                     let e1 = *e.get_or_insert_with(|| cis_tau(d, omega));
                     let e2 = e2.unwrap_or_else(|| cis_tau(d2, o2));
-                    recent[k].6 = Some(e2);
+                    recent[k].7 = Some(e2);
                     // e^(−(D − iΔω)τ), D = d + d₂, Δω = ω − ω₂.
                     let end = (e1.0 * e2.0 + e1.1 * e2.1, e1.1 * e2.0 - e1.0 * e2.1);
                     let c = window_mean((d + d2) * tau, -(omega - o2) * tau, end);
@@ -1363,8 +1400,9 @@ impl ModeSet<'_> {
                     flat += r * r2 * c;
                     weighted_i += rki * rki2 * c;
                     flat_i += ri * ri2 * c;
+                    weighted_c += rkc * rkc2 * c;
                 }
-                recent[count % COHERENT_MAX] = (omega, d, rk, r, rki, ri, e);
+                recent[count % COHERENT_MAX] = (omega, d, rk, r, rki, ri, rkc, e);
                 count += 1;
             }
         }
@@ -1382,7 +1420,11 @@ impl ModeSet<'_> {
         let norm = level_of(weighted, flat);
         // A mallet that takes (almost) everything from the modes is not made up for without
         // bound ([`MAX_MALLET_BOOST`]).
-        let norm = if p.normalize { norm.min((f64::from(impulse_norm) * MAX_MALLET_BOOST) as f32) } else { norm };
+        let norm = if p.normalize && weighted_c > 0.0 {
+            norm.min((REFERENCE_RMS / weighted_c.sqrt() * MAX_MALLET_BOOST) as f32)
+        } else {
+            norm
+        };
         // The push's peak per unit level (see `contact_push`), for the cap the strike applies
         // once its force is final (after *Variation*'s jitter).
         let push =

@@ -314,6 +314,10 @@ pub fn residual(args: &ResidualArgs) -> Result<String, String> {
         Some(query) if !args.material.is_file() => match crate::cli::resolve_material(&lib, query, true)? {
             crate::cli::MaterialChoice::Factory(i) => lib.materials[i].clone(),
             crate::cli::MaterialChoice::File(m) => *m,
+            crate::cli::MaterialChoice::Custom => return Err(
+                "`custom` is the plugin's damping knobs, not a material: give a factory material or a material file"
+                    .into(),
+            ),
         },
         // A file (any path, UTF-8 or not).
         _ => crate::cli::load_material(&args.material, true)?,

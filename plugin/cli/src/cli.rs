@@ -336,6 +336,8 @@ pub enum MaterialChoice {
     Factory(usize),
     /// A material from a JSON file, played through the *Custom* knobs.
     File(Box<Material>),
+    /// The *Custom* material: the damping knobs as set (`--set dmodel=… --set alpha1=…`).
+    Custom,
 }
 
 /// Resolves a material given by id, name, index or JSON file path (a file's unknown fields
@@ -344,6 +346,10 @@ pub enum MaterialChoice {
 /// # Errors
 /// If nothing matches, or the file cannot be read or is not a valid material.
 pub fn resolve_material(lib: &Library, query: &str, say: bool) -> Result<MaterialChoice, String> {
+    // `struck materials` lists the knobs as `custom`, after the factory materials.
+    if query.trim().eq_ignore_ascii_case("custom") || query.trim().parse::<usize>() == Ok(lib.custom_material_index()) {
+        return Ok(MaterialChoice::Custom);
+    }
     let names: Vec<(&str, &str)> = lib.materials.iter().map(|m| (m.id.as_str(), m.name.as_str())).collect();
     match find(&names, "material", query) {
         Ok(i) => Ok(MaterialChoice::Factory(i)),
@@ -407,6 +413,9 @@ fn configure(opts: &SoundOptions, max_block: usize, say: bool) -> Result<Offline
     let mut held = None;
     match resolve_material(&lib, &opts.material, say)? {
         MaterialChoice::Factory(i) => host.set_param("material", i as f32).map_err(|e| e.to_string())?,
+        MaterialChoice::Custom => {
+            host.set_param("material", lib.custom_material_index() as f32).map_err(|e| e.to_string())?;
+        }
         MaterialChoice::File(m) => {
             let d = m.damping.to_damping().map_err(|e| e.to_string())?;
             set_custom_damping(&mut host, &d)?;
