@@ -40,38 +40,45 @@ pub const AUDIBLE_HZ: f64 = 20_000.0;
 /// Most unweighted RMS the normalisation may give a strike (−8 dBFS), so an object whose
 /// modes lie where K-weighting is deaf (under 30 Hz) is not raised without bound.
 pub const MAX_UNWEIGHTED_RMS: f64 = 0.4;
-/// How much of a mode at `f` Hz hearing takes in, for the reference of [`MAX_MALLET_BOOST`]:
-/// 1 up to 12 kHz, 0 from 20 kHz ([`AUDIBLE_HZ`]), a raised cosine in log frequency between
-/// (the threshold of hearing rises from about 11 dB SPL at 12.5 kHz to 43 at 16 kHz and 73
-/// at 18 kHz, ISO 389-7's free-field values; the K-weighting's shelf knows nothing of it).
-/// With the level's hard cut at
-/// 20 kHz, a mode the mallet hardly excites crossing it as *Size* or the key moved changed
-/// the reference by its whole loudness: 11 dB between sizes 0.965 and 0.96 on the circular
-/// plate at key 125 with felt at hardness 0 (a black-box tester's finding).
+/// How a mode at `f` Hz is weighted in what [`MAX_MALLET_BOOST`] compares: the K-weighting
+/// times hearing's fall from 12 to 20 kHz (a raised cosine in log frequency; the threshold of
+/// hearing rises from about 11 dB SPL at 12.5 kHz to 43 at 16 kHz and 73 at 18 kHz, ISO
+/// 389-7's free-field values, which the K-weighting's shelf knows nothing of), never under
+/// [`HEARD_FLOOR`] of the K-weighting (modes up to Nyquist count a little, so a strike all
+/// over 20 kHz is still compared). Smooth in `f`: with the level's hard cut at 20 kHz, a mode
+/// the mallet hardly excites crossing it as *Size* or the key moved changed the impulse's
+/// loudness by that mode's whole part, and the ceiling with it: 11 dB between sizes 0.965 and
+/// 0.96 on the circular plate at key 125 with felt at hardness 0 (a black-box tester's
+/// finding). The strike and the impulse are weighted alike, so their ratio is what the mallet
+/// takes as heard (a reviewer: a tapered impulse against the strike's hard cut let the ceiling
+/// rise by the taper, tens of dB with every mode at 17–20 kHz, and vanish over 20 kHz).
 #[inline]
-fn audible_taper(f: f64) -> f64 {
+fn heard_weight(f: f64) -> f64 {
     const FROM_HZ: f64 = 12_000.0;
-    if f <= FROM_HZ {
+    let taper = if f <= FROM_HZ {
         1.0
     } else if f >= AUDIBLE_HZ {
         0.0
     } else {
         let x = (f / FROM_HZ).ln() / (AUDIBLE_HZ / FROM_HZ).ln();
         (0.5 * PI * x).cos().powi(2)
-    }
+    };
+    exciter::k_weighting(f) * taper.max(HEARD_FLOOR)
 }
 
-/// Most the normalisation may raise a strike over an ideal impulse's level (60 dB, linear;
-/// the impulse's K-weighted loudness taken with hearing's fall over 12–20 kHz,
-/// [`audible_taper`], so the ceiling moves smoothly as modes near 20 kHz come and go):
-/// what it makes up for is what the mallet's pulse takes from the modes, and a mallet far
-/// too soft for the object (rubber or felt at hardness 0 on a small wooden object at the
-/// top keys: its pulse 80–97 dB under an impulse at every mode, measured over the factory
+/// The least weight [`heard_weight`] gives a mode, relative to its K-weighting (−40 dB).
+const HEARD_FLOOR: f64 = 0.01;
+
+/// Most the normalisation may make up for what the mallet takes from the modes (60 dB,
+/// linear): the ratio of an ideal impulse's loudness to the strike's, both weighted by
+/// [`heard_weight`] (smooth in frequency, so the ceiling moves smoothly as modes near 20 kHz
+/// come and go). A mallet far too soft for the object (rubber or felt at hardness 0 on a
+/// small object at the top keys: up to 97 dB under an impulse, measured over the factory
 /// objects) leaves no ring to make up for, only the contact's click, which was raised to
 /// −1 dBFS. Beyond this such a strike is as quiet as the mallet makes it. On a scan of the
-/// 17 factory objects × 4 materials × 6 mallets at hardness 0/0.5/1 × keys 24–127 at
-/// velocity 100 it holds 4.1 % of the strikes (502 rubber and felt at hardness 0 from key
-/// 84 up, two at 72, and one plastic at 0).
+/// 17 factory objects × 4 materials × 6 mallets at hardness 0/0.5/1 × keys 24, 36, …, 120,
+/// 127 at velocity 100 it holds 4.2 % of the strikes (502 rubber and felt at hardness 0 from key
+/// 84 up, two at 72; 17 plastic and wood at 0, felt and rubber at 0.5).
 pub const MAX_MALLET_BOOST: f64 = 1000.0;
 /// Modes closer than this (Hz) interfere within the loudness window: their cross terms are
 /// counted (the degenerate pairs of symmetric objects, struck between their nodes, cancel
@@ -1216,9 +1223,9 @@ impl Jitter {
 }
 
 /// A mode remembered for the loudness cross terms: (ω, d, K-weighted amplitude, amplitude,
-/// both again for an impulse, the impulse's tapered K-weighted amplitude, e^((−d + iω)τ) once
-/// computed).
-type Recent = (f64, f64, f64, f64, f64, f64, f64, Option<C64>);
+/// both again for an impulse, the strike's and the impulse's amplitude × [`heard_weight`],
+/// e^((−d + iω)τ) once computed).
+type Recent = (f64, f64, f64, f64, f64, f64, f64, f64, Option<C64>);
 
 /// How a strike will play: its contact time, the level factor applied to every mode's
 /// gain, and the strongest mode's amplitude (for the quality threshold).
@@ -1326,15 +1333,15 @@ impl ModeSet<'_> {
         // contact's and audio in's level (see `StrikePlan::impulse_norm`). A mode only the
         // impulse rings (past the mallet's roll-off) takes part with r = 0 for the strike.
         let (mut weighted_i, mut flat_i) = (0.0f64, 0.0f64);
-        // The impulse's loudness once more, with hearing's fall over 12–20 kHz
-        // ([`audible_taper`]): the reference of [`MAX_MALLET_BOOST`].
-        let mut weighted_c = 0.0f64;
+        // The strike's and the impulse's loudness once more, both weighted as heard
+        // ([`heard_weight`]: no hard cut): their ratio is what the mallet takes, which
+        // [`MAX_MALLET_BOOST`] bounds.
+        let (mut weighted_s, mut weighted_c) = (0.0f64, 0.0f64);
         let threshold = peak * 10f32.powf(-p.quality_db / 20.0);
         let threshold_i = peak_gain * 10f32.powf(-p.quality_db / 20.0);
         if p.normalize {
-            // The last modes, a ring, for cross terms: (ω, d, K-weighted amplitude, amplitude,
-            // both again for the impulse, e^((−d + iω)τ) as (re, im)).
-            let mut recent: [Recent; COHERENT_MAX] = [(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, None); COHERENT_MAX];
+            // The last modes, a ring, for cross terms (see [`Recent`]).
+            let mut recent: [Recent; COHERENT_MAX] = [(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, None); COHERENT_MAX];
             let mut count = 0usize;
             for &m in &obj.by_lambda {
                 let m = usize::from(m);
@@ -1371,7 +1378,8 @@ impl ModeSet<'_> {
                 let rk = r * kw;
                 let ri = if impulse { f64::from(gains[m]) } else { 0.0 };
                 let rki = ri * kw;
-                let rkc = ri * exciter::k_weighting(f) * audible_taper(f);
+                let heard = heard_weight(f);
+                let (rks, rkc) = (r * heard, ri * heard);
                 // Mean square over the window: ½·r²·mean(e^(−2dt)) for the mode itself, and
                 // r·r'·mean(cos(Δω t)·e^(−(d + d')t)) with each close earlier mode.
                 let w = window_mean(2.0 * d * tau, 0.0, (0.0, 0.0));
@@ -1379,6 +1387,7 @@ impl ModeSet<'_> {
                 flat += 0.5 * r * r * w;
                 weighted_i += 0.5 * rki * rki * w;
                 flat_i += 0.5 * ri * ri * w;
+                weighted_s += 0.5 * rks * rks * w;
                 weighted_c += 0.5 * rkc * rkc * w;
 
                 // e^((−d + iω)τ) of a mode, computed once and only for modes with a close
@@ -1386,13 +1395,13 @@ impl ModeSet<'_> {
                 let cis_tau = |d: f64, omega: f64| mode_rotation(d, omega, tau);
                 let mut e = None;
                 for k in 0..count.min(COHERENT_MAX) {
-                    let (o2, d2, rk2, r2, rki2, ri2, rkc2, e2) = recent[k];
+                    let (o2, d2, rk2, r2, rki2, ri2, rks2, rkc2, e2) = recent[k];
                     if (omega - o2).abs() >= 2.0 * PI * COHERENT_HZ {
                         continue;
                     }
                     let e1 = *e.get_or_insert_with(|| cis_tau(d, omega));
                     let e2 = e2.unwrap_or_else(|| cis_tau(d2, o2));
-                    recent[k].7 = Some(e2);
+                    recent[k].8 = Some(e2);
                     // e^(−(D − iΔω)τ), D = d + d₂, Δω = ω − ω₂.
                     let end = (e1.0 * e2.0 + e1.1 * e2.1, e1.1 * e2.0 - e1.0 * e2.1);
                     let c = window_mean((d + d2) * tau, -(omega - o2) * tau, end);
@@ -1400,9 +1409,10 @@ impl ModeSet<'_> {
                     flat += r * r2 * c;
                     weighted_i += rki * rki2 * c;
                     flat_i += ri * ri2 * c;
+                    weighted_s += rks * rks2 * c;
                     weighted_c += rkc * rkc2 * c;
                 }
-                recent[count % COHERENT_MAX] = (omega, d, rk, r, rki, ri, rkc, e);
+                recent[count % COHERENT_MAX] = (omega, d, rk, r, rki, ri, rks, rkc, e);
                 count += 1;
             }
         }
@@ -1420,8 +1430,9 @@ impl ModeSet<'_> {
         let norm = level_of(weighted, flat);
         // A mallet that takes (almost) everything from the modes is not made up for without
         // bound ([`MAX_MALLET_BOOST`]).
-        let norm = if p.normalize && weighted_c > 0.0 {
-            norm.min((REFERENCE_RMS / weighted_c.sqrt() * MAX_MALLET_BOOST) as f32)
+        let boost = if weighted_s > 0.0 { (weighted_c.max(0.0) / weighted_s).sqrt() } else { 0.0 };
+        let norm = if p.normalize && boost > MAX_MALLET_BOOST {
+            (f64::from(norm) * MAX_MALLET_BOOST / boost) as f32
         } else {
             norm
         };

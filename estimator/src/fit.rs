@@ -157,9 +157,10 @@ pub fn to_damping(model: ModelKind, p: &[f64]) -> dsp::Damping {
     }
 }
 
-/// Checks that SI parameters describe a physically valid law, with the rules of the presets
-/// crate's material validation: coefficients of Rayleigh, power and hybrid ≥ 0, exponents in
-/// (0, 2], and c(λ) finite and ≥ 0 from 20 Hz to 24 kHz ([`AUDIBLE_LAMBDA_MIN`]..=
+/// Checks that SI parameters describe a physically valid law the plugin's *Custom* knobs
+/// play: the presets crate's material validation (coefficients of Rayleigh, power and hybrid
+/// ≥ 0, exponents in (0, 2], c(λ) finite and ≥ 0 from 20 Hz to 24 kHz), and stricter,
+/// exponents in [`MIN_EXPONENT`]..=[`MAX_EXPONENT`] and Caughey's terms each ≥ 0 ([`AUDIBLE_LAMBDA_MIN`]..=
 /// [`AUDIBLE_LAMBDA_MAX`]; for Caughey checked at its stationary point and on a grid).
 ///
 /// # Errors
@@ -185,8 +186,8 @@ pub fn check_physical(model: ModelKind, p: &[f64]) -> Result<(), String> {
         _ => None,
     };
     if let Some(e) = exp {
-        if !(e > 0.0 && e <= MAX_EXPONENT) {
-            return Err(format!("the {} exponent {e} is outside (0, {MAX_EXPONENT}]", model.name()));
+        if !(MIN_EXPONENT * (1.0 - 1e-12)..=MAX_EXPONENT).contains(&e) {
+            return Err(format!("the {} exponent {e} is outside [{MIN_EXPONENT}, {MAX_EXPONENT}]", model.name()));
         }
     }
     let d = to_damping(model, p);
@@ -1089,6 +1090,10 @@ fn fit_warnings(
             "the points scatter less than the extraction's measurement error, so the fit follows the least-damped points (as the lower-bound fit does); record more taps".to_string()
         } else if a.starts_with("eta") {
             "no extra (support) damping was detected above the law".to_string()
+        } else if model == ModelKind::Caughey && (a.starts_with("alpha2") || a.starts_with("alpha3")) {
+            format!("the recordings' damping falls with frequency over part of the range, which a Caughey law the plugin's Custom knobs can play (every term >= 0, {a}) cannot follow: it is fitted as flat there")
+        } else if a.starts_with("exponent") && a.contains(">=") {
+            format!("the damping hardly changes with frequency; the plugin's Exponent knob goes down to {MIN_EXPONENT} ({a}): a constant damping is the rayleigh model with alpha2 = 0")
         } else {
             format!("the law sits on the edge of the physically valid region ({a}); a simpler model may describe the recordings as well")
         };
@@ -1099,8 +1104,9 @@ fn fit_warnings(
 
 /// Fits a damping model to (λ, c) points (λ in rad²/s², c in s⁻¹).
 ///
-/// Every fit stays inside the physically valid region ([`check_physical`]: coefficients ≥ 0,
-/// exponents in (0, 2], c(λ) ≥ 0 from 20 Hz to 24 kHz): the constraints are part of the
+/// Every fit stays inside the physically valid region the plugin plays ([`check_physical`]:
+/// coefficients ≥ 0, exponents in [`MIN_EXPONENT`]..=[`MAX_EXPONENT`], c(λ) ≥ 0 from 20 Hz to
+/// 24 kHz, Caughey's terms each ≥ 0): the constraints are part of the
 /// optimisation (an active-set Newton method, [`crate::optim::newton`]), and the LB fit is
 /// the lower-hull LP with the same bounds. A fit that ends on a bound or without converging
 /// says so in [`FitResult::warnings`].

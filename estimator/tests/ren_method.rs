@@ -60,13 +60,8 @@ fn ren_recovers_the_law_of_a_recording() {
     println!("no object: params {:?}, worst decay error {:.3} %, {s:?}", rep.params, 100.0 * worst);
     assert!(s.gamma_ratio.is_none() && s.amplitude_scale.is_none());
     assert!(s.hybrid.is_finite() && s.hybrid <= s.emg_hybrid.unwrap() * 1.0001, "{s:?}");
-    // Worse than the EMG fit would be said; it is not.
-    assert_eq!(
-        rep.warnings.iter().any(|w| w.contains("worse than the EMG fit")),
-        s.hybrid > s.emg_hybrid.unwrap(),
-        "{:?}",
-        rep.warnings
-    );
+    // Not worse than the EMG fit, so not said to be.
+    assert!(!rep.warnings.iter().any(|w| w.contains("worse than the EMG fit")), "{:?}", rep.warnings);
     assert!(s.match_product > 0.9, "{s:?}");
     assert!(s.refined >= 1 && s.evaluations > s.starts, "{s:?}");
     // Ren's law is not a lower law: no support damping is derived from it.

@@ -347,7 +347,9 @@ pub enum MaterialChoice {
 /// If nothing matches, or the file cannot be read or is not a valid material.
 pub fn resolve_material(lib: &Library, query: &str, say: bool) -> Result<MaterialChoice, String> {
     // `struck materials` lists the knobs as `custom`, after the factory materials.
-    if query.trim().eq_ignore_ascii_case("custom") || query.trim().parse::<usize>() == Ok(lib.custom_material_index()) {
+    if (query.eq_ignore_ascii_case("custom") || query.parse::<usize>() == Ok(lib.custom_material_index()))
+        && !Path::new(query).exists()
+    {
         return Ok(MaterialChoice::Custom);
     }
     let names: Vec<(&str, &str)> = lib.materials.iter().map(|m| (m.id.as_str(), m.name.as_str())).collect();

@@ -198,7 +198,8 @@ struct SoundArgs {
     /// Object id, name or index (`struck objects`), or a bank JSON file (`struck bank build`).
     #[arg(long, default_value = "bar")]
     object: String,
-    /// Material id, name or index (`struck materials`), or a material JSON file.
+    /// Material id, name or index (`struck materials`), a material JSON file, or `custom`:
+    /// the damping knobs as `--set` sets them.
     #[arg(long, default_value = struck::library::DEFAULT_MATERIAL)]
     material: String,
     /// Size relative to the object's reference dimensions.
