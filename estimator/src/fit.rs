@@ -37,8 +37,6 @@ pub const SIGMA_FLOOR: f64 = 0.001;
 /// Upper limit of the EMG rate η relative to 1/median c: a mean support damping under 0.01 %
 /// of the median c is none at all (η → ∞ is the Gaussian limit).
 pub const ETA_MAX: f64 = 1e4;
-/// Grid points (log-spaced, 20 Hz–24 kHz) where the Caughey fits enforce c(λ) ≥ 0.
-const CAUGHEY_GRID: usize = 48;
 
 /// Damping model family: the engine's [`dsp::DampingModel`] (Caughey is fitted as the
 /// third-order series c = α₀ + α₁ λ + α₂ λ²).
@@ -215,8 +213,7 @@ pub fn check_physical(model: ModelKind, p: &[f64]) -> Result<(), String> {
 
 /// Constraints on the normalised curve parameters (the first `kind.n_params()` of `n`)
 /// that keep the law physically valid ([`check_physical`]): coefficients ≥ 0, exponents in
-/// [[`MIN_EXPONENT`], [`MAX_EXPONENT`]], and for Caughey c ≥ 0 on a log grid of the audible
-/// range (plus `cuts`, extra points in normalised x found by [`caughey_dip`]).
+/// [[`MIN_EXPONENT`], [`MAX_EXPONENT`]].
 ///
 /// Caughey's three terms are each ≥ 0 too. A law with a negative term that stays ≥ 0 over
 /// 20 Hz–24 kHz is valid as a preset (the thesis's plastic bowl has one), but a captured
@@ -224,8 +221,10 @@ pub fn check_physical(model: ModelKind, p: &[f64]) -> Result<(), String> {
 /// 1 and 10 kHz from 0 up: a black-box tester's Caughey fits with α₂ < 0 (damping that falls
 /// with frequency) were written and then refused by `render`, and one with α₃ < 0 went
 /// negative above 24 kHz, where a larger *Size* or a higher key moves modes. With every term
-/// ≥ 0, c(λ) ≥ 0 at every λ; a falling damping is fitted as flat (its bound is said).
-fn curve_constraints(kind: ModelKind, d: &Data, n: usize, cuts: &[f64]) -> Constraints {
+/// ≥ 0, c(λ) ≥ 0 at every λ (the grid of c ≥ 0 on 20 Hz–24 kHz and the cuts at dips
+/// between its points that held it before are implied); a falling damping is fitted as flat
+/// (its bound is said).
+fn curve_constraints(kind: ModelKind, n: usize) -> Constraints {
     let mut c = Constraints::default();
     match kind {
         ModelKind::Rayleigh => {
@@ -247,38 +246,14 @@ fn curve_constraints(kind: ModelKind, d: &Data, n: usize, cuts: &[f64]) -> Const
             c.bound(n, 0, 0.0, false, "alpha1 >= 0");
             c.bound(n, 1, 0.0, false, "alpha2 >= 0");
             c.bound(n, 2, 0.0, false, "alpha3 >= 0");
-            let (lo, hi) = (AUDIBLE_LAMBDA_MIN / d.ls, AUDIBLE_LAMBDA_MAX / d.ls);
-            let grid = (0..=CAUGHEY_GRID).map(|i| lo * (hi / lo).powf(i as f64 / CAUGHEY_GRID as f64));
-            for x in grid.chain(cuts.iter().copied()) {
-                let norm = (1.0 + x * x + x * x * x * x).sqrt();
-                let mut row = vec![0.0; n];
-                row[0] = 1.0 / norm;
-                row[1] = x / norm;
-                row[2] = x * x / norm;
-                // A margin of 1e-9 × median c keeps round-off from crossing zero.
-                c.push(row, 1e-9 / norm, format!("c >= 0 at {:.0} Hz", (x * d.ls).sqrt() / TWO_PI));
-            }
         }
     }
     c
 }
 
-/// For Caughey parameters (normalised), the x of the vertex inside the audible range where
-/// c dips below zero between the grid points, if any.
-fn caughey_dip(d: &Data, a: &[f64]) -> Option<f64> {
-    let (lo, hi) = (AUDIBLE_LAMBDA_MIN / d.ls, AUDIBLE_LAMBDA_MAX / d.ls);
-    if a[2] <= 0.0 {
-        return None;
-    }
-    let v = -a[1] / (2.0 * a[2]);
-    let c = a[0] + v * (a[1] + a[2] * v);
-    let scale = a[0].abs() + (a[1] * v).abs() + (a[2] * v * v).abs();
-    (v > lo && v < hi && c < -1e-13 * scale).then_some(v)
-}
-
-/// Moves curve parameters into the valid region where a simple clamp does it (bounds);
-/// returns false if they still break a constraint (Caughey).
-fn make_feasible(kind: ModelKind, d: &Data, a: &mut [f64]) -> bool {
+/// Moves curve parameters into the valid region by clamping them to their bounds; false if
+/// they are not finite.
+fn make_feasible(kind: ModelKind, a: &mut [f64]) -> bool {
     match kind {
         ModelKind::Rayleigh => a[..2].iter_mut().for_each(|v| *v = v.max(0.0)),
         ModelKind::Power => {
@@ -292,7 +267,7 @@ fn make_feasible(kind: ModelKind, d: &Data, a: &mut [f64]) -> bool {
         }
         ModelKind::Caughey => a[..3].iter_mut().for_each(|v| *v = v.max(0.0)),
     }
-    a.iter().all(|v| v.is_finite()) && curve_constraints(kind, d, a.len(), &[]).feasible(a, 1e-12)
+    a.iter().all(|v| v.is_finite()) && curve_constraints(kind, a.len()).feasible(a, 1e-12)
 }
 
 /// The limits of one [`newton`] run: iteration cap, gradient tolerance, largest step per
@@ -322,12 +297,9 @@ struct LsqFit {
 /// An objective for [`newton`]: value, gradient and Hessian (row-major) at x.
 type Objective<'a> = dyn FnMut(&[f64], &mut [f64], &mut [f64]) -> f64 + 'a;
 
-/// Runs the constrained Newton method from `start`; for Caughey adds a cut wherever the
-/// result dips below zero between grid points and solves again (at most 12 rounds; a
-/// dip left after them, of round-off size, is lifted by raising the constant term).
+/// Runs the constrained Newton method from `start` under the curve's bounds and `extra`.
 fn solve_constrained(
     kind: ModelKind,
-    d: &Data,
     start: &[f64],
     extra: &dyn Fn(&mut Constraints, usize),
     limits: NewtonLimits,
@@ -335,30 +307,11 @@ fn solve_constrained(
 ) -> ConstrainedFit {
     let NewtonLimits { max_iter, gtol, max_step } = limits;
     let n = start.len();
-    let mut cuts: Vec<f64> = Vec::new();
-    let mut its = 0;
-    loop {
-        let mut cons = curve_constraints(kind, d, n, &cuts);
-        extra(&mut cons, n);
-        let mut r = newton(&mut *f, start, &cons, max_iter, gtol, max_step);
-        its += r.iterations;
-        r.iterations = its;
-        if kind == ModelKind::Caughey {
-            if let Some(v) = caughey_dip(d, &r.x) {
-                if cuts.len() < 36 {
-                    // The dip and its neighbourhood: a quadratic touching zero moves its
-                    // vertex a little with each cut.
-                    cuts.extend([0.97 * v, v, 1.03 * v]);
-                    continue;
-                }
-                // Still a dip of round-off size after 12 rounds: lift the curve by it.
-                let c = r.x[0] + v * (r.x[1] + r.x[2] * v);
-                r.x[0] += -c + 1e-9;
-            }
-        }
-        let active = r.active.iter().map(|&i| cons.names[i].clone()).collect();
-        return ConstrainedFit { opt: r, active };
-    }
+    let mut cons = curve_constraints(kind, n);
+    extra(&mut cons, n);
+    let r = newton(&mut *f, start, &cons, max_iter, gtol, max_step);
+    let active = r.active.iter().map(|&i| cons.names[i].clone()).collect();
+    ConstrainedFit { opt: r, active }
 }
 
 /// c(x) in normalised units and ∂c/∂a.
@@ -895,7 +848,7 @@ fn lb_fit(kind: ModelKind, d: &Data) -> Option<Vec<f64>> {
             // clean Caughey data gave [0, α₂, 0], 0.03 s⁻¹ at 211 Hz for 1.04.) The Rayleigh
             // LB (a₂ = 0) is kept if better.
             let cmax = cs_sorted.iter().fold(0.0f64, |m, v| m.max(v.abs())).max(1.0);
-            let cons = curve_constraints(kind, d, 3, &[]);
+            let cons = curve_constraints(kind, 3);
             let value = |a2: f64, ys: &mut Vec<f64>| -> Option<(f64, Vec<f64>)> {
                 for i in 0..xs_sorted.len() {
                     ys[i] = cs_sorted[i] - a2 * xs_sorted[i] * xs_sorted[i];
@@ -1005,7 +958,7 @@ fn lsq_fit(kind: ModelKind, d: &Data) -> LsqFit {
         ModelKind::Power => vec![vec![la.exp(), p], vec![1.0, 1.0], vec![1.0, 0.5]],
         ModelKind::Hybrid => vec![vec![ray[0], ray[1], 1.0], vec![0.0, la.exp(), p], vec![0.5 * ray[0], ray[1], 0.5]],
     };
-    starts.retain_mut(|s| make_feasible(kind, d, s));
+    starts.retain_mut(|s| make_feasible(kind, s));
     if starts.is_empty() {
         // c ≡ 1 (the median) is valid for every model.
         starts.push(starts_fallback(kind));
@@ -1016,7 +969,7 @@ fn lsq_fit(kind: ModelKind, d: &Data) -> LsqFit {
         let linear = matches!(kind, ModelKind::Rayleigh | ModelKind::Caughey);
         let max_step = if linear { f64::INFINITY } else { 2.0 };
         let limits = NewtonLimits { max_iter: 200, gtol: 1e-12, max_step };
-        let r = solve_constrained(kind, d, &s, &|_, _| {}, limits, &mut |a, g, h| sse_hess(kind, d, a, g, h));
+        let r = solve_constrained(kind, &s, &|_, _| {}, limits, &mut |a, g, h| sse_hess(kind, d, a, g, h));
         its += r.opt.iterations;
         if r.opt.f.is_finite() && best.as_ref().is_none_or(|b| r.opt.f < b.opt.f) {
             best = Some(r);
@@ -1181,7 +1134,7 @@ fn fit_lb(model: ModelKind, d: &Data) -> Result<FitResult, EstimateError> {
     let k = model.n_params();
     let a = lb_fit(model, d).ok_or_else(|| no_convergence(method, "no lower hull edge spans the data"))?;
     let params = denorm(model, &a, d.ls, d.cs);
-    let cons = curve_constraints(model, d, k, &[]);
+    let cons = curve_constraints(model, k);
     let active: Vec<String> =
         (0..cons.len()).filter(|&i| cons.slack(i, &a).abs() <= 1e-12).map(|i| cons.names[i].clone()).collect();
     Ok(FitResult {
@@ -1316,9 +1269,8 @@ fn emg_runs(model: ModelKind, d: &Data, warm: bool) -> (Vec<ConstrainedFit>, usi
         c.bound(np, np - 1, bounds.ln_eta_max, true, format!("eta <= {ETA_MAX} / median c"));
     };
     let limits = NewtonLimits { max_iter: 100, gtol: 1e-10, max_step: 2.0 };
-    let solve = |s: &[f64]| {
-        solve_constrained(model, d, s, &noise_bounds, limits, &mut |p, g, h| emg_nll_hess(model, d, p, g, h))
-    };
+    let solve =
+        |s: &[f64]| solve_constrained(model, s, &noise_bounds, limits, &mut |p, g, h| emg_nll_hess(model, d, p, g, h));
     let run = |starts: &[Vec<f64>]| -> Vec<ConstrainedFit> {
         if hetero && n >= PARALLEL_STARTS_MIN_POINTS {
             // With per-point uncertainties σ rests on its floor, so no run ends free of
@@ -1495,7 +1447,7 @@ fn emg_starts(model: ModelKind, d: &Data, lsq: &[f64], bounds: NoiseBounds) -> V
         ModelKind::Power => s[0] *= (1.0 - tau / (d.c.iter().sum::<f64>() / nf)).max(0.1),
         _ => s[0] -= tau,
     }
-    if !make_feasible(model, d, &mut s[..k]) {
+    if !make_feasible(model, &mut s[..k]) {
         s[..k].copy_from_slice(lsq);
     }
     s.push(sig.min(0.1 * m_med).ln().max(ls_lo));
