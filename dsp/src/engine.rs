@@ -52,8 +52,9 @@ pub const MAX_UNWEIGHTED_RMS: f64 = 0.4;
 /// finding). The strike and the impulse are weighted alike, so their ratio is what the mallet
 /// takes as heard (a reviewer: a tapered impulse against the strike's hard cut let the ceiling
 /// rise by the taper, tens of dB with every mode at 17–20 kHz, and vanish over 20 kHz).
+/// `k` is the K-weighting at `f` ([`exciter::k_weighting`]), which the caller has.
 #[inline]
-fn heard_weight(f: f64) -> f64 {
+fn heard_weight(f: f64, k: f64) -> f64 {
     const FROM_HZ: f64 = 12_000.0;
     let taper = if f <= FROM_HZ {
         1.0
@@ -63,7 +64,7 @@ fn heard_weight(f: f64) -> f64 {
         let x = (f / FROM_HZ).ln() / (AUDIBLE_HZ / FROM_HZ).ln();
         (0.5 * PI * x).cos().powi(2)
     };
-    exciter::k_weighting(f) * taper.max(HEARD_FLOOR)
+    k * taper.max(HEARD_FLOOR)
 }
 
 /// The least weight [`heard_weight`] gives a mode, relative to its K-weighting (−40 dB).
@@ -1374,11 +1375,12 @@ impl ModeSet<'_> {
                 // over 23.9 kHz, they made a steel strike at key 108 5.8 dB quieter at 192 kHz
                 // than at 48 kHz, a black-box tester's finding.) The unweighted cap and the
                 // push count them: they are in the waveform.
-                let kw = if f <= AUDIBLE_HZ { exciter::k_weighting(f) } else { 0.0 };
+                let k = exciter::k_weighting(f);
+                let kw = if f <= AUDIBLE_HZ { k } else { 0.0 };
                 let rk = r * kw;
                 let ri = if impulse { f64::from(gains[m]) } else { 0.0 };
                 let rki = ri * kw;
-                let heard = heard_weight(f);
+                let heard = heard_weight(f, k);
                 let (rks, rkc) = (r * heard, ri * heard);
                 // Mean square over the window: ½·r²·mean(e^(−2dt)) for the mode itself, and
                 // r·r'·mean(cos(Δω t)·e^(−(d + d')t)) with each close earlier mode.
