@@ -315,6 +315,12 @@ impl AtomicFile {
         &self.dest
     }
 
+    /// Whether the destination is a stream (a device, a pipe, a descriptor): written into on
+    /// [`commit`](Self::commit), where it can still fail (`/dev/full`), and not undone.
+    pub fn is_stream(&self) -> bool {
+        self.stream
+    }
+
     /// Flushes the buffer and syncs the temporary file to disk, without renaming it: with
     /// several outputs, sync them all before committing any, so that a full disk leaves every
     /// destination untouched.
@@ -410,6 +416,23 @@ impl Drop for AtomicFile {
         // Committed (renamed or copied) or removed: no longer the handler's.
         interrupt::release(self.slot.take());
     }
+}
+
+/// Commits several outputs of one command: all synced first, then the streams written (a
+/// device or pipe can still fail there, e.g. `/dev/full`), then the regular files renamed. A
+/// failure before the renames leaves every regular destination untouched.
+///
+/// # Errors
+/// The first output's error ([`AtomicFile::sync`], [`AtomicFile::commit`]).
+pub fn commit_all(mut files: Vec<AtomicFile>) -> Result<(), OutputError> {
+    for f in &mut files {
+        f.sync()?;
+    }
+    let (streams, regular): (Vec<_>, Vec<_>) = files.into_iter().partition(AtomicFile::is_stream);
+    for f in streams.into_iter().chain(regular) {
+        f.commit()?;
+    }
+    Ok(())
 }
 
 /// Writes `bytes` to `path` through an [`AtomicFile`].
@@ -681,5 +704,40 @@ mod tests {
         assert!(matches!(e, OutputError::Io { .. }), "{e}");
         assert!(e.to_string().starts_with("cannot write /dev/full: "), "{e}");
         assert!(is_char("/dev/full"), "/dev/full is no longer a device");
+    }
+
+    /// A command's outputs committed together: a stream that fails (a full device) fails
+    /// before any regular file is replaced (`estimate --out m.json --report /dev/full`
+    /// replaced the material, then exited 1).
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn a_failing_stream_among_outputs_leaves_the_files_untouched() {
+        if fs::metadata("/dev/full").is_err() {
+            eprintln!("no /dev/full: skipped");
+            return;
+        }
+        let dir = scratch("commit-all");
+        let kept = dir.join("material.json");
+        fs::write(&kept, b"the user's material").unwrap();
+        let mut material = AtomicFile::create(&kept).unwrap();
+        material.write_all(b"new material").unwrap();
+        let mut report = AtomicFile::create(Path::new("/dev/full")).unwrap();
+        report.write_all(&[b'x'; 10_000]).unwrap();
+        assert!(report.is_stream() && !material.is_stream());
+        // The material listed first, as `estimate` stages them.
+        let e = commit_all(vec![material, report]).unwrap_err();
+        assert!(e.to_string().starts_with("cannot write /dev/full: "), "{e}");
+        assert_eq!(fs::read(&kept).unwrap(), b"the user's material");
+        assert!(others(&dir, "material.json").is_empty(), "a temporary file was left");
+        // Both regular: both replaced.
+        let other = dir.join("report.json");
+        let mut a = AtomicFile::create(&kept).unwrap();
+        a.write_all(b"new material").unwrap();
+        let mut b = AtomicFile::create(&other).unwrap();
+        b.write_all(b"report").unwrap();
+        commit_all(vec![a, b]).unwrap();
+        assert_eq!(fs::read(&kept).unwrap(), b"new material");
+        assert_eq!(fs::read(&other).unwrap(), b"report");
+        let _ = fs::remove_dir_all(dir);
     }
 }

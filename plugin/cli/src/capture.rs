@@ -199,24 +199,15 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
     struck::params::StruckParams::new(&Library::factory())
         .custom_knobs_for(&damping)
         .map_err(|e| format!("the fitted law is beyond what the plugin plays ({e}); nothing was written"))?;
-    // Both files are complete on disk before either replaces anything.
-    let mut material_file = staged(&args.out, material.to_json().as_bytes())?;
-    let mut report_file = match &args.report {
-        Some(path) => {
-            let mut text = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
-            text.push('\n');
-            Some(staged(path, text.as_bytes())?)
-        }
-        None => None,
-    };
-    material_file.sync().map_err(|e| e.to_string())?;
-    if let Some(f) = report_file.as_mut() {
-        f.sync().map_err(|e| e.to_string())?;
+    // Both files are complete on disk before either replaces anything; a stream (a device, a
+    // pipe) is written into first, so one that fails (`/dev/full`) leaves the files untouched.
+    let mut files = vec![staged(&args.out, material.to_json().as_bytes())?];
+    if let Some(path) = &args.report {
+        let mut text = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
+        text.push('\n');
+        files.push(staged(path, text.as_bytes())?);
     }
-    material_file.commit().map_err(|e| e.to_string())?;
-    if let Some(f) = report_file {
-        f.commit().map_err(|e| e.to_string())?;
-    }
+    output::commit_all(files).map_err(|e| e.to_string())?;
     // Ren §5.2.2: how much of the recording the material represents (issue 15 part 1).
     let ren = report.ren_match.as_ref().map_or_else(String::new, |m| {
         format!(
