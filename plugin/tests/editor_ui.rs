@@ -377,6 +377,23 @@ fn save_material_writes_a_loadable_user_preset() {
     h.run_steps(1);
     h.state_mut().ui.wait_for_capture();
     h.run_steps(2);
+    // A law the Custom knobs cannot hold (base damping over their 2000 1/s) is not saved: a
+    // user material loads into those knobs, and this one would be refused when chosen.
+    let params = plugin.struck_params();
+    let analysed = params.capture.lock().expect("lock").clone().expect("a capture");
+    let mut beyond = analysed.clone();
+    for f in beyond.report.fits.iter_mut().chain(std::iter::once(&mut beyond.report.chosen)) {
+        f.params[0] = 5000.0;
+    }
+    *params.capture.lock().expect("lock") = Some(beyond);
+    h.run_steps(1);
+    h.get_by_label("Save material").click();
+    h.run_steps(2);
+    let m = h.state().ui.capture_message().unwrap_or_default().to_string();
+    assert!(m.starts_with("not saved: ") && m.contains("outside the plugin's range"), "{m}");
+    assert!(std::fs::read_dir(&dir).map_or(true, |mut d| d.next().is_none()), "a file was written");
+    *params.capture.lock().expect("lock") = Some(analysed);
+    h.run_steps(1);
     h.get_by_label("Save material").click();
     h.run_steps(2);
     let files: Vec<_> =

@@ -607,8 +607,16 @@ impl CapturePanel {
             {
                 let m = captured_material(&self.save_name, &rec, &fit, cx.library);
                 let path = dir.join(format!("{}.json", m.id));
-                let out = std::fs::create_dir_all(&dir)
-                    .map_err(|e| format!("cannot create {}: {e}", dir.display()))
+                // A user material loads into the Custom knobs: one they cannot hold would be
+                // written only to be refused when chosen (as `struck estimate` refuses it).
+                let out = params
+                    .custom_knobs_for(&fit.damping())
+                    .map_err(|e| {
+                        format!("not saved: the {} fit is beyond what the plugin plays ({e})", fit.method.name())
+                    })
+                    .and_then(|_| {
+                        std::fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))
+                    })
                     .and_then(|()| m.save(&path).map_err(|e| e.to_string()));
                 self.message = Some(match out {
                     Ok(()) => format!("saved {}", path.display()),
