@@ -1205,23 +1205,35 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
             w.iter().map(|&v| (f64::from(v) - m).powi(2)).sum::<f64>() / frame as f64
         })
         .collect();
+    // Frames of digital silence (constant: an editor's padding of zeros, a gate, with the
+    // loader's offset taken out) measure no noise: the floor is read off the others (a take
+    // padded with a second of zeros read its floor as none, 120 dB under its peak, and its
+    // ring's weak partials changed).
+    let live = |j: usize| e[j] > 0.0;
     let mut spec = FrameSpectra::new(x, hop, frame);
     let mut predictor = RingPredictor::new(x, fs, hop, frame, nfr);
     let nb = spec.bins();
     let mut p = vec![0.0; nb];
     let mut scratch = Vec::with_capacity(nb);
-    let mut sorted = e.clone();
+    let mut sorted: Vec<f64> = (0..nfr).filter(|&j| live(j)).map(|j| e[j]).collect();
+    if sorted.is_empty() {
+        sorted.clone_from(&e);
+    }
     sorted.sort_by(f64::total_cmp);
     let peak_e = sorted[sorted.len() - 1];
     // Flat-noise levels of up to 2,000 frames spread over the file, for the floor.
     let stride = nfr.div_ceil(2000).max(1);
     let mut nus: Vec<f64> = (0..nfr)
         .step_by(stride)
+        .filter(|&j| live(j))
         .map(|j| {
             spec.power(j, &mut p);
             flat_level(&p, &mut scratch)
         })
         .collect();
+    if nus.is_empty() {
+        nus.push(0.0);
+    }
     nus.sort_by(f64::total_cmp);
     // Floored 120 dB under the loudest frame (synthetic or digital silence).
     let noise = sorted[sorted.len() / 10].min(nus[nus.len() / 10]).max(peak_e * 1e-12).max(1e-30);

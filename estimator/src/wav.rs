@@ -193,7 +193,10 @@ fn open_wav(path: &Path) -> Result<WavData, EstimateError> {
     let mut r = io::BufReader::new(file);
     let mut head = [0u8; 12];
     r.read_exact(&mut head).map_err(|_| wav_err("the file is shorter than a WAV header".into()))?;
-    if &head[0..4] != b"RIFF" || &head[8..12] != b"WAVE" {
+    // RF64 and BW64 (EBU Tech 3306, ITU-R BS.2088): a WAV over 4 GiB, as field recorders and
+    // DAWs write long takes; its sizes are in a `ds64` chunk, the 32-bit ones set to 0xFFFFFFFF.
+    let rf64 = matches!(&head[0..4], b"RF64" | b"BW64") && &head[8..12] == b"WAVE";
+    if !rf64 && (&head[0..4] != b"RIFF" || &head[8..12] != b"WAVE") {
         return Err(wav_err(if &head[0..4] == b"RIFX" {
             "big-endian (RIFX) WAV files are not supported".into()
         } else {
@@ -202,6 +205,8 @@ fn open_wav(path: &Path) -> Result<WavData, EstimateError> {
     }
     let mut pos = 12u64;
     let mut fmt: Option<Vec<u8>> = None;
+    // The data size of an RF64 file's `ds64` chunk.
+    let mut ds64_data: Option<u64> = None;
     let data_len = loop {
         let mut h = [0u8; 8];
         if r.read_exact(&mut h).is_err() {
@@ -222,11 +227,30 @@ fn open_wav(path: &Path) -> Result<WavData, EstimateError> {
                     skip_pad(&mut r, &mut pos);
                 }
             }
+            b"ds64" if rf64 => {
+                // riffSize, dataSize, sampleCount (u64 each), then a table this reader needs not.
+                if !(24..=MAX_FMT_LEN).contains(&len) {
+                    return Err(wav_err(format!(
+                        "ds64 chunk of {len} bytes (an RF64 file's sizes need 24 to {MAX_FMT_LEN})"
+                    )));
+                }
+                let mut body = vec![0u8; len as usize];
+                r.read_exact(&mut body).map_err(|_| wav_err("the ds64 chunk is cut short".into()))?;
+                pos += u64::from(len);
+                ds64_data = body[8..16].try_into().ok().map(u64::from_le_bytes);
+                if len % 2 == 1 {
+                    skip_pad(&mut r, &mut pos);
+                }
+            }
             b"data" => {
                 if fmt.is_none() {
                     return Err(wav_err("the data chunk comes before the fmt chunk".into()));
                 }
-                break len;
+                // An RF64 data chunk's size is in its ds64 chunk.
+                break match ds64_data {
+                    Some(d) if len == u32::MAX && d > 0 => Some(d),
+                    _ => (!unset_data_len(len)).then_some(u64::from(len)),
+                };
             }
             // Any other chunk: skip it and its pad byte.
             _ => {
@@ -252,7 +276,7 @@ fn open_wav(path: &Path) -> Result<WavData, EstimateError> {
         }
     };
     let format = parse_fmt(&fmt.unwrap_or_default()).map_err(wav_err)?;
-    let declared = (!unset_data_len(data_len)).then_some(u64::from(data_len));
+    let declared = data_len;
     // Samples of unset size end where chunks written after them (LIST, id3, cue, …) begin.
     let end = match (declared, size) {
         (None, Some(size)) => {
@@ -485,7 +509,9 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
                         value: v as f32,
                     });
                 }
-                if v.abs() >= 0.999 {
+                // At full scale: clipped. Float samples over it are not (float does not clip:
+                // a file peaking at 1.09 holds its peaks), only those held at ±1.
+                if v.abs() >= 0.999 && !(spec.float && v.abs() > 1.0) {
                     clipped += 1;
                 }
                 seen += 1;
@@ -545,8 +571,20 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
             return Err(EstimateError::Silent { path: path.to_path_buf(), why });
         }
     }
-    let n = mono.len() as f64;
-    let mean = mono.iter().map(|&v| f64::from(v)).sum::<f64>() / n;
+    // The recorded part: digital silence (exact zeros) that an editor padded the take with
+    // before or after it is no part of the recording, so neither of its offset: measured on
+    // the recorded part only, a padded take reads as the take itself (a woodblock
+    // padded with 1 s of zeros kept its ring 79 dB under its peak off centre, which gave
+    // 1226 Hz at 84 s⁻¹ instead of 40).
+    // (Runs of at least a millisecond: a ring that starts or ends on a zero sample is all
+    // recording.)
+    let run = (spec.sample_rate as usize / 1000).max(1);
+    let first = mono.iter().position(|&v| v != 0.0).filter(|&i| i >= run).unwrap_or(0);
+    let last = mono.iter().rposition(|&v| v != 0.0).map_or(mono.len(), |i| i + 1);
+    let last = if mono.len() - last >= run { last } else { mono.len() };
+    let recorded = first..last.max(first);
+    let n = recorded.len().max(1) as f64;
+    let mean = mono[recorded.clone()].iter().map(|&v| f64::from(v)).sum::<f64>() / n;
     let clip_fraction = clipped as f64 / seen.max(1) as f64;
     let wrong_units = spec.float && peak_any > WRONG_UNITS_PEAK;
     if wrong_units {
@@ -591,6 +629,8 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
     }
     // Remove the DC offset: a constant would otherwise show up as a zero-frequency "mode".
     if analysis && mean != 0.0 {
+        // (From every sample: the padding stays constant, digital silence at the take's
+        // offset, and meets the take where it did.)
         for v in &mut mono {
             *v = (f64::from(*v) - mean) as f32;
         }
@@ -720,6 +760,67 @@ mod tests {
                 Err(EstimateError::Wav { reason, .. }) => assert!(reason.contains(says), "{name}: {reason}"),
                 other => panic!("{name}: {other:?}"),
             }
+            let _ = std::fs::remove_file(p);
+        }
+    }
+
+    /// A take padded with digital silence before and after reads as the take itself: its
+    /// offset is measured on the recorded part (the zeros stay constant).
+    #[test]
+    fn digital_silence_padding_changes_no_sample_of_the_take() {
+        let take: Vec<f64> =
+            tone(4800).iter().enumerate().map(|(i, v)| v * (-(i as f64) / 900.0).exp() + 0.003).collect();
+        let bytes = |x: &[f64]| x.iter().flat_map(|v| (*v as f32).to_le_bytes()).collect::<Vec<u8>>();
+        let fmt = fmt_body(3, 1, 48_000, 32, None);
+        let (a, b) = (scratch("take", &wav_bytes(&fmt, &bytes(&take), None)), scratch("take-padded", &[]));
+        let plain = load_wav(&a, None).unwrap();
+        let mut padded = vec![0.0; 48_000];
+        padded.extend(&take);
+        padded.extend(vec![0.0; 12_000]);
+        std::fs::write(&b, wav_bytes(&fmt, &bytes(&padded), None)).unwrap();
+        let p = load_wav(&b, None).unwrap();
+        let _ = (std::fs::remove_file(a), std::fs::remove_file(b));
+        assert_eq!(&p.samples[48_000..48_000 + take.len()], &plain.samples[..]);
+        // The padding is still digital silence (constant), at the take's offset taken out.
+        let pad = p.samples[0];
+        assert!(p.samples[..48_000].iter().chain(&p.samples[48_000 + take.len()..]).all(|&v| v == pad));
+        // The offset was taken out (0.003 plus the ring's own mean).
+        let mean = plain.samples.iter().map(|&v| f64::from(v)).sum::<f64>() / take.len() as f64;
+        assert!(mean.abs() < 1e-6, "{mean}");
+    }
+
+    /// RF64 (EBU Tech 3306) and BW64: the sizes in the `ds64` chunk, the 32-bit ones at
+    /// 0xFFFFFFFF; read as the same samples in a plain WAV (a chunk after the samples is not
+    /// read as samples: the ds64 size ends them). A black-box tester's RF64 file was "not a
+    /// WAV file".
+    #[test]
+    fn rf64_files_are_read() {
+        let samples: Vec<i16> = (0..4801).map(|i| ((i * 53 % 3000) as i16 - 1500) * 9).collect();
+        let plain = pcm16(44_100, &[], &samples);
+        let want = load_wav(&scratch("rf64-plain", &plain), None).unwrap().samples;
+        let data: Vec<u8> = samples.iter().flat_map(|s| s.to_le_bytes()).collect();
+        for magic in [b"RF64", b"BW64"] {
+            let mut f = magic.to_vec();
+            f.extend(u32::MAX.to_le_bytes());
+            f.extend_from_slice(b"WAVEds64");
+            f.extend(28u32.to_le_bytes());
+            let riff_size = 4 + 36 + 24 + 8 + data.len() + 8 + 4;
+            f.extend((riff_size as u64).to_le_bytes());
+            f.extend((data.len() as u64).to_le_bytes());
+            f.extend((samples.len() as u64).to_le_bytes());
+            f.extend(0u32.to_le_bytes());
+            // fmt and the rest as the plain file has them, the data size unset.
+            f.extend_from_slice(&plain[12..12 + 8 + 16]);
+            f.extend_from_slice(b"data");
+            f.extend(u32::MAX.to_le_bytes());
+            f.extend_from_slice(&data);
+            f.extend_from_slice(b"JUNK");
+            f.extend(4u32.to_le_bytes());
+            f.extend([0x7f; 4]);
+            let p = scratch("rf64", &f);
+            let got = load_wav(&p, None).unwrap_or_else(|e| panic!("{}: {e}", String::from_utf8_lossy(magic)));
+            assert_eq!(got.samples, want, "{}", String::from_utf8_lossy(magic));
+            assert!(got.warnings.is_empty(), "{:?}", got.warnings);
             let _ = std::fs::remove_file(p);
         }
     }
@@ -936,6 +1037,22 @@ mod tests {
         let _ = std::fs::remove_file(p);
         assert!(r.warnings.iter().any(|w| w.contains("wrong units")), "{:?}", r.warnings);
         assert!(!r.warnings.iter().any(|w| w.contains("clipping")), "{:?}", r.warnings);
+    }
+
+    /// A float file peaking a little over full scale (1.09) is not clipped (float holds its
+    /// peaks); one held at ±1 is.
+    #[test]
+    fn float_over_full_scale_is_not_clipping_but_float_held_at_one_is() {
+        let x = tone(4800);
+        let peak = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let over: Vec<u8> = x.iter().flat_map(|v| ((v / peak * 1.09) as f32).to_le_bytes()).collect();
+        let held: Vec<u8> = x.iter().flat_map(|v| ((v / peak * 1.5).clamp(-1.0, 1.0) as f32).to_le_bytes()).collect();
+        for (name, data, clipping) in [("over", over, false), ("held", held, true)] {
+            let p = scratch(name, &wav_bytes(&fmt_body(3, 1, 48_000, 32, None), &data, None));
+            let r = load_wav(&p, None).unwrap();
+            let _ = std::fs::remove_file(p);
+            assert_eq!(r.warnings.iter().any(|w| w.contains("clipping")), clipping, "{name}: {:?}", r.warnings);
+        }
     }
 
     #[test]
