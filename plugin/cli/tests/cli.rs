@@ -768,6 +768,46 @@ fn the_custom_material_is_the_knobs() {
     assert!(e.contains("damping knobs"), "{e}");
 }
 
+/// A recording whose every partial dies within a few milliseconds (five modes at 3–11 kHz,
+/// d = 1500 s⁻¹: c = 3000 s⁻¹ at every λ) fits a law past the *Custom* knobs' upper end
+/// (base damping ≤ 2000 s⁻¹): `estimate` says so and writes nothing, the file already at
+/// `--out` untouched (the reviewer of stop 45: the refusal had no test).
+#[test]
+fn a_law_beyond_the_knobs_is_refused_before_anything_is_written() {
+    let dir = scratch("estimate-beyond");
+    let mut g: u64 = 777;
+    let mut u = move || {
+        g = g.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (g >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut args = vec!["estimate".to_string(), "--no-residual".into(), "--out".into()];
+    let out = dir.join("fast.json");
+    std::fs::write(&out, "{\"keep\": 1}").unwrap();
+    args.push(out.to_str().unwrap().into());
+    for i in 0..10 {
+        let modes: Vec<(f64, f64, f64)> = [3000.0, 5000.0, 7000.0, 9000.0, 11000.0]
+            .iter()
+            .map(|&f| (0.05 + 0.1 * u(), f, std::f64::consts::TAU * u()))
+            .collect();
+        let path = dir.join(format!("fast-{i}.wav"));
+        write_float_wav(&path, 48_000, 24_000, |n| {
+            let t = n as f64 / 48_000.0 - 0.1;
+            if t < 0.0 {
+                return 0.0;
+            }
+            modes.iter().map(|&(a, f, p)| a * (-1500.0 * t).exp() * (std::f64::consts::TAU * f * t + p).sin()).sum()
+        });
+        args.push(path.to_str().unwrap().into());
+    }
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let o = struck(&dir, &args);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.contains("beyond what the plugin plays") && e.contains("nothing was written"), "{e}");
+    eprintln!("{}", e.lines().last().unwrap_or_default());
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), "{\"keep\": 1}");
+}
+
 /// Every material `estimate` writes loads into the plugin (`render --material`), whatever
 /// the model, method and data: the plugin plays a captured material through its *Custom*
 /// knobs, which hold Caughey's terms and the power law's exponent from 0 and 0.05 up. A
