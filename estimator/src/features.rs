@@ -76,8 +76,9 @@ pub struct Feature {
     pub sigma_decay_per_s: f64,
     /// How well one exponential explains this partial: its share of the energy of the
     /// partial, i.e. of itself and the faster components the fit found at the same
-    /// frequency ([`ImpactFit::components`]: the strike's onset, a beating twin). 1 = a single
-    /// exponential; 0.5 = half the partial's energy decays otherwise.
+    /// frequency ([`ImpactFit::components`]: the strike's onset, a beating twin the record
+    /// cannot resolve). 1 = a single exponential; 0.5 = half the partial's energy decays
+    /// otherwise.
     #[serde(default = "one")]
     pub single_exponential: f64,
     /// The partial's initial envelope slope with its components, s⁻¹ (amplitude-weighted
@@ -176,9 +177,9 @@ impl Default for ExtractOptions {
 pub struct ImpactFit {
     /// Accepted features (one per partial), strongest first.
     pub features: Vec<Feature>,
-    /// The partials' other members ([`group_partials`]: onsets, beating twins, fast first
-    /// stages, weak floors), strongest first: kept for resynthesis and the report, not used
-    /// by the damping fits.
+    /// The partials' other members ([`group_partials`]: onsets, beating twins the record
+    /// cannot resolve, fast first stages, weak floors), strongest first: kept for
+    /// resynthesis and the report, not used by the damping fits.
     #[serde(default)]
     pub components: Vec<Feature>,
     /// Fraction of the impact's power explained by all fitted modes, 0..1.
@@ -1247,9 +1248,10 @@ pub fn extract_impact(
 /// Groups features into partials (issue 10 part 4). A real partial is often not one
 /// exponential: the strike's onset leaves a broad, fast component on it (a triangle's
 /// 8553 Hz partial decays at 4 s⁻¹ under an onset component at d = 196 s⁻¹ that is stronger
-/// at t = 0), a beating twin leaves a second component, and a two-stage decay is fitted as a
-/// fast and a slow one (a steel drum's 494 Hz partial: 0.78 at 14 s⁻¹ and 0.31 at 4.6 s⁻¹,
-/// 1.4 Hz apart; its envelope falls at 4.2–4.5 s⁻¹ after the first 0.15 s). Taken as modes
+/// at t = 0), a beating twin too close to resolve leaves a second component, and a
+/// two-stage decay is fitted as a fast and a slow one (a steel drum's 494 Hz partial: 0.78
+/// at 14 s⁻¹ and 0.31 at 4.6 s⁻¹, 1.4 Hz apart; its envelope falls at 4.2–4.5 s⁻¹ after the
+/// first 0.15 s). Taken as modes
 /// of their own, those components sit far above the damping law and a comparison by
 /// frequency picks the wrong decay. So, in order of energy a²/(4d), a feature that lies
 /// within a more energetic one's partial — 0.5 % in frequency, closer than the record can

@@ -81,9 +81,9 @@ pub struct ImpactFeatures {
     pub onset_s: f64,
     /// Modal features (one per partial), strongest first.
     pub features: Vec<Feature>,
-    /// The partials' other members (onsets, beating twins, fast first stages, weak floors),
-    /// strongest first: in the report and for resynthesis, not in the damping fits
-    /// ([`features::group_partials`]).
+    /// The partials' other members (onsets, beating twins the record cannot resolve, fast
+    /// first stages, weak floors), strongest first: in the report and for resynthesis, not in
+    /// the damping fits ([`features::group_partials`]).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub components: Vec<Feature>,
     /// Length of the analysed segment, s.

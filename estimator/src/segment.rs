@@ -9,7 +9,9 @@
 //! narrow modal peaks do not raise it. Rules:
 //! - Noise floor: the lower of the 10th percentile of frame energy and the 10th percentile
 //!   of ν, so a file that rings from its first to its last sample (a trimmed sample-library
-//!   file) still has the floor of its noise, not of its ringing.
+//!   file) still has the floor of its noise, not of its ringing; over the frames from the
+//!   first to the last that is not constant (the digital silence an editor pads a take with
+//!   before and after measures no noise; a gate's inside the file still counts).
 //! - Onset candidate: energy over the floor by `onset_db`, and either the frame's energy
 //!   rises by `rise_db` over the previous 20 ms, or (a tap while the object still rings) the
 //!   energy that is new in this frame, bin by bin (Σ max(0, P − rise × P_prev)), is at least
@@ -1205,35 +1207,31 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
             w.iter().map(|&v| (f64::from(v) - m).powi(2)).sum::<f64>() / frame as f64
         })
         .collect();
-    // Frames of digital silence (constant: an editor's padding of zeros, a gate, with the
-    // loader's offset taken out) measure no noise: the floor is read off the others (a take
-    // padded with a second of zeros read its floor as none, 120 dB under its peak, and its
-    // ring's weak partials changed).
-    let live = |j: usize| e[j] > 0.0;
+    // The frames of digital silence before the first sound and after the last (constant: an
+    // editor's padding of zeros, with the loader's offset taken out) measure no noise: the
+    // floor is read off the frames between (a take padded with a second of zeros read its
+    // floor as none, 120 dB under its peak, and its ring's weak partials changed). A gate's
+    // silence between strikes still counts, as it always did.
+    let first_live = (0..nfr).find(|&j| e[j] > 0.0).unwrap_or(0);
+    let last_live = (0..nfr).rev().find(|&j| e[j] > 0.0).unwrap_or(nfr - 1).max(first_live);
+    let between = first_live..last_live + 1;
     let mut spec = FrameSpectra::new(x, hop, frame);
     let mut predictor = RingPredictor::new(x, fs, hop, frame, nfr);
     let nb = spec.bins();
     let mut p = vec![0.0; nb];
     let mut scratch = Vec::with_capacity(nb);
-    let mut sorted: Vec<f64> = (0..nfr).filter(|&j| live(j)).map(|j| e[j]).collect();
-    if sorted.is_empty() {
-        sorted.clone_from(&e);
-    }
+    let mut sorted: Vec<f64> = e[between.clone()].to_vec();
     sorted.sort_by(f64::total_cmp);
     let peak_e = sorted[sorted.len() - 1];
-    // Flat-noise levels of up to 2,000 frames spread over the file, for the floor.
-    let stride = nfr.div_ceil(2000).max(1);
-    let mut nus: Vec<f64> = (0..nfr)
+    // Flat-noise levels of up to 2,000 frames spread over those, for the floor.
+    let stride = between.len().div_ceil(2000).max(1);
+    let mut nus: Vec<f64> = between
         .step_by(stride)
-        .filter(|&j| live(j))
         .map(|j| {
             spec.power(j, &mut p);
             flat_level(&p, &mut scratch)
         })
         .collect();
-    if nus.is_empty() {
-        nus.push(0.0);
-    }
     nus.sort_by(f64::total_cmp);
     // Floored 120 dB under the loudest frame (synthetic or digital silence).
     let noise = sorted[sorted.len() / 10].min(nus[nus.len() / 10]).max(peak_e * 1e-12).max(1e-30);

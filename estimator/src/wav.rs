@@ -228,16 +228,23 @@ fn open_wav(path: &Path) -> Result<WavData, EstimateError> {
                 }
             }
             b"ds64" if rf64 => {
-                // riffSize, dataSize, sampleCount (u64 each), then a table this reader needs not.
-                if !(24..=MAX_FMT_LEN).contains(&len) {
-                    return Err(wav_err(format!(
-                        "ds64 chunk of {len} bytes (an RF64 file's sizes need 24 to {MAX_FMT_LEN})"
-                    )));
+                // riffSize, dataSize, sampleCount (u64 each), then a table of other chunks'
+                // sizes (12 bytes an entry) this reader needs not: read past it.
+                if len < 24 {
+                    return Err(wav_err(format!("ds64 chunk of {len} bytes (an RF64 file's sizes need 24)")));
                 }
-                let mut body = vec![0u8; len as usize];
+                let mut body = [0u8; 24];
                 r.read_exact(&mut body).map_err(|_| wav_err("the ds64 chunk is cut short".into()))?;
+                let rest = u64::from(len) - 24;
+                let skipped =
+                    io::copy(&mut (&mut r).take(rest), &mut io::sink()).map_err(|e| wav_err(e.to_string()))?;
+                if skipped < rest {
+                    return Err(wav_err("the ds64 chunk is cut short".into()));
+                }
                 pos += u64::from(len);
-                ds64_data = body[8..16].try_into().ok().map(u64::from_le_bytes);
+                let mut size = [0u8; 8];
+                size.copy_from_slice(&body[8..16]);
+                ds64_data = Some(u64::from_le_bytes(size));
                 if len % 2 == 1 {
                     skip_pad(&mut r, &mut pos);
                 }
@@ -447,6 +454,8 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
     // A pipe's length is unknown: grow as it is read.
     let mut mono = Vec::with_capacity(if total_frames.is_some() { frames } else { frames.min(1 << 20) });
     let (mut clipped, mut seen, mut peak_any) = (0usize, 0usize, 0.0f64);
+    // Each channel's previous sample (clipping is a value held).
+    let mut prev = vec![f64::NAN; channels];
     // Whole frames at a time, 64 KiB or so per read.
     let per_read = (65_536 / frame_bytes).max(1);
     let mut buf = vec![0u8; per_read * frame_bytes];
@@ -509,10 +518,15 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
                         value: v as f32,
                     });
                 }
-                // At full scale: clipped. Float samples over it are not (float does not clip:
-                // a file peaking at 1.09 holds its peaks), only those held at ±1.
-                if v.abs() >= 0.999 && !(spec.float && v.abs() > 1.0) {
+                // Clipped: held at full scale or over, at its channel's previous value (clipped
+                // at ±1, or clipped and then raised). A peak that merely reaches it is not (a
+                // float file peaking at 1.09 holds its peaks; one sample at 0.9995 is a peak).
+                let held = prev.get(ch).is_some_and(|&p| p == v);
+                if v.abs() >= 0.999 && held {
                     clipped += 1;
+                }
+                if let Some(p) = prev.get_mut(ch) {
+                    *p = v;
                 }
                 seen += 1;
                 peak_any = peak_any.max(v.abs());
@@ -571,16 +585,16 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
             return Err(EstimateError::Silent { path: path.to_path_buf(), why });
         }
     }
-    // The recorded part: digital silence (exact zeros) that an editor padded the take with
-    // before or after it is no part of the recording, so neither of its offset: measured on
-    // the recorded part only, a padded take reads as the take itself (a woodblock
-    // padded with 1 s of zeros kept its ring 79 dB under its peak off centre, which gave
-    // 1226 Hz at 84 s⁻¹ instead of 40).
-    // (Runs of at least a millisecond: a ring that starts or ends on a zero sample is all
-    // recording.)
+    // The recorded part: digital silence (a constant: exact zeros, or an offset) that an
+    // editor padded the take with before or after it is no part of the recording, so neither
+    // of its offset: measured on the recorded part only, a padded take reads as the take
+    // itself (a woodblock padded with 1 s of zeros kept its ring 79 dB under its peak off
+    // centre, which gave 1226 Hz at 84 s⁻¹ instead of 40). (Runs of at least a millisecond:
+    // a ring that starts or ends on a zero sample is all recording.)
     let run = (spec.sample_rate as usize / 1000).max(1);
-    let first = mono.iter().position(|&v| v != 0.0).filter(|&i| i >= run).unwrap_or(0);
-    let last = mono.iter().rposition(|&v| v != 0.0).map_or(mono.len(), |i| i + 1);
+    let (head, tail) = (mono.first().copied().unwrap_or(0.0), mono.last().copied().unwrap_or(0.0));
+    let first = mono.iter().position(|&v| v != head).filter(|&i| i >= run).unwrap_or(0);
+    let last = mono.iter().rposition(|&v| v != tail).map_or(mono.len(), |i| i + 1);
     let last = if mono.len() - last >= run { last } else { mono.len() };
     let recorded = first..last.max(first);
     let n = recorded.len().max(1) as f64;
@@ -764,26 +778,31 @@ mod tests {
         }
     }
 
-    /// A take padded with digital silence before and after reads as the take itself: its
-    /// offset is measured on the recorded part (the zeros stay constant).
+    /// A take padded with digital silence (zeros, or a constant) before and after reads as the
+    /// take itself: its offset is measured on the recorded part (the padding stays constant).
     #[test]
     fn digital_silence_padding_changes_no_sample_of_the_take() {
         let take: Vec<f64> =
             tone(4800).iter().enumerate().map(|(i, v)| v * (-(i as f64) / 900.0).exp() + 0.003).collect();
         let bytes = |x: &[f64]| x.iter().flat_map(|v| (*v as f32).to_le_bytes()).collect::<Vec<u8>>();
         let fmt = fmt_body(3, 1, 48_000, 32, None);
-        let (a, b) = (scratch("take", &wav_bytes(&fmt, &bytes(&take), None)), scratch("take-padded", &[]));
+        let a = scratch("take", &wav_bytes(&fmt, &bytes(&take), None));
         let plain = load_wav(&a, None).unwrap();
-        let mut padded = vec![0.0; 48_000];
-        padded.extend(&take);
-        padded.extend(vec![0.0; 12_000]);
-        std::fs::write(&b, wav_bytes(&fmt, &bytes(&padded), None)).unwrap();
-        let p = load_wav(&b, None).unwrap();
-        let _ = (std::fs::remove_file(a), std::fs::remove_file(b));
-        assert_eq!(&p.samples[48_000..48_000 + take.len()], &plain.samples[..]);
-        // The padding is still digital silence (constant), at the take's offset taken out.
-        let pad = p.samples[0];
-        assert!(p.samples[..48_000].iter().chain(&p.samples[48_000 + take.len()..]).all(|&v| v == pad));
+        let _ = std::fs::remove_file(a);
+        // Zeros, or a constant (an offset the editor's padding kept), before and after.
+        for (before, after) in [(0.0, 0.0), (0.01, -0.002)] {
+            let mut padded = vec![before; 48_000];
+            padded.extend(&take);
+            padded.extend(vec![after; 12_000]);
+            let b = scratch("take-padded", &wav_bytes(&fmt, &bytes(&padded), None));
+            let p = load_wav(&b, None).unwrap();
+            let _ = std::fs::remove_file(b);
+            assert_eq!(&p.samples[48_000..48_000 + take.len()], &plain.samples[..], "padded with {before}, {after}");
+            // The padding is still digital silence (constant), at the take's offset taken out.
+            let (head, tail) = (p.samples[0], p.samples[p.samples.len() - 1]);
+            assert!(p.samples[..48_000].iter().all(|&v| v == head));
+            assert!(p.samples[48_000 + take.len()..].iter().all(|&v| v == tail));
+        }
         // The offset was taken out (0.003 plus the ring's own mean).
         let mean = plain.samples.iter().map(|&v| f64::from(v)).sum::<f64>() / take.len() as f64;
         assert!(mean.abs() < 1e-6, "{mean}");
@@ -803,18 +822,22 @@ mod tests {
             let mut f = magic.to_vec();
             f.extend(u32::MAX.to_le_bytes());
             f.extend_from_slice(b"WAVEds64");
-            f.extend(28u32.to_le_bytes());
-            let riff_size = 4 + 36 + 24 + 8 + data.len() + 8 + 4;
+            // With a table of one entry (a chunk id and its 64-bit size).
+            f.extend(40u32.to_le_bytes());
+            let riff_size = 4 + 48 + 24 + 8 + data.len() + 8 + 4;
             f.extend((riff_size as u64).to_le_bytes());
             f.extend((data.len() as u64).to_le_bytes());
             f.extend((samples.len() as u64).to_le_bytes());
-            f.extend(0u32.to_le_bytes());
+            f.extend(1u32.to_le_bytes());
+            f.extend_from_slice(b"zzzz");
+            f.extend(4u64.to_le_bytes());
             // fmt and the rest as the plain file has them, the data size unset.
             f.extend_from_slice(&plain[12..12 + 8 + 16]);
             f.extend_from_slice(b"data");
             f.extend(u32::MAX.to_le_bytes());
             f.extend_from_slice(&data);
-            f.extend_from_slice(b"JUNK");
+            // A chunk the reader does not know after the samples: only the ds64 size ends them.
+            f.extend_from_slice(b"zzzz");
             f.extend(4u32.to_le_bytes());
             f.extend([0x7f; 4]);
             let p = scratch("rf64", &f);
@@ -1040,14 +1063,16 @@ mod tests {
     }
 
     /// A float file peaking a little over full scale (1.09) is not clipped (float holds its
-    /// peaks); one held at ±1 is.
+    /// peaks); one held at ±1 is, and one clipped and then raised (held at ±1.12).
     #[test]
     fn float_over_full_scale_is_not_clipping_but_float_held_at_one_is() {
         let x = tone(4800);
         let peak = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let over: Vec<u8> = x.iter().flat_map(|v| ((v / peak * 1.09) as f32).to_le_bytes()).collect();
         let held: Vec<u8> = x.iter().flat_map(|v| ((v / peak * 1.5).clamp(-1.0, 1.0) as f32).to_le_bytes()).collect();
-        for (name, data, clipping) in [("over", over, false), ("held", held, true)] {
+        let raised: Vec<u8> =
+            x.iter().flat_map(|v| ((v / peak * 1.5).clamp(-1.0, 1.0) as f32 * 1.12).to_le_bytes()).collect();
+        for (name, data, clipping) in [("over", over, false), ("held", held, true), ("raised", raised, true)] {
             let p = scratch(name, &wav_bytes(&fmt_body(3, 1, 48_000, 32, None), &data, None));
             let r = load_wav(&p, None).unwrap();
             let _ = std::fs::remove_file(p);

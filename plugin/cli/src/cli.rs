@@ -45,8 +45,14 @@ pub fn stdout_result() -> Result<(), String> {
 /// Whether a progress line (drawn with `\r`, no newline) is on stderr.
 static PROGRESS_OPEN: AtomicBool = AtomicBool::new(false);
 
-/// Draws `line` as the progress line on stderr (redrawn in place with `\r`).
+/// Draws `line` as the progress line on stderr (redrawn in place with `\r`), when stderr is
+/// a terminal: in a log or a pipe the redraws would run together into one line before the
+/// warnings and the error.
 pub fn show_progress(line: &str) {
+    use std::io::IsTerminal as _;
+    if !std::io::stderr().is_terminal() {
+        return;
+    }
     eprint!("\r{line}");
     PROGRESS_OPEN.store(true, Ordering::Relaxed);
 }
