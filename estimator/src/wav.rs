@@ -597,6 +597,9 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
     let last = mono.iter().rposition(|&v| v != tail).map_or(mono.len(), |i| i + 1);
     let last = if mono.len() - last >= run { last } else { mono.len() };
     let recorded = first..last.max(first);
+    // A recorded part under 50 ms is a click, not a take with an offset: its own mean is its
+    // shape (a one-sided pulse), so the file's is taken, as before (review).
+    let recorded = if recorded.len() * 20 < spec.sample_rate as usize { 0..mono.len() } else { recorded };
     let n = recorded.len().max(1) as f64;
     let mean = mono[recorded.clone()].iter().map(|&v| f64::from(v)).sum::<f64>() / n;
     let clip_fraction = clipped as f64 / seen.max(1) as f64;
@@ -806,6 +809,23 @@ mod tests {
         // The offset was taken out (0.003 plus the ring's own mean).
         let mean = plain.samples.iter().map(|&v| f64::from(v)).sum::<f64>() / take.len() as f64;
         assert!(mean.abs() < 1e-6, "{mean}");
+    }
+
+    /// A lone click in digital silence (a 2 ms one-sided pulse in 0.5 s of zeros) keeps its
+    /// shape and gets no DC warning: under 50 ms is no take, its mean is the file's.
+    #[test]
+    fn a_lone_click_in_silence_is_not_an_offset() {
+        let mut x = vec![0.0f64; 24_000];
+        for v in &mut x[12_000..12_096] {
+            *v = 0.5;
+        }
+        let bytes: Vec<u8> = x.iter().flat_map(|v| (*v as f32).to_le_bytes()).collect();
+        let p = scratch("click", &wav_bytes(&fmt_body(3, 1, 48_000, 32, None), &bytes, None));
+        let r = load_wav(&p, None).unwrap();
+        let _ = std::fs::remove_file(p);
+        assert!(!r.warnings.iter().any(|w| w.contains("DC offset")), "{:?}", r.warnings);
+        // The file's mean (0.002) came out, not the click's (0.5).
+        assert!((f64::from(r.samples[12_000]) - (0.5 - 0.002)).abs() < 1e-6, "{}", r.samples[12_000]);
     }
 
     /// RF64 (EBU Tech 3306) and BW64: the sizes in the `ds64` chunk, the 32-bit ones at
