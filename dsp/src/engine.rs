@@ -1223,10 +1223,27 @@ impl Jitter {
     const NONE: Jitter = Jitter { position: 0.0, force: 1.0, contact: 1.0 };
 }
 
-/// A mode remembered for the loudness cross terms: (ω, d, K-weighted amplitude, amplitude,
-/// both again for an impulse, the strike's and the impulse's amplitude × [`heard_weight`],
+/// A strike plan's loudness terms, one per (weighting, drive): a mode's amplitude under each,
+/// or the window's mean squares summed over the modes. The drives are the strike and an
+/// ideal impulse; the weightings the K-weighting with the level's cut at 20 kHz, none, and
+/// as heard ([`heard_weight`]). Indexed by [`W_STRIKE`] … [`HEARD_IMPULSE`].
+type Loudness = [f64; 6];
+/// The strike, K-weighted (cut at 20 kHz): the level normalises this.
+const W_STRIKE: usize = 0;
+/// The strike, unweighted (the cap [`MAX_UNWEIGHTED_RMS`]).
+const FLAT_STRIKE: usize = 1;
+/// An ideal impulse, K-weighted (`StrikePlan::impulse_norm`).
+const W_IMPULSE: usize = 2;
+/// An ideal impulse, unweighted.
+const FLAT_IMPULSE: usize = 3;
+/// The strike, weighted as heard ([`MAX_MALLET_BOOST`]).
+const HEARD_STRIKE: usize = 4;
+/// An ideal impulse, weighted as heard.
+const HEARD_IMPULSE: usize = 5;
+
+/// A mode remembered for the loudness cross terms: (ω, d, its [`Loudness`] amplitudes,
 /// e^((−d + iω)τ) once computed).
-type Recent = (f64, f64, f64, f64, f64, f64, f64, f64, Option<C64>);
+type Recent = (f64, f64, Loudness, Option<C64>);
 
 /// How a strike will play: its contact time, the level factor applied to every mode's
 /// gain, and the strongest mode's amplitude (for the quality threshold).
@@ -1328,21 +1345,18 @@ impl ModeSet<'_> {
             return None;
         }
         // The loudness of the modes that will ring (above the quality threshold), in ascending
-        // frequency for the cross terms of close ones.
-        let (mut weighted, mut flat) = (0.0f64, 0.0f64);
-        // The same for an ideal impulse (a unit-area force of no duration): a lasting
-        // contact's and audio in's level (see `StrikePlan::impulse_norm`). A mode only the
-        // impulse rings (past the mallet's roll-off) takes part with r = 0 for the strike.
-        let (mut weighted_i, mut flat_i) = (0.0f64, 0.0f64);
-        // The strike's and the impulse's loudness once more, both weighted as heard
+        // frequency for the cross terms of close ones ([`Loudness`]). The same for an ideal
+        // impulse (a unit-area force of no duration): a lasting contact's and audio in's level
+        // (see `StrikePlan::impulse_norm`); a mode only the impulse rings (past the mallet's
+        // roll-off) takes part with r = 0 for the strike. And both once more weighted as heard
         // ([`heard_weight`]: no hard cut): their ratio is what the mallet takes, which
         // [`MAX_MALLET_BOOST`] bounds.
-        let (mut weighted_s, mut weighted_c) = (0.0f64, 0.0f64);
+        let mut sums: Loudness = [0.0; 6];
         let threshold = peak * 10f32.powf(-p.quality_db / 20.0);
         let threshold_i = peak_gain * 10f32.powf(-p.quality_db / 20.0);
         if p.normalize {
             // The last modes, a ring, for cross terms (see [`Recent`]).
-            let mut recent: [Recent; COHERENT_MAX] = [(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, None); COHERENT_MAX];
+            let mut recent: [Recent; COHERENT_MAX] = [(0.0, 0.0, [0.0; 6], None); COHERENT_MAX];
             let mut count = 0usize;
             for &m in &obj.by_lambda {
                 let m = usize::from(m);
@@ -1377,44 +1391,42 @@ impl ModeSet<'_> {
                 // push count them: they are in the waveform.
                 let k = exciter::k_weighting(f);
                 let kw = if f <= AUDIBLE_HZ { k } else { 0.0 };
-                let rk = r * kw;
                 let ri = if impulse { f64::from(gains[m]) } else { 0.0 };
-                let rki = ri * kw;
                 let heard = heard_weight(f, k);
-                let (rks, rkc) = (r * heard, ri * heard);
+                let mut amp: Loudness = [0.0; 6];
+                amp[W_STRIKE] = r * kw;
+                amp[FLAT_STRIKE] = r;
+                amp[W_IMPULSE] = ri * kw;
+                amp[FLAT_IMPULSE] = ri;
+                amp[HEARD_STRIKE] = r * heard;
+                amp[HEARD_IMPULSE] = ri * heard;
                 // Mean square over the window: ½·r²·mean(e^(−2dt)) for the mode itself, and
                 // r·r'·mean(cos(Δω t)·e^(−(d + d')t)) with each close earlier mode.
                 let w = window_mean(2.0 * d * tau, 0.0, (0.0, 0.0));
-                weighted += 0.5 * rk * rk * w;
-                flat += 0.5 * r * r * w;
-                weighted_i += 0.5 * rki * rki * w;
-                flat_i += 0.5 * ri * ri * w;
-                weighted_s += 0.5 * rks * rks * w;
-                weighted_c += 0.5 * rkc * rkc * w;
+                for (s, a) in sums.iter_mut().zip(&amp) {
+                    *s += 0.5 * a * a * w;
+                }
 
                 // e^((−d + iω)τ) of a mode, computed once and only for modes with a close
                 // neighbour; a pair's end factor is e₁·conj(e₂).
                 let cis_tau = |d: f64, omega: f64| mode_rotation(d, omega, tau);
                 let mut e = None;
                 for k in 0..count.min(COHERENT_MAX) {
-                    let (o2, d2, rk2, r2, rki2, ri2, rks2, rkc2, e2) = recent[k];
+                    let (o2, d2, amp2, e2) = recent[k];
                     if (omega - o2).abs() >= 2.0 * PI * COHERENT_HZ {
                         continue;
                     }
                     let e1 = *e.get_or_insert_with(|| cis_tau(d, omega));
                     let e2 = e2.unwrap_or_else(|| cis_tau(d2, o2));
-                    recent[k].8 = Some(e2);
+                    recent[k].3 = Some(e2);
                     // e^(−(D − iΔω)τ), D = d + d₂, Δω = ω − ω₂.
                     let end = (e1.0 * e2.0 + e1.1 * e2.1, e1.1 * e2.0 - e1.0 * e2.1);
                     let c = window_mean((d + d2) * tau, -(omega - o2) * tau, end);
-                    weighted += rk * rk2 * c;
-                    flat += r * r2 * c;
-                    weighted_i += rki * rki2 * c;
-                    flat_i += ri * ri2 * c;
-                    weighted_s += rks * rks2 * c;
-                    weighted_c += rkc * rkc2 * c;
+                    for ((s, a), a2) in sums.iter_mut().zip(&amp).zip(&amp2) {
+                        *s += a * a2 * c;
+                    }
                 }
-                recent[count % COHERENT_MAX] = (omega, d, rk, r, rki, ri, rks, rkc, e);
+                recent[count % COHERENT_MAX] = (omega, d, amp, e);
                 count += 1;
             }
         }
@@ -1428,11 +1440,12 @@ impl ModeSet<'_> {
                 obj.norm
             }
         };
-        let impulse_norm = level_of(weighted_i, flat_i);
-        let norm = level_of(weighted, flat);
+        let impulse_norm = level_of(sums[W_IMPULSE], sums[FLAT_IMPULSE]);
+        let norm = level_of(sums[W_STRIKE], sums[FLAT_STRIKE]);
         // A mallet that takes (almost) everything from the modes is not made up for without
         // bound ([`MAX_MALLET_BOOST`]).
-        let boost = if weighted_s > 0.0 { (weighted_c.max(0.0) / weighted_s).sqrt() } else { 0.0 };
+        let (heard_s, heard_i) = (sums[HEARD_STRIKE], sums[HEARD_IMPULSE]);
+        let boost = if heard_s > 0.0 { (heard_i.max(0.0) / heard_s).sqrt() } else { 0.0 };
         let norm = if p.normalize && boost > MAX_MALLET_BOOST {
             (f64::from(norm) * MAX_MALLET_BOOST / boost) as f32
         } else {
