@@ -1320,8 +1320,9 @@ pub fn group_partials(features: Vec<Feature>, duration_s: f64) -> (Vec<Feature>,
 /// Two members of a partial within 0.5 % that the record resolves are two modes (a doublet,
 /// both reported) when their decays are within this ratio ([`group_partials`]). Measured on
 /// the 82 real clips of `tests/recordings` (decays within 20 % of the reference, the rule
-/// replayed on the extractor's members): every resolved pair apart 138 of 410, within 1.25:
-/// 146, 1.5: 145, 2: 142; grouping all within 0.5 % (before): 145. A black-box tester's
+/// replayed on the extractor's members by `tests/recordings/regroup.py`, on the build before
+/// it): every resolved pair apart 138 of 410, within 1.25: 146, 1.5: 145, 2: 144; grouping
+/// all within 0.5 % (before): 145. A black-box tester's
 /// doublets 2000/2001.5 Hz in a 3–10 s record came out as one, at the weaker one's frequency.
 pub const DOUBLET_DECAY_RATIO: f64 = 1.25;
 

@@ -157,9 +157,10 @@ pub fn to_damping(model: ModelKind, p: &[f64]) -> dsp::Damping {
 
 /// Checks that SI parameters describe a physically valid law the plugin's *Custom* knobs
 /// play: the presets crate's material validation (coefficients of Rayleigh, power and hybrid
-/// ≥ 0, exponents in (0, 2], c(λ) finite and ≥ 0 from 20 Hz to 24 kHz), and stricter,
-/// exponents in [`MIN_EXPONENT`]..=[`MAX_EXPONENT`] and Caughey's terms each ≥ 0 ([`AUDIBLE_LAMBDA_MIN`]..=
-/// [`AUDIBLE_LAMBDA_MAX`]; for Caughey checked at its stationary point and on a grid).
+/// ≥ 0, exponents in (0, 2], c(λ) finite and ≥ 0 from 20 Hz to 24 kHz,
+/// [`AUDIBLE_LAMBDA_MIN`]..=[`AUDIBLE_LAMBDA_MAX`]; for Caughey checked at its stationary
+/// point and on a grid), and stricter, exponents in [`MIN_EXPONENT`]..=[`MAX_EXPONENT`] and
+/// Caughey's terms each ≥ 0.
 ///
 /// # Errors
 /// A message naming the parameter or frequency that breaks the rule.
