@@ -92,6 +92,9 @@ fn a_two_stage_partial_is_one_feature_with_its_late_decay() {
     let p = near(8553.0);
     assert_eq!(p.len(), 1, "one feature for the two-stage partial: {:?}", fit.features);
     assert!((p[0].decay_per_s / 4.2 - 1.0).abs() < 0.02, "late decay {}", p[0].decay_per_s);
+    // Its envelope in this record, from 10 ms on: the true signal's (by brute force, 4.11).
+    let envelope = envelope_slope(&modes[..2], 0.01, 0.5);
+    assert!((p[0].envelope_decay_per_s / envelope - 1.0).abs() < 0.02, "{:?} vs envelope {envelope}", p[0]);
     // Energy share of the slow mode: (0.178²/4.2) / (0.178²/4.2 + 0.467²/196) = 0.87.
     assert!((p[0].single_exponential - 0.87).abs() < 0.05, "{}", p[0].single_exponential);
     // Initial slope (0.178·4.2 + 0.467·196) / (0.178 + 0.467) = 143 s⁻¹.
@@ -122,6 +125,9 @@ fn a_partial_is_reported_by_its_late_slope_not_its_floor() {
     let p = near(494.4);
     assert_eq!(p.len(), 1, "one feature for the two-stage partial: {:?}", fit.features);
     assert!((p[0].decay_per_s / 4.58 - 1.0).abs() < 0.03, "late slope {:?}", p[0]);
+    // Its envelope in this record falls at 8.96 s⁻¹ (the true signal's, by brute force).
+    let envelope = envelope_slope(&modes[..2], 0.01, 0.92);
+    assert!((p[0].envelope_decay_per_s / envelope - 1.0).abs() < 0.05, "{:?} vs envelope {envelope}", p[0]);
     assert!(p[0].single_exponential < 0.7, "{:?}", p[0]);
     assert!(fit
         .components
@@ -130,6 +136,8 @@ fn a_partial_is_reported_by_its_late_slope_not_its_floor() {
     let q = near(1784.0);
     assert_eq!(q.len(), 1, "{:?}", fit.features);
     assert!((q[0].decay_per_s / 50.0 - 1.0).abs() < 0.03, "the partial's slope, not its floor: {:?}", q[0]);
+    // Nor the envelope's (with the floor it would fall at 9.6 s⁻¹).
+    assert!((q[0].envelope_decay_per_s / 50.0 - 1.0).abs() < 0.03, "{:?}", q[0]);
     // The floor was fitted, and is a component of the partial.
     assert!(
         fit.components.iter().any(|c| (c.freq_hz / 1784.0 - 1.0).abs() < 0.001 && c.decay_per_s < 2.0),
@@ -277,4 +285,85 @@ fn a_take_padded_with_digital_silence_gives_the_takes_features() {
             f.decay_per_s
         );
     }
+}
+
+/// A partial's envelope depends on its members' relative phase (two modes that start apart
+/// in phase beat differently from two that start together), so the features carry each
+/// member's phase and `envelope_decay_per_s` sums them with it: the steel drum's pair of
+/// `a_partial_is_reported_by_its_late_slope_not_its_floor` with the slow mode started 1 and
+/// 2.5 rad after the fast one decays as the true signal's envelope does (brute force: 8.11
+/// and 5.51 s⁻¹, 8.96 in phase; the members decay at 4.58 and 14.27). The 2.5 rad case fails
+/// with the phases' sign flipped in the sum (5.20 against 5.51). The partial's decay stays its
+/// late member's. A lone mode reports its own phase (a e^(−d t) cos(2π f t + φ)), and its
+/// decays are its own.
+#[test]
+fn a_partials_envelope_is_summed_with_its_members_phases() {
+    use estimator::features::extract_impact;
+    use estimator::synth::{add_noise, Rng};
+    use estimator::ExtractOptions;
+    let fs = 44_100.0;
+    let n = (0.92 * fs) as usize;
+    for phi in [1.0, 2.5] {
+        let modes = [(495.1, 14.27, 0.78, 0.0), (493.7, 4.58, 0.31, phi), (1210.0, 7.0, 0.3, -2.0)];
+        let mut x: Vec<f64> = (0..n)
+            .map(|i| {
+                let t = i as f64 / fs;
+                modes.iter().map(|&(f, d, a, p)| a * (-d * t).exp() * (std::f64::consts::TAU * f * t + p).cos()).sum()
+            })
+            .collect();
+        add_noise(&mut x, 60.0, 4410, &mut Rng::new(11));
+        let x: Vec<f32> = x.iter().map(|&v| v as f32).collect();
+        let fit = extract_impact(&x, fs, 0.0, &ExtractOptions::default(), &AtomicBool::new(false)).unwrap();
+        let near = |f: f64| fit.features.iter().filter(|m| (m.freq_hz / f - 1.0).abs() < 0.005).collect::<Vec<_>>();
+        let p = near(494.4);
+        assert_eq!(p.len(), 1, "φ {phi}: {:?}", fit.features);
+        let truth = envelope_slope_phased(&modes[..2], 0.01, 0.92);
+        let in_phase = envelope_slope(&[(495.1, 14.27, 0.78), (493.7, 4.58, 0.31)], 0.01, 0.92);
+        // The phase matters here: the truth differs from the in-phase pair's by more than the
+        // tolerance below, so a member summed with the wrong phase (or sign) fails.
+        assert!((truth / in_phase - 1.0).abs() > 0.08, "φ {phi}: truth {truth}, in phase {in_phase}");
+        assert!((p[0].envelope_decay_per_s / truth - 1.0).abs() < 0.05, "φ {phi}: {:?} vs envelope {truth}", p[0]);
+        assert!((p[0].decay_per_s / 4.58 - 1.0).abs() < 0.05, "φ {phi}: late slope {:?}", p[0]);
+        let q = near(1210.0);
+        assert_eq!(q.len(), 1, "{:?}", fit.features);
+        assert!(
+            (q[0].decay_per_s / 7.0 - 1.0).abs() < 0.01 && (q[0].envelope_decay_per_s / 7.0 - 1.0).abs() < 0.01,
+            "{:?}",
+            q[0]
+        );
+        let dphi =
+            (q[0].phase_rad + 2.0 + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
+        assert!(dphi.abs() < 0.05, "phase {} vs −2", q[0].phase_rad);
+    }
+}
+
+/// The slope of the energy-weighted least-squares line through ln |x(t)| of the analytic
+/// signal of `modes` (f Hz, d s⁻¹, a; all in the same phase at t = 0, as `synth::render`
+/// makes them) over [t0, t1] s, on 20,000 points: what a partial of these modes decays at,
+/// by brute force.
+fn envelope_slope(modes: &[(f64, f64, f64)], t0: f64, t1: f64) -> f64 {
+    let phased: Vec<(f64, f64, f64, f64)> = modes.iter().map(|&(f, d, a)| (f, d, a, 0.0)).collect();
+    envelope_slope_phased(&phased, t0, t1)
+}
+
+/// [`envelope_slope`] of a e^(−d t) cos(2π f t + φ) for `modes` (f, d, a, φ): its analytic
+/// signal is a e^(−d t) e^(i(2π f t + φ)).
+fn envelope_slope_phased(modes: &[(f64, f64, f64, f64)], t0: f64, t1: f64) -> f64 {
+    let n = 20_000;
+    let (mut sw, mut swt, mut swtt, mut swy, mut swty) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for i in 0..n {
+        let t = t0 + (t1 - t0) * i as f64 / (n - 1) as f64;
+        let (re, im) = modes.iter().fold((0.0, 0.0), |(re, im), &(f, d, a, phi)| {
+            let (s, c) = (std::f64::consts::TAU * f * t + phi).sin_cos();
+            (re + a * (-d * t).exp() * c, im + a * (-d * t).exp() * s)
+        });
+        let w = re * re + im * im;
+        let y = w.sqrt().ln();
+        sw += w;
+        swt += w * t;
+        swtt += w * t * t;
+        swy += w * y;
+        swty += w * t * y;
+    }
+    -(sw * swty - swt * swy) / (sw * swtt - swt * swt)
 }

@@ -122,6 +122,10 @@ def match_clip(ref, feats):
             m["decay_struck"] = best["decay_per_s"]
             m["decay_ratio"] = best["decay_per_s"] / p["decay_per_s"]
             m["decay_ok"] = abs(m["decay_ratio"] - 1) <= DECAY_TOL
+            env = best.get("envelope_decay_per_s")
+            if env:
+                m["envelope_decay_struck"] = env
+                m["envelope_decay_ok"] = abs(env / p["decay_per_s"] - 1) <= DECAY_TOL
         else:
             m["decay_ok"] = False
         out.append(m)
@@ -220,6 +224,19 @@ def main():
               f"of the partials; struck within 20 % of the STFT slope on {pct(struck_stft)}")
         summary["reference_vs_stft_decay_share"] = ref_stft
         summary["struck_vs_stft_decay_share"] = struck_stft
+    # Struck's envelope slope of each partial in its record (`envelope_decay_per_s`, stop 47):
+    # the reference's own definition of a partial's decay, reported beside the late slope the
+    # fits use. Where the two differ the partial's members beat, and the envelope's slope
+    # depends on the strike's phase (features::envelope_decay).
+    env = [p for p in allp if "envelope_decay_ok" in p]
+    if env:
+        env_ok = sum(p["envelope_decay_ok"] for p in env)
+        env_rel = sum(p["envelope_decay_ok"] for p in env if p["reliable"])
+        n_rel = sum(bool(p["reliable"]) for p in allp)
+        print(f"struck's envelope slopes (not fitted) within 20 %: {env_ok}/{len(allp)} ({pct(env_ok / len(allp))}), "
+              f"reliable {env_rel}/{n_rel}")
+        summary["envelope_decay_ok"] = env_ok
+        summary["envelope_decay_ok_reliable"] = env_rel
     multi = [r["id"] for r in rows if r["impacts"] > 1]
     summary["clips_split_into_several_impacts"] = multi
     if multi:
