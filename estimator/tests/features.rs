@@ -367,3 +367,56 @@ fn envelope_slope_phased(modes: &[(f64, f64, f64, f64)], t0: f64, t1: f64) -> f6
     }
     -(sw * swty - swt * swy) / (sw * swtt - swt * swt)
 }
+
+/// Two equal modes a few bandwidths apart (a bell's or a plate's doublet: 1000 Hz with 1010 Hz
+/// at 15 s⁻¹, 1005 Hz at 5 s⁻¹, 1020 Hz at 30 s⁻¹, 1010 Hz at 5 s⁻¹, 1005 Hz at 10 s⁻¹; 0.9 s
+/// at 48 kHz, 60 dB), struck at eight relative phases: each mode found within 2 % of their
+/// spacing and 5 % of its decay. The greedy search detects such a pair at the level where
+/// they merge into one broad peak, and for some phases its fits settle in a wrong pair (a
+/// black-box tester's 1000/1010 Hz at phases 0.8 rad apart: 1006 Hz at 105 s⁻¹ with 1000 Hz
+/// at 140 s⁻¹); `Search::resplit` fits such a cluster again from the peaks of its level.
+/// Measured: 32 of the 40 right, 28 without the resplit (the test fails then).
+#[test]
+fn close_equal_pairs_are_split_at_any_phase() {
+    use estimator::features::extract_impact;
+    use estimator::synth::{add_noise, Rng};
+    use estimator::ExtractOptions;
+    let fs = 48_000.0;
+    let n = (0.9 * fs) as usize;
+    let mut right = 0;
+    let mut wrong = Vec::new();
+    for (df, d) in [(10.0, 15.0), (5.0, 5.0), (20.0, 30.0), (10.0, 5.0), (5.0, 10.0)] {
+        for i in 0..8 {
+            let phi = std::f64::consts::TAU * i as f64 / 8.0;
+            let modes = [(1000.0, d, 0.25, 0.0), (1000.0 + df, d, 0.25, phi)];
+            let mut x: Vec<f64> = (0..n)
+                .map(|k| {
+                    let t = k as f64 / fs;
+                    modes
+                        .iter()
+                        .map(|&(f, d, a, p)| a * (-d * t).exp() * (std::f64::consts::TAU * f * t + p).cos())
+                        .sum()
+                })
+                .collect();
+            add_noise(&mut x, 60.0, 2400, &mut Rng::new(3 + i as u64));
+            let x: Vec<f32> = x.iter().map(|&v| v as f32).collect();
+            let fit = extract_impact(&x, fs, 0.0, &ExtractOptions::default(), &AtomicBool::new(false)).unwrap();
+            let found = modes.iter().all(|&(f, d, _, _)| {
+                fit.features.iter().any(|m| (m.freq_hz - f).abs() < 0.02 * df && (m.decay_per_s / d - 1.0).abs() < 0.05)
+            });
+            if found {
+                right += 1;
+            } else {
+                let near: Vec<_> = fit
+                    .features
+                    .iter()
+                    .filter(|m| (m.freq_hz - 1000.0 - df / 2.0).abs() < df)
+                    .map(|m| (m.freq_hz, m.decay_per_s))
+                    .collect();
+                wrong.push((df, d, phi, near));
+            }
+        }
+    }
+    eprintln!("close pairs right: {right} of 40; wrong: {wrong:?}");
+    assert!(right >= 31, "{right} of 40 right; wrong: {wrong:?}");
+}
