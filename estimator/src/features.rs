@@ -1,8 +1,8 @@
 //! Modal feature extraction from one impact (Ren, Yeh, Lin 2013 §4; Sterling thesis §4.2.2).
 //!
-//! A *feature* is one damped sinusoid `a · e^(−d t) · sin(2π f t + φ)` with t = 0 at the
+//! A *feature* is one damped sinusoid `a · e^(−d t) · cos(2π f t + φ)` with t = 0 at the
 //! start of the impact segment: `freq_hz` = f (damped frequency, Hz), `decay_per_s` = d
-//! (s⁻¹, amplitude ∝ e^(−d t)), `amplitude` = a (full scale units at t = 0).
+//! (s⁻¹, amplitude ∝ e^(−d t)), `amplitude` = a (full scale units at t = 0), `phase_rad` = φ.
 //!
 //! Pipeline (what follows Ren §4 and where it deviates):
 //! 1. *Multi-level spectra* (Ren §4 "multi-level power spectrogram"): levels of window length
