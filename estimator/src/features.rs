@@ -1222,16 +1222,7 @@ impl<'a> Search<'a> {
             return;
         }
         // Accept only if the time-domain residual shrinks.
-        let before = self.residual;
-        for &j in &cluster {
-            subtract(&mut self.r, &self.modes[j], fs, 1.0);
-        }
-        let mut after = before;
-        for m in &new {
-            after = subtract(&mut self.r, m, fs, -1.0);
-        }
-        if after.is_finite() && after < before {
-            self.residual = after;
+        if self.try_swap(&cluster, &new, |after, before| after < before) {
             // At least as many new modes as ringing old ones: their slots are replaced in
             // place and the others appended, so the other clusters' indices hold; the broad
             // ones are removed after the pass.
@@ -1246,13 +1237,33 @@ impl<'a> Search<'a> {
             // The spectrum is not recomputed for the clusters after this one (an FFT of the
             // whole record each time): their bands seldom reach this one's, and a stale
             // target can only fail the time-domain check.
+        }
+    }
+
+    /// Puts `new` in the time-domain residual in place of the modes `old` (indices) if
+    /// `accept(after, before)` holds for the residual's energy, else restores it; says
+    /// whether it did (the caller then updates `modes`).
+    fn try_swap(&mut self, old: &[usize], new: &[Mode], accept: impl Fn(f64, f64) -> bool) -> bool {
+        let fs = self.fs;
+        let before = self.residual;
+        for &j in old {
+            subtract(&mut self.r, &self.modes[j], fs, 1.0);
+        }
+        let mut after = before;
+        for m in new {
+            after = subtract(&mut self.r, m, fs, -1.0);
+        }
+        if after.is_finite() && accept(after, before) {
+            self.residual = after;
+            true
         } else {
-            for m in &new {
+            for m in new {
                 subtract(&mut self.r, m, fs, 1.0);
             }
-            for &j in &cluster {
+            for &j in old {
                 self.residual = subtract(&mut self.r, &self.modes[j], fs, -1.0);
             }
+            false
         }
     }
 
@@ -1341,26 +1352,10 @@ impl<'a> Search<'a> {
             fitted.iter().zip(&group).map(|(&(omega, d, b), &j)| Mode { omega, d, b, level: modes[j].level }).collect();
         // Accept only if the time-domain residual does not grow (a fit can trade a
         // smaller band error for broadband junk outside the band).
-        let before = self.residual;
-        for &j in &group {
-            subtract(&mut self.r, &self.modes[j], fs, 1.0);
-        }
-        let mut after = before;
-        for f in &fitted {
-            after = subtract(&mut self.r, f, fs, -1.0);
-        }
-        if after.is_finite() && after <= before * (1.0 + 1e-12) {
+        if self.try_swap(&group, &fitted, |after, before| after <= before * (1.0 + 1e-12)) {
             for (f, &j) in fitted.iter().zip(&group) {
                 self.modes[j] = *f;
                 changed[j] = true;
-            }
-            self.residual = after;
-        } else {
-            for f in &fitted {
-                subtract(&mut self.r, f, fs, 1.0);
-            }
-            for &j in &group {
-                self.residual = subtract(&mut self.r, &self.modes[j], fs, -1.0);
             }
         }
     }
