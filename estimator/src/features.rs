@@ -1148,10 +1148,10 @@ impl<'a> Search<'a> {
                 (to_bin(modes[j].omega) - (k0 as f64 + kf)).abs() <= 1.5f64.max(0.5 * hw)
             })
         };
-        // Tried only where the cluster looks wrong: a mode off every peak of the longest
-        // level (fitted between two), members in opposite phase with more amplitude than
-        // their sum (a pair that cancels), or a broad fit inside the band. Peaks beside modes
-        // that sit on theirs are other partials (the search's business).
+        // Tried only where the cluster looks wrong: a mode off every peak of its level
+        // (fitted between two), members in opposite phase with more amplitude than their sum
+        // (a pair that cancels), a poor fit of the band, or a broad fit inside it. Peaks
+        // beside modes that sit on theirs are other partials (the search's business).
         let off_peak = ringing.iter().any(|&j| !near_a_peak(j));
         let sum_b: C64 = ringing.iter().map(|&j| modes[j].b).sum();
         let cancelling =
