@@ -1042,33 +1042,26 @@ impl<'a> Search<'a> {
         if self.modes.is_empty() {
             return Ok(());
         }
-        let fs = self.fs;
-        // Ringing modes only (Q = ω/2d ≥ 10): a broad fit of a transient or of the noise is
-        // left as it is, and would chain every mode within its band into one cluster.
-        let mut order: Vec<usize> =
-            (0..self.modes.len()).filter(|&i| self.modes[i].omega >= 20.0 * self.modes[i].d).collect();
-        order.sort_by(|&a, &b| self.modes[a].omega.total_cmp(&self.modes[b].omega));
-        // Clusters: runs of modes whose half-power bands (ω ± d) overlap.
+        // Clusters of ringing modes only (Q = ω/2d ≥ 10): a broad fit of a transient or of the
+        // noise would chain every mode within its band into one cluster; it joins the
+        // cluster whose band it sits in (`resplit_cluster`).
+        let modes = &self.modes;
+        let (mut ringing, broad): (Vec<usize>, Vec<usize>) =
+            (0..modes.len()).partition(|&i| modes[i].omega >= 20.0 * modes[i].d);
+        ringing.sort_by(|&a, &b| modes[a].omega.total_cmp(&modes[b].omega));
+        // Runs of modes whose half-power bands (ω ± d) overlap.
         let mut clusters: Vec<Vec<usize>> = Vec::new();
-        for &i in &order {
+        for i in ringing {
+            let overlaps =
+                |c: &Vec<usize>| c.last().is_some_and(|&j| modes[i].omega - modes[j].omega < modes[i].d + modes[j].d);
             match clusters.last_mut() {
-                Some(c)
-                    if {
-                        let j = *c.last().unwrap_or(&i);
-                        self.modes[i].omega - self.modes[j].omega < self.modes[i].d + self.modes[j].d
-                    } =>
-                {
-                    c.push(i)
-                }
+                Some(c) if overlaps(c) => c.push(i),
                 _ => clusters.push(vec![i]),
             }
         }
-        let broad: Vec<usize> =
-            (0..self.modes.len()).filter(|&i| self.modes[i].omega < 20.0 * self.modes[i].d).collect();
-        // Each cluster is looked at on the longest level any of its modes was fitted on (the
-        // longest on which its peaks are still narrow): computed once for the pass.
+        // Each cluster is looked at on its level (`cluster_level`), computed once for the pass.
         let mut used = vec![false; self.spectra.levels.len()];
-        clusters.iter().for_each(|c| used[c.iter().map(|&j| self.modes[j].level).min().unwrap_or(0)] = true);
+        clusters.iter().for_each(|c| used[self.cluster_level(c)] = true);
         for (l, &u) in used.iter().enumerate() {
             if u {
                 self.spectra.compute(l, &self.r);
@@ -1079,7 +1072,7 @@ impl<'a> Search<'a> {
             if cancel.load(Ordering::Relaxed) {
                 return Err(EstimateError::Cancelled);
             }
-            self.resplit_cluster(&cluster, &broad, &mut absorbed, fs);
+            self.resplit_cluster(&cluster, &broad, &mut absorbed);
         }
         let mut i = 0;
         self.modes.retain(|_| {
@@ -1092,14 +1085,15 @@ impl<'a> Search<'a> {
     /// [`Search::resplit`] of one cluster (indices into `modes`). The broad modes (`broad`)
     /// centred in its band are part of the old fit too (what a bad split left there), and
     /// marked `absorbed` when the new cluster replaces them.
-    fn resplit_cluster(&mut self, ringing: &[usize], broad: &[usize], absorbed: &mut [bool], fs: f64) {
+    fn resplit_cluster(&mut self, ringing: &[usize], broad: &[usize], absorbed: &mut [bool]) {
         const MAX_SPLIT: usize = 4;
         const MAX_BINS: usize = 400;
         // A cluster that explains all but this share of its band's power is taken as right.
         const MIN_UNEXPLAINED: f64 = 0.02;
         // A cluster leaving more than this share of its band unexplained is refitted too.
         const POOR_FIT: f64 = 0.1;
-        let level = ringing.iter().map(|&j| self.modes[j].level).min().unwrap_or(0);
+        let fs = self.fs;
+        let level = self.cluster_level(ringing);
         let lev = &self.spectra.levels[level];
         let ev = ModelEval::new(lev, fs);
         let bin_hz = fs / lev.m as f64;
@@ -1238,6 +1232,12 @@ impl<'a> Search<'a> {
             // whole record each time): their bands seldom reach this one's, and a stale
             // target can only fail the time-domain check.
         }
+    }
+
+    /// The longest level any of the modes `c` was fitted on (the longest on which its peak
+    /// is still narrow): where [`Search::resplit`] looks at their cluster.
+    fn cluster_level(&self, c: &[usize]) -> usize {
+        c.iter().map(|&j| self.modes[j].level).min().unwrap_or(0)
     }
 
     /// Puts `new` in the time-domain residual in place of the modes `old` (indices) if
