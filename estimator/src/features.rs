@@ -73,7 +73,9 @@ pub struct Feature {
     /// ([`crb_std`]) at the noise left around this frequency after the fit. 0 = unknown.
     #[serde(default)]
     pub sigma_freq_hz: f64,
-    /// Standard uncertainty of `decay_per_s`, s⁻¹ (same bound). 0 = unknown.
+    /// Standard uncertainty of `decay_per_s`, s⁻¹ (same bound; for a partial of several
+    /// members also the late slope's distance from `envelope_decay_per_s`, in quadrature:
+    /// [`group_partials`]). 0 = unknown.
     #[serde(default)]
     pub sigma_decay_per_s: f64,
     /// How well one exponential explains this partial: its share of the energy of the
@@ -1510,7 +1512,13 @@ pub fn extract_impact(
 /// components. The partial says how well one exponential explains it (`single_exponential`,
 /// the reported member's share of the partial's energy within the record), its initial
 /// slope (`early_decay_per_s`, the amplitude-weighted mean decay) and its envelope's slope in
-/// this record (`envelope_decay_per_s`, [`envelope_decay`]).
+/// this record (`envelope_decay_per_s`, [`envelope_decay`]). A partial of several members is
+/// only as certain as their split: its `sigma_decay_per_s` adds, in quadrature to the late
+/// member's Cramér–Rao bound, the late slope's distance from the envelope's (stop 48). Two
+/// members the record cannot tell apart (a pair cancelling at the strike, 0.15–1 Hz apart
+/// in 2 s) leave a late slope anywhere between their decays and the envelope's, and with
+/// the bound alone such partials pulled the EMG law below the others (a bell of nine
+/// partials, four such pairs: α₁ 0.45 and 0.93 for 2; `cancelling_doublets_do_not_pull_the_law_down`).
 pub fn group_partials(features: Vec<Feature>, duration_s: f64) -> (Vec<Feature>, Vec<Feature>) {
     let t = duration_s.max(1e-3);
     let resolution = 1.0 / t;
@@ -1560,6 +1568,9 @@ pub fn group_partials(features: Vec<Feature>, duration_s: f64) -> (Vec<Feature>,
             let slowest = ring.iter().fold(f64::INFINITY, |m, f| m.min(f.decay_per_s));
             p.envelope_decay_per_s =
                 envelope_decay(&ring, t).map_or(p.decay_per_s, |d| d.max(ENVELOPE_MIN_SHARE * slowest));
+            // The late slope of a partial of several members is only as certain as the
+            // members' split: its envelope in this record may fall otherwise.
+            p.sigma_decay_per_s = p.sigma_decay_per_s.hypot(p.decay_per_s - p.envelope_decay_per_s);
         }
         partials.push(p);
         components.extend(g.into_iter().enumerate().filter(|&(i, _)| i != late).map(|(_, f)| f));
@@ -1587,7 +1598,8 @@ pub fn group_partials(features: Vec<Feature>, duration_s: f64) -> (Vec<Feature>,
 /// late slope 2.4–3.7), and on synthetic bells of split partials the EMG law fitted to the
 /// envelope slopes was four times further from the true law (RMS log error 0.91 against
 /// 0.22). So the damping fits keep the late slope, and two agreeing analyses of the same
-/// record are not yet evidence about the object.
+/// record are not yet evidence about the object; where the two slopes disagree, the
+/// partial's uncertainty says so ([`group_partials`]).
 fn envelope_decay(members: &[&Feature], duration_s: f64) -> Option<f64> {
     if members.len() < 2 {
         return members.first().map(|f| f.decay_per_s);

@@ -420,3 +420,80 @@ fn close_equal_pairs_are_split_at_any_phase() {
     eprintln!("close pairs right: {right} of 40; wrong: {wrong:?}");
     assert!(right >= 31, "{right} of 40 right; wrong: {wrong:?}");
 }
+
+/// Issue 10 parts 3–4: a partial that is a pair of modes cancelling at the strike (equal
+/// amplitudes, opposite phases, 0.15–1 Hz apart, as on a bell struck on a nodal diameter of
+/// one of its twins) cannot be split into its members by a 2 s record, and its late slope
+/// may fall anywhere between the members' decays and its envelope's. Such partials say so
+/// in their uncertainty (`sigma_decay_per_s` holds the late slope's distance from the
+/// envelope's), so the EMG law stays with the partials one exponential explains. Known
+/// truth: a bell of nine partials on the Rayleigh law c = 2 + 4·10⁻⁶ f² s⁻¹ (d = c/2), four
+/// of them such pairs (the twin decaying 0–20 % faster), at 60 and 80 dB. Measured when this
+/// test was written: with the uncertainty α₁ 1.98–1.99 and RMS log errors ≤ 0.005 on all 8
+/// files; without it (the member's Cramér–Rao bound alone) errors 0.12–0.50, α₂ 8–20 % low
+/// on every file and α₁ 0.45 and 0.93 on two.
+#[test]
+fn cancelling_doublets_do_not_pull_the_law_down() {
+    use estimator::features::extract_impact;
+    use estimator::fit::{fit_damping_weighted, Method, ModelKind};
+    use estimator::synth::{add_noise, Rng};
+    use estimator::ExtractOptions;
+    let fs = 44_100.0;
+    let n = (2.0 * fs) as usize;
+    let freqs = [300.0, 520.0, 780.0, 1130.0, 1500.0, 1950.0, 2450.0, 3100.0, 3870.0];
+    let c_true = |f: f64| 2.0 + 4e-6 * f * f;
+    let mut errors = Vec::new();
+    for seed in 0..4u64 {
+        for snr in [60.0, 80.0] {
+            let mut rng = Rng::new(1000 + seed);
+            let mut modes = Vec::new();
+            for (i, &f) in freqs.iter().enumerate() {
+                let (d, a, phase) =
+                    (c_true(f) / 2.0, 1.0 / (1.0 + 0.3 * i as f64), rng.range(0.0, std::f64::consts::TAU));
+                modes.push((f, d, a, phase));
+                // Every other partial, from the first or the second on: a cancelling twin.
+                if i % 2 == (seed % 2) as usize {
+                    let twin_phase = phase + std::f64::consts::PI + rng.range(-0.3, 0.3);
+                    modes.push((
+                        f + rng.range(0.15, 1.0),
+                        d * rng.range(1.0, 1.2),
+                        a * rng.range(0.7, 1.0),
+                        twin_phase,
+                    ));
+                }
+            }
+            let mut x: Vec<f64> = (0..n)
+                .map(|i| {
+                    let t = i as f64 / fs;
+                    modes
+                        .iter()
+                        .map(|&(f, d, a, p)| a * (-d * t).exp() * (std::f64::consts::TAU * f * t + p).cos())
+                        .sum()
+                })
+                .collect();
+            let peak = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            x.iter_mut().for_each(|v| *v *= 0.9 / peak);
+            add_noise(&mut x, snr, n, &mut Rng::new(7 + seed));
+            let x: Vec<f32> = x.iter().map(|&v| v as f32).collect();
+            let fit = extract_impact(&x, fs, 0.0, &ExtractOptions::default(), &AtomicBool::new(false)).unwrap();
+            let points: Vec<(f64, f64)> = fit.features.iter().map(|m| (m.lambda(), m.c())).collect();
+            let sigmas: Vec<f64> = fit.features.iter().map(|m| 2.0 * m.sigma_decay_per_s).collect();
+            let law = fit_damping_weighted(&points, Some(&sigmas), ModelKind::Rayleigh, Method::Emg).unwrap();
+            let (a1, a2) = (law.params[0], law.params[1]);
+            let rms = (freqs
+                .iter()
+                .map(|&f| {
+                    let w = std::f64::consts::TAU * f;
+                    ((a1 + a2 * w * w).max(1e-9) / c_true(f)).ln().powi(2)
+                })
+                .sum::<f64>()
+                / freqs.len() as f64)
+                .sqrt();
+            eprintln!("seed {seed} {snr} dB: alpha1 {a1:.3} alpha2 {a2:.4e}, RMS log error {rms:.3}");
+            errors.push((seed, snr, a1, rms));
+        }
+    }
+    for &(seed, snr, a1, rms) in &errors {
+        assert!((a1 / 2.0 - 1.0).abs() < 0.1 && rms < 0.05, "seed {seed} {snr} dB: alpha1 {a1}, RMS log error {rms}");
+    }
+}
