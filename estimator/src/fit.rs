@@ -1454,6 +1454,21 @@ fn emg_starts(model: ModelKind, d: &Data, lsq: &[f64], bounds: NoiseBounds) -> V
     s.push(sig.min(0.1 * m_med).ln().max(ls_lo));
     s.push((1.0 / tau.max(1e-6)).ln().min(le_hi));
     starts.push(s);
+    // (3) The LSQ curve itself, the exponential part from the median residual above it: a
+    // few gross outliers far above the law (broad noise fits at 30–100× the median c) make
+    // the moment estimate of (2) and the LB residuals of (1) so large that both start where
+    // a tiny η makes every law under the points alike, and the fit settled on α₁ = 0 with
+    // every feature within 0.1 % of the true law (a black-box tester's doublet file; the
+    // weighted LSQ, which gives those points no weight, was right).
+    let mut above: Vec<f64> = r.iter().copied().filter(|e| *e > 0.0).collect();
+    let mut s = lsq.to_vec();
+    if !above.is_empty() && make_feasible(model, &mut s[..k]) {
+        above.sort_by(f64::total_cmp);
+        let tau = above[above.len() / 2].max(1e-6);
+        s.push((0.1 * tau).min(0.1 * m_med).ln().max(ls_lo));
+        s.push((1.0 / tau).ln().min(le_hi));
+        starts.push(s);
+    }
     starts
 }
 
