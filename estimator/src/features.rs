@@ -68,9 +68,10 @@ pub struct Feature {
     /// Decay rate d, s⁻¹ (amplitude ∝ e^(−d t)).
     pub decay_per_s: f64,
     /// Peak amplitude at the start of the impact, full scale. For a partial of several
-    /// members: that of the one exponential at its late slope carrying the energy of their
-    /// sum in the record from 10 ms on (as heard: a split mode's members summed, a beating
-    /// pair's mean level), with its phase ([`group_partials`]); each member keeps its own.
+    /// members: that of the one exponential at its late slope carrying the energy in the
+    /// record of the sum of the members that are one mode with it (closer than the record
+    /// resolves, decaying within 3× of it: a split mode's members summed), with its phase
+    /// ([`group_partials`]); each member keeps its own.
     pub amplitude: f64,
     /// Standard uncertainty of `freq_hz`, Hz: the Cramér–Rao bound of a damped sinusoid
     /// ([`crb_std`]) at the noise left around this frequency after the fit. 0 = unknown.
@@ -1523,8 +1524,10 @@ pub fn extract_impact(
 /// the bound alone such partials pulled the EMG law below the others (a bell of nine
 /// partials, four such pairs: α₁ 0.45 and 0.93 for 2; `cancelling_doublets_do_not_pull_the_law_down`).
 /// Its `amplitude` and `phase_rad` are those of one exponential at the late slope that
-/// carries the energy of the members' sum (`late_amplitude`): a bank captured from the
-/// recording plays the partial as it was heard, not as one of its members.
+/// carries the energy of the sum of the members that are one mode with it: closer than
+/// the record resolves and decaying within [`AMPLITUDE_DECAY_RATIO`] of it
+/// (`late_amplitude`): a bank captured from the recording plays a mode the fit split as
+/// one, not as one of its halves.
 pub fn group_partials(features: Vec<Feature>, duration_s: f64) -> (Vec<Feature>, Vec<Feature>) {
     let t = duration_s.max(1e-3);
     let resolution = 1.0 / t;
@@ -1577,7 +1580,18 @@ pub fn group_partials(features: Vec<Feature>, duration_s: f64) -> (Vec<Feature>,
             // The late slope of a partial of several members is only as certain as the
             // members' split: its envelope in this record may fall otherwise.
             p.sigma_decay_per_s = p.sigma_decay_per_s.hypot(p.decay_per_s - p.envelope_decay_per_s);
-            if let Some((a, phase)) = late_amplitude(&ring, &p, t) {
+            // What rings with the late slope as one mode: closer to it than the record
+            // resolves (a split of one mode, not a beating twin) and not a fast first stage
+            // or onset component, whose energy comes and goes early (it would make the whole
+            // ring louder).
+            let late_ring: Vec<&Feature> = ring
+                .iter()
+                .copied()
+                .filter(|f| {
+                    f.decay_per_s <= AMPLITUDE_DECAY_RATIO * p.decay_per_s && (f.freq_hz - p.freq_hz).abs() < resolution
+                })
+                .collect();
+            if let Some((a, phase)) = late_amplitude(&late_ring, &p, t) {
                 p.amplitude = a;
                 p.phase_rad = phase;
             }
@@ -1589,27 +1603,28 @@ pub fn group_partials(features: Vec<Feature>, duration_s: f64) -> (Vec<Feature>,
 }
 
 /// The amplitude and phase at t = 0 of the one exponential at the partial's late slope that
-/// carries the energy of the sum of its ringing members (`members`, floors left out) over the
-/// record from [`ENVELOPE_START_S`] to `duration_s`; `late` is the member reported
-/// ([`group_partials`]). Each member is the phasor aⱼe^(iφⱼ)e^(zⱼt), zⱼ = −dⱼ + i2πfⱼ, so
-/// ∫|s|² = Σⱼₖ aⱼaₖe^(i(φⱼ−φₖ)) ∫ e^((zⱼ + z̄ₖ) t) dt and A² = ∫|s|² / ∫ e^(−2 d_late t) dt, every
-/// integral over [t₀, T] in closed form; the phase is that of the least-squares single
-/// exponential (Σⱼ aⱼe^(iφⱼ) ∫ e^((zⱼ + z̄_late) t) dt). One mode that the fit split into two
-/// near-equal members (a black-box tester's case: each reported with about half the
-/// amplitude) is one exponential with their summed amplitude (their difference if they
-/// cancel, as heard); a beating pair is its mean level (√(a₁² + a₂²) for equal decays over
-/// many beats), not the coherent projection, which depends on where the beat's nulls fall;
-/// a fast onset component under a slow partial adds only the energy it has after 10 ms (a
-/// triangle's: 0.178 at 4.2 s⁻¹ under 0.467 at 196 s⁻¹: + 0.2 %). `None` if a value is not
-/// finite or the record is empty.
+/// carries the energy of the sum of `members` over the record (0 to `duration_s`); `late` is
+/// the member reported ([`group_partials`]; the members are those that ring with it, within
+/// [`AMPLITUDE_DECAY_RATIO`] of its decay). Each member is the phasor aⱼe^(iφⱼ)e^(zⱼt),
+/// zⱼ = −dⱼ + i2πfⱼ, so ∫|s|² = Σⱼₖ aⱼaₖe^(i(φⱼ−φₖ)) ∫ e^((zⱼ + z̄ₖ) t) dt and
+/// A² = ∫|s|² / ∫ e^(−2 d_late t) dt, every integral in closed form; the phase is that of the
+/// least-squares single exponential (Σⱼ aⱼe^(iφⱼ) ∫ e^((zⱼ + z̄_late) t) dt); A is at most
+/// Σⱼ aⱼ. One mode that the fit split into two near-equal members (a black-box tester's case:
+/// each reported with about half the amplitude) is one exponential with their summed
+/// amplitude (their difference if they cancel, as heard); a beating pair is its mean level
+/// (√(a₁² + a₂²) for equal decays over many beats), not the coherent projection, which
+/// depends on where the beat's nulls fall. `None` if a value is not finite or the record is
+/// empty.
 fn late_amplitude(members: &[&Feature], late: &Feature, duration_s: f64) -> Option<(f64, f64)> {
-    let t0 = ENVELOPE_START_S.min(0.2 * duration_s);
-    let span = (duration_s - t0).max(0.0);
-    // ∫ e^(z t) dt over [t0, t0 + span].
+    let span = duration_s.max(0.0);
+    // ∫ e^(z t) dt over [0, span].
     let integral = |z: C64| {
         let zs = z * span;
-        let ratio = if zs.norm() < 1e-8 { C64::new(span, 0.0) } else { (zs.exp() - 1.0) / z };
-        (z * t0).exp() * ratio
+        if zs.norm() < 1e-8 {
+            C64::new(span, 0.0)
+        } else {
+            (zs.exp() - 1.0) / z
+        }
     };
     let z = |m: &Feature| C64::new(-m.decay_per_s, std::f64::consts::TAU * m.freq_hz);
     let b = |m: &Feature| m.amplitude * C64::from_polar(1.0, m.phase_rad);
@@ -1622,9 +1637,20 @@ fn late_amplitude(members: &[&Feature], late: &Feature, duration_s: f64) -> Opti
         }
         projection += b(j) * integral(z(j) + z(late).conj());
     }
-    let a = (energy.re.max(0.0) / norm).sqrt();
+    let peak: f64 = members.iter().map(|m| m.amplitude).sum();
+    let a = (energy.re.max(0.0) / norm).sqrt().min(peak);
     (a.is_finite() && projection.arg().is_finite() && norm > 0.0).then(|| (a, projection.arg()))
 }
+
+/// A partial's `amplitude` is that of its members closer to it than the record resolves that
+/// decay within this factor of its late slope ([`late_amplitude`]): a split mode's halves.
+/// A faster member (an onset component, a fast first stage, a contact's rise) holds its
+/// energy early; counted in, the whole ring of the partial played louder (banks captured
+/// from the recordings put a glockenspiel's lowest mode 29 semitones under its lowest strong
+/// partial: `e2e.py --own-modes`). Resolved beating twins counted in (their mean level) moved
+/// which partials the captured banks kept, for the worse on the real clips (own modes'
+/// lowest within a semitone 64 → 59–63 of 82, `capture.py` 45 → 44 of 48).
+pub const AMPLITUDE_DECAY_RATIO: f64 = 3.0;
 
 /// A partial's envelope slope in its record ([`group_partials`], `envelope_decay_per_s`): the
 /// slope of the energy-weighted least-squares line through ln |s(t)|, s the sum of the
