@@ -147,10 +147,7 @@ fn emg_is_not_dragged_under_the_points_by_far_outliers() {
         (2369.826, 35.5727, 0.0062),
         (3420.193, 64.3954, 0.0028),
     ];
-    let points: Vec<(f64, f64)> =
-        features.iter().map(|&(f, d, _)| ((std::f64::consts::TAU * f).powi(2) + d * d, 2.0 * d)).collect();
-    let sigmas: Vec<f64> = features.iter().map(|&(_, _, s)| 2.0 * s).collect();
-    let fit = estimator::fit::fit_damping_weighted(&points, Some(&sigmas), ModelKind::Rayleigh, Method::Emg).unwrap();
+    let fit = emg_rayleigh_of_features(&features);
     let (a1, a2) = (fit.params[0], fit.params[1]);
     assert!((a1 / 18.077 - 1.0).abs() < 0.02 && (a2 / 2.3974e-7 - 1.0).abs() < 0.02, "{:?}", fit.params);
     assert!(fit.converged && fit.active_bounds.iter().all(|b| !b.starts_with("alpha")), "{fit:?}");
@@ -192,13 +189,19 @@ fn emg_leaves_out_broad_fits_far_above_the_law() {
         (9515.85, 1651.7511, 9.8585),
         (9929.61, 276.4035, 0.0575),
     ];
-    let points: Vec<(f64, f64)> =
-        features.iter().map(|&(f, d, _)| ((std::f64::consts::TAU * f).powi(2) + d * d, 2.0 * d)).collect();
-    let sigmas: Vec<f64> = features.iter().map(|&(_, _, s)| 2.0 * s).collect();
-    let fit = estimator::fit::fit_damping_weighted(&points, Some(&sigmas), ModelKind::Rayleigh, Method::Emg).unwrap();
+    let fit = emg_rayleigh_of_features(&features);
     let (a1, a2) = (fit.params[0], fit.params[1]);
     assert!((a1 / 2.1811 - 1.0).abs() < 0.02 && (a2 / 1.41986e-7 - 1.0).abs() < 0.02, "{:?}", fit.params);
     // The 9 broad fits (22–120× the law) and nothing else.
     assert_eq!(fit.n_points, 16, "{fit:?}");
     assert!(fit.warnings.iter().any(|w| w.starts_with("9 of 25 features")), "{:?}", fit.warnings);
+}
+
+/// The heteroscedastic EMG Rayleigh fit of features given as (Hz, decay s⁻¹, σ of the decay
+/// s⁻¹), as `estimate` makes its points from them (λ = ω² + d², c = 2d, σ_c = 2σ_d).
+fn emg_rayleigh_of_features(features: &[(f64, f64, f64)]) -> estimator::fit::FitResult {
+    let points: Vec<(f64, f64)> =
+        features.iter().map(|&(f, d, _)| ((std::f64::consts::TAU * f).powi(2) + d * d, 2.0 * d)).collect();
+    let sigmas: Vec<f64> = features.iter().map(|&(_, _, s)| 2.0 * s).collect();
+    estimator::fit::fit_damping_weighted(&points, Some(&sigmas), ModelKind::Rayleigh, Method::Emg).unwrap()
 }
