@@ -305,12 +305,7 @@ fn a_partials_envelope_is_summed_with_its_members_phases() {
     let n = (0.92 * fs) as usize;
     for phi in [1.0, 2.5] {
         let modes = [(495.1, 14.27, 0.78, 0.0), (493.7, 4.58, 0.31, phi), (1210.0, 7.0, 0.3, -2.0)];
-        let mut x: Vec<f64> = (0..n)
-            .map(|i| {
-                let t = i as f64 / fs;
-                modes.iter().map(|&(f, d, a, p)| a * (-d * t).exp() * (std::f64::consts::TAU * f * t + p).cos()).sum()
-            })
-            .collect();
+        let mut x = render_phased(&modes, fs, n);
         add_noise(&mut x, 60.0, 4410, &mut Rng::new(11));
         let x: Vec<f32> = x.iter().map(|&v| v as f32).collect();
         let fit = extract_impact(&x, fs, 0.0, &ExtractOptions::default(), &AtomicBool::new(false)).unwrap();
@@ -335,6 +330,17 @@ fn a_partials_envelope_is_summed_with_its_members_phases() {
             (q[0].phase_rad + 2.0 + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
         assert!(dphi.abs() < 0.05, "phase {} vs −2", q[0].phase_rad);
     }
+}
+
+/// Σ a e^(−d t) cos(2π f t + φ) of `modes` (f Hz, d s⁻¹, a, φ rad) for `n` samples at `fs`
+/// Hz: [`estimator::synth::render`] with each mode's phase.
+fn render_phased(modes: &[(f64, f64, f64, f64)], fs: f64, n: usize) -> Vec<f64> {
+    (0..n)
+        .map(|i| {
+            let t = i as f64 / fs;
+            modes.iter().map(|&(f, d, a, p)| a * (-d * t).exp() * (std::f64::consts::TAU * f * t + p).cos()).sum()
+        })
+        .collect()
 }
 
 /// The slope of the energy-weighted least-squares line through ln |x(t)| of the analytic
@@ -389,15 +395,7 @@ fn close_equal_pairs_are_split_at_any_phase() {
         for i in 0..8 {
             let phi = std::f64::consts::TAU * i as f64 / 8.0;
             let modes = [(1000.0, d, 0.25, 0.0), (1000.0 + df, d, 0.25, phi)];
-            let mut x: Vec<f64> = (0..n)
-                .map(|k| {
-                    let t = k as f64 / fs;
-                    modes
-                        .iter()
-                        .map(|&(f, d, a, p)| a * (-d * t).exp() * (std::f64::consts::TAU * f * t + p).cos())
-                        .sum()
-                })
-                .collect();
+            let mut x = render_phased(&modes, fs, n);
             add_noise(&mut x, 60.0, 2400, &mut Rng::new(3 + i as u64));
             let x: Vec<f32> = x.iter().map(|&v| v as f32).collect();
             let fit = extract_impact(&x, fs, 0.0, &ExtractOptions::default(), &AtomicBool::new(false)).unwrap();
@@ -462,15 +460,7 @@ fn cancelling_doublets_do_not_pull_the_law_down() {
                     ));
                 }
             }
-            let mut x: Vec<f64> = (0..n)
-                .map(|i| {
-                    let t = i as f64 / fs;
-                    modes
-                        .iter()
-                        .map(|&(f, d, a, p)| a * (-d * t).exp() * (std::f64::consts::TAU * f * t + p).cos())
-                        .sum()
-                })
-                .collect();
+            let mut x = render_phased(&modes, fs, n);
             let peak = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             x.iter_mut().for_each(|v| *v *= 0.9 / peak);
             add_noise(&mut x, snr, n, &mut Rng::new(7 + seed));
