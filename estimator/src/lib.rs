@@ -419,6 +419,28 @@ pub fn extract_features(
         // Each impact cut at the strikes inside it that re-excited the object
         // (`Segmentation::cuts`): no analysed stretch mixes two such strikes.
         let (pieces, cut_short) = seg.pieces(fs, opts.segment.min_impact_s);
+        // A clipped stretch is left out of its piece's analysis (`segment::clear_of_clipping`).
+        let min_len = (opts.segment.min_impact_s * fs) as usize;
+        let (pieces, clipped) = segment::clear_of_clipping(pieces, &rec.clipped, min_len);
+        if !clipped.is_empty() {
+            let at: Vec<String> = clipped
+                .iter()
+                .take(5)
+                .map(|c| format!("{:.3} s ({} clipped)", c.start as f64 / fs, c.samples))
+                .collect();
+            report.warnings.push(format!(
+                "{name}: {} impact(s) clipped (at {}{}): each is analysed over its longest stretch without clipping{}",
+                clipped.len(),
+                at.join(", "),
+                if clipped.len() > 5 { ", …" } else { "" },
+                match clipped.first() {
+                    Some(c) if c.from > c.start =>
+                        format!(" (the first from {:.3} s, after its last clipped sample)", c.from as f64 / fs),
+                    Some(c) => format!(" (the first up to {:.3} s)", c.to as f64 / fs),
+                    None => String::new(),
+                }
+            ));
+        }
         for (s, reason) in seg.skipped.iter().chain(&cut_short) {
             report.skipped.push(SkippedImpact {
                 file: name.clone(),

@@ -41,6 +41,13 @@ pub struct Recording {
     pub bits_per_sample: u16,
     /// Problems that did not stop the analysis (clipping, DC offset, low level, truncation).
     pub warnings: Vec<String>,
+    /// Stretches of frames `[from, to)` where a channel in use was at full scale, in time
+    /// order: a value held at ±0.999 or over (the run's first sample and those that held
+    /// it), or a single sample at the format's largest value (±1 for float; the largest
+    /// code for integers). One such sample is a normalised file's peak; two or more in one
+    /// impact are its peaks cut off (`segment::clear_of_clipping`). Empty when the float
+    /// samples are not scaled to ±1 (wrong units).
+    pub clipped: Vec<(usize, usize)>,
 }
 
 impl Recording {
@@ -454,6 +461,9 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
     // A pipe's length is unknown: grow as it is read.
     let mut mono = Vec::with_capacity(if total_frames.is_some() { frames } else { frames.min(1 << 20) });
     let (mut clipped, mut seen, mut peak_any) = (0usize, 0usize, 0.0f64);
+    let mut clip_runs: Vec<(usize, usize)> = Vec::new();
+    // An integer format's largest magnitude (its positive full-scale code; −1 is over it).
+    let full_code = 1.0 - 1.5 / f64::from(1u32 << (spec.valid_bits.clamp(2, 32) - 1).min(31));
     // Each channel's previous sample (clipping is a value held).
     let mut prev = vec![f64::NAN; channels];
     // Whole frames at a time, 64 KiB or so per read.
@@ -501,6 +511,7 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
             }
             peak_any *= k;
             clipped = 0;
+            clip_runs.clear();
             justified = Some(1.0);
         }
         let gain = justified.unwrap_or(1.0);
@@ -522,8 +533,22 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
                 // at ±1, or clipped and then raised). A peak that merely reaches it is not (a
                 // float file peaking at 1.09 holds its peaks; one sample at 0.9995 is a peak).
                 let held = prev.get(ch).is_some_and(|&p| p == v);
+                let in_use = channel.is_none_or(|c| c == ch);
                 if v.abs() >= 0.999 && held {
                     clipped += 1;
+                }
+                // A held value: a run from the sample that first reached it (this frame's
+                // predecessor) through this frame; a sample at the format's largest value
+                // (not a float over it, which holds its peak): a run of one.
+                let extreme = if spec.float { (v.abs() - 1.0).abs() <= 1e-7 } else { v.abs() >= full_code };
+                if in_use && (v.abs() >= 0.999 && held || extreme) {
+                    let frame = done + f;
+                    let from = if held { frame.saturating_sub(1) } else { frame };
+                    match clip_runs.last_mut() {
+                        Some(r) if held && r.1 >= from => *r = (r.0.min(from), r.1.max(frame + 1)),
+                        Some(r) if r.1 > frame => {}
+                        _ => clip_runs.push((from, frame + 1)),
+                    }
                 }
                 if let Some(p) = prev.get_mut(ch) {
                     *p = v;
@@ -612,7 +637,7 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
         ));
     } else if clipped >= 3 {
         warnings.push(format!(
-            "{}: {} samples ({:.3} %) are at full scale (clipping); lower the recording gain, clipped taps bias the damping",
+            "{}: {} samples ({:.3} %) are at full scale (clipping); lower the recording gain (clipped stretches are left out of the analysis where enough of their impact is left)",
             path.display(),
             clipped,
             100.0 * clip_fraction
@@ -659,6 +684,7 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
         channels: spec.channels,
         bits_per_sample: spec.valid_bits,
         warnings,
+        clipped: if wrong_units { Vec::new() } else { clip_runs },
     })
 }
 
