@@ -181,6 +181,8 @@ struct WavData {
     len: Option<u64>,
     /// Bytes the data chunk declares (`None`: unset, read to the end of the file).
     declared: Option<u64>,
+    /// An RF64/BW64 file whose data size is in no `ds64` chunk (none before the samples).
+    rf64_unsized: bool,
 }
 
 /// Opens a WAV file and walks its RIFF chunks to the samples: every chunk before `data`
@@ -214,6 +216,7 @@ fn open_wav(path: &Path) -> Result<WavData, EstimateError> {
     let mut fmt: Option<Vec<u8>> = None;
     // The data size of an RF64 file's `ds64` chunk.
     let mut ds64_data: Option<u64> = None;
+    let mut rf64_unsized = false;
     let data_len = loop {
         let mut h = [0u8; 8];
         if r.read_exact(&mut h).is_err() {
@@ -261,6 +264,7 @@ fn open_wav(path: &Path) -> Result<WavData, EstimateError> {
                     return Err(wav_err("the data chunk comes before the fmt chunk".into()));
                 }
                 // An RF64 data chunk's size is in its ds64 chunk.
+                rf64_unsized = rf64 && len == u32::MAX && !ds64_data.is_some_and(|d| d > 0);
                 break match ds64_data {
                     Some(d) if len == u32::MAX && d > 0 => Some(d),
                     _ => (!unset_data_len(len)).then_some(u64::from(len)),
@@ -313,7 +317,7 @@ fn open_wav(path: &Path) -> Result<WavData, EstimateError> {
         (Some(d), Some(l)) => Some(d.min(l)),
         (d, l) => d.or(l),
     };
-    Ok(WavData { format, reader: r, len, declared })
+    Ok(WavData { format, reader: r, len, declared, rf64_unsized })
 }
 
 /// Chunk ids written after the samples by recorders and editors (metadata, markers, loops;
@@ -433,7 +437,7 @@ pub fn load_wav_exact(path: &Path, channel: Option<usize>) -> Result<Recording, 
 const WRONG_UNITS_PEAK: f64 = 4.0;
 
 fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recording, EstimateError> {
-    let WavData { format, mut reader, len, declared } = open_wav(path)?;
+    let WavData { format, mut reader, len, declared, rf64_unsized } = open_wav(path)?;
     let spec = format;
     if !(MIN_RATE..=MAX_RATE).contains(&spec.sample_rate) {
         return Err(EstimateError::SampleRate { path: path.to_path_buf(), sample_rate: spec.sample_rate });
@@ -448,6 +452,12 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
     let max_frames = ((MAX_SECONDS * f64::from(spec.sample_rate)) as usize).min(MAX_SAMPLES);
     let total_frames = len.map(|len| usize::try_from(len / frame_bytes as u64).unwrap_or(usize::MAX));
     let mut warnings = Vec::new();
+    if rf64_unsized {
+        warnings.push(format!(
+            "{}: an RF64/BW64 file without the ds64 chunk that holds its sizes (the recorder may have stopped before finishing it): the samples were read to the end of the file",
+            path.display()
+        ));
+    }
     let seconds = |frames: usize| frames as f64 / f64::from(spec.sample_rate);
     if let Some(total) = total_frames.filter(|&t| t > max_frames) {
         warnings.push(format!(
@@ -892,6 +902,28 @@ mod tests {
             assert!(got.warnings.is_empty(), "{:?}", got.warnings);
             let _ = std::fs::remove_file(p);
         }
+    }
+
+    /// An RF64 file whose recorder never wrote the ds64 chunk (the 32-bit sizes at
+    /// 0xFFFFFFFF and nothing to say the real ones): the samples are read to the end of the
+    /// file, as a plain WAV's of unset size, and the warning says why.
+    #[test]
+    fn rf64_without_ds64_is_read_to_the_end_and_said() {
+        let samples: Vec<i16> = (0..4801).map(|i| ((i * 37 % 2000) as i16 - 1000) * 11).collect();
+        let plain = pcm16(48_000, &[], &samples);
+        let want = load_wav(&scratch("rf64-nods-plain", &plain), None).unwrap().samples;
+        let mut f = b"RF64".to_vec();
+        f.extend(u32::MAX.to_le_bytes());
+        f.extend_from_slice(b"WAVE");
+        f.extend_from_slice(&plain[12..12 + 8 + 16]);
+        f.extend_from_slice(b"data");
+        f.extend(u32::MAX.to_le_bytes());
+        f.extend(samples.iter().flat_map(|s| s.to_le_bytes()));
+        let p = scratch("rf64-nods", &f);
+        let got = load_wav(&p, None).unwrap();
+        let _ = std::fs::remove_file(p);
+        assert_eq!(got.samples, want);
+        assert!(got.warnings.iter().any(|w| w.contains("without the ds64 chunk")), "{:?}", got.warnings);
     }
 
     /// A WAV file of `fmt` (the chunk's body) and `data` bytes, the data chunk declaring
