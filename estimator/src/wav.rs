@@ -216,7 +216,7 @@ fn open_wav(path: &Path) -> Result<WavData, EstimateError> {
     let mut fmt: Option<Vec<u8>> = None;
     // The data size of an RF64 file's `ds64` chunk.
     let mut ds64_data: Option<u64> = None;
-    let mut rf64_unsized = false;
+    let rf64_unsized;
     let data_len = loop {
         let mut h = [0u8; 8];
         if r.read_exact(&mut h).is_err() {
@@ -264,7 +264,7 @@ fn open_wav(path: &Path) -> Result<WavData, EstimateError> {
                     return Err(wav_err("the data chunk comes before the fmt chunk".into()));
                 }
                 // An RF64 data chunk's size is in its ds64 chunk.
-                rf64_unsized = rf64 && len == u32::MAX && !ds64_data.is_some_and(|d| d > 0);
+                rf64_unsized = rf64 && len == u32::MAX && ds64_data.is_none_or(|d| d == 0);
                 break match ds64_data {
                     Some(d) if len == u32::MAX && d > 0 => Some(d),
                     _ => (!unset_data_len(len)).then_some(u64::from(len)),
