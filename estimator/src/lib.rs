@@ -421,7 +421,17 @@ pub fn extract_features(
         let (pieces, cut_short) = seg.pieces(fs, opts.segment.min_impact_s);
         // A clipped stretch is left out of its piece's analysis (`segment::clear_of_clipping`).
         let min_len = (opts.segment.min_impact_s * fs) as usize;
-        let (pieces, clipped) = segment::clear_of_clipping(pieces, &rec.clipped, min_len);
+        let (pieces, clipped, clipped_through) = segment::clear_of_clipping(pieces, &rec.clipped, min_len);
+        for (s, n) in &clipped_through {
+            report.skipped.push(SkippedImpact {
+                file: name.clone(),
+                onset_s: s.start as f64 / fs,
+                reason: format!(
+                    "clipped ({n} samples at full scale) with no stretch of {:.0} ms without clipping (its clipping's harmonics would be fitted as modes); lower the recording gain",
+                    1e3 * opts.segment.min_impact_s
+                ),
+            });
+        }
         if !clipped.is_empty() {
             let at: Vec<String> = clipped
                 .iter()

@@ -344,8 +344,9 @@ pub struct ClippedPiece {
 }
 
 /// Each piece with clipped samples inside it is analysed over its longest stretch without
-/// them, if that is at least `min_len` samples long (else it is kept whole, and the file's
-/// clipping warning stands). `clipped`: runs `[from, to)` of frames at full scale, in time
+/// them, if that is at least `min_len` samples long; else it is left out (returned third,
+/// with its clipped samples): fitted whole, its clipping's harmonics became most of its
+/// features (a black-box tester: a 150 ms strike driven 2× over full scale gave α₁ −99.7 %). `clipped`: runs `[from, to)` of frames at full scale, in time
 /// order, as [`crate::wav::Recording::clipped`]; a piece is clipped if two or more samples
 /// at full scale lie in it (a value held, or peaks cut off at the same extreme value), and
 /// then every run in it is left out; one sample at full scale is a normalised recording's
@@ -358,18 +359,20 @@ pub fn clear_of_clipping(
     pieces: Vec<Segment>,
     clipped: &[(usize, usize)],
     min_len: usize,
-) -> (Vec<Segment>, Vec<ClippedPiece>) {
+) -> (Vec<Segment>, Vec<ClippedPiece>, Vec<(Segment, usize)>) {
     let mut moved = Vec::new();
+    let mut left_out = Vec::new();
     let pieces = pieces
         .into_iter()
-        .map(|p| {
+        .filter_map(|p| {
             let runs: Vec<(usize, usize)> = clipped
                 .iter()
                 .filter(|r| r.1 > p.start && r.0 < p.end)
                 .map(|r| (r.0.max(p.start), r.1.min(p.end)))
                 .collect();
-            if runs.iter().map(|r| r.1 - r.0).sum::<usize>() < 2 {
-                return p;
+            let samples: usize = runs.iter().map(|r| r.1 - r.0).sum();
+            if samples < 2 {
+                return Some(p);
             }
             // The clean stretches: before the first run, between runs, after the last.
             let mut best = (p.start, p.start);
@@ -381,14 +384,14 @@ pub fn clear_of_clipping(
                 at = at.max(b);
             }
             if best.1 - best.0 < min_len {
-                return p;
+                left_out.push((p, samples));
+                return None;
             }
-            let samples = runs.iter().map(|r| r.1 - r.0).sum();
             moved.push(ClippedPiece { start: p.start, from: best.0, to: best.1, samples });
-            Segment { start: best.0, end: best.1, ..p }
+            Some(Segment { start: best.0, end: best.1, ..p })
         })
         .collect();
-    (pieces, moved)
+    (pieces, moved, left_out)
 }
 
 /// The segmentation's hop, samples (2.5 ms; its frames are two hops long).

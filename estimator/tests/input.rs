@@ -419,7 +419,7 @@ fn clipped_strikes_are_analysed_after_the_clipping() {
 /// or single samples at the format's largest value; not a float peak over 1 (float holds
 /// it) nor a sample under full scale. One sample at full scale alone (a normalised file's
 /// peak) leaves its impact whole; two or more are peaks cut off, and the impact is analysed
-/// over its longest stretch without them.
+/// over its longest stretch without them, or left out if none is as long as the minimum.
 #[test]
 fn clipping_is_found_where_it_is_and_only_there() {
     let fs = 8000u32;
@@ -448,17 +448,17 @@ fn clipping_is_found_where_it_is_and_only_there() {
     use estimator::segment::{clear_of_clipping, Segment};
     let piece = Segment { start: 1000, end: 9000, snr_db: 60.0, noise_var: 1e-9 };
     // One sample at full scale: a peak, kept whole.
-    let (kept, moved) = clear_of_clipping(vec![piece], &[(1010, 1011)], 800);
+    let (kept, moved, _) = clear_of_clipping(vec![piece], &[(1010, 1011)], 800);
     assert_eq!((kept[0], moved.len()), (piece, 0));
     // Peaks cut off early and once late: the longest stretch is after the early ones.
-    let (kept, moved) = clear_of_clipping(vec![piece], &[(1010, 1011), (1050, 1052), (8500, 8501)], 800);
+    let (kept, moved, _) = clear_of_clipping(vec![piece], &[(1010, 1011), (1050, 1052), (8500, 8501)], 800);
     assert_eq!((kept[0].start, kept[0].end), (1052, 8500));
     assert_eq!((moved[0].from, moved[0].to, moved[0].samples), (1052, 8500, 4));
-    // Clipped all through, no stretch as long as the minimum: kept whole.
+    // Clipped all through, no stretch as long as the minimum: left out.
     let runs: Vec<(usize, usize)> = (1000..9000).step_by(500).map(|a| (a, a + 2)).collect();
-    let (kept, moved) = clear_of_clipping(vec![piece], &runs, 800);
-    assert_eq!((kept[0], moved.len()), (piece, 0));
+    let (kept, moved, left_out) = clear_of_clipping(vec![piece], &runs, 800);
+    assert_eq!((kept.len(), moved.len(), left_out), (0, 0, vec![(piece, 32)]));
     // Clipping outside the piece does not touch it.
-    let (kept, _) = clear_of_clipping(vec![piece], &[(10, 20), (9000, 9100)], 800);
+    let (kept, _, _) = clear_of_clipping(vec![piece], &[(10, 20), (9000, 9100)], 800);
     assert_eq!(kept[0], piece);
 }

@@ -196,6 +196,22 @@ pub(crate) fn write(path: &Path, text: &str) -> Result<(), PresetError> {
     Ok(crate::output::write_atomically(path, text.as_bytes())?)
 }
 
+/// An id that [`check_id`] accepts, from free text (a file name, a typed name): lowercase
+/// ASCII letters and digits, every other run of characters one hyphen, after `prefix` (with
+/// a hyphen; `prefix` alone if the text has no letters or digits; may be empty), at most 64
+/// characters. Empty only if both are.
+pub fn kebab_id(prefix: &str, text: &str) -> String {
+    let raw: String = text.to_lowercase().chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '-' }).collect();
+    let mut id: String = prefix.to_string();
+    for part in raw.split('-').filter(|p| !p.is_empty()) {
+        if !id.is_empty() {
+            id.push('-');
+        }
+        id.push_str(part);
+    }
+    id.chars().take(64).collect::<String>().trim_end_matches('-').to_string()
+}
+
 /// Checks that `id` is non-empty kebab-case: `a-z`, `0-9` and single inner hyphens.
 pub(crate) fn check_id(id: &str) -> Result<(), PresetError> {
     let bad = |reason: &str| {
@@ -231,5 +247,33 @@ pub(crate) fn check_name(name: &str) -> Result<(), PresetError> {
         Err(PresetError::invalid("name", "must not be empty; give a display name like \"Glass (Ren 2013)\""))
     } else {
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Ids made from file names a user may give (`struck estimate --out a--b.json` failed
+    /// after the whole analysis with "invalid `id`"): every one passes `check_id`.
+    #[test]
+    fn ids_from_any_text_pass_the_id_check() {
+        let long = "x".repeat(63) + "-y";
+        let cases = [
+            ("captured", "a--b", "captured-a-b"),
+            ("captured", "é", "captured"),
+            ("captured", "-", "captured"),
+            ("captured", "Steel Plate (2)", "captured-steel-plate-2"),
+            ("captured", "--Glass__Bowl--", "captured-glass-bowl"),
+            ("", "My  Bank!", "my-bank"),
+            ("", "a-2", "a-2"),
+            ("", long.as_str(), &"x".repeat(63)),
+        ];
+        for (prefix, text, want) in cases {
+            let id = kebab_id(prefix, text);
+            assert_eq!(id, want, "{prefix:?} {text:?}");
+            check_id(&id).unwrap_or_else(|e| panic!("{text:?} -> {id:?}: {e}"));
+        }
+        assert_eq!(kebab_id("", "é-!"), "");
     }
 }

@@ -34,7 +34,7 @@ pub use error::PresetError;
 pub use factory::{
     factory_bank, factory_banks, factory_material, factory_materials, FACTORY_BANK_IDS, FACTORY_MATERIAL_IDS,
 };
-pub use json::unknown_fields_note;
+pub use json::{kebab_id, unknown_fields_note};
 pub use material::{Material, RecordedMode, RecordedModes, SupportDamping};
 
 /// Version of the JSON formats this build reads and writes.

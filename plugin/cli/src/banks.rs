@@ -388,12 +388,11 @@ pub fn parse_shape(name: &str, dims: &str) -> Result<Shape, String> {
 }
 
 fn kebab(s: &str) -> String {
-    let k: String = s.to_lowercase().chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '-' }).collect();
-    let k = k.trim_matches('-').to_string();
+    let k = presets::kebab_id("", s);
     if k.is_empty() {
         "bank".into()
     } else {
-        k.chars().take(64).collect()
+        k
     }
 }
 

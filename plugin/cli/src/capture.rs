@@ -153,9 +153,8 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
     }
     let damping = report.damping();
     let stem = args.out.file_stem().and_then(|s| s.to_str()).unwrap_or("material");
-    let id: String =
-        stem.to_lowercase().chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '-' }).collect::<String>();
-    let id = format!("captured-{}", id.trim_matches('-')).chars().take(64).collect::<String>();
+    // (From the file's name: "a--b", "é" or "-" make no id by themselves.)
+    let id = presets::kebab_id("captured", stem);
     let names: Vec<String> = args.files.iter().map(|f| f.display().to_string()).collect();
     // With a known object the fitted γ/γ₀ gives the material's specific modulus, so
     // "Material sets pitch" plays it at the recording's pitch on that object (Ren §5).

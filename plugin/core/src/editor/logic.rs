@@ -128,16 +128,7 @@ pub fn mode_bars(bank: &Bank, position: f32, lambda_scale: f64) -> Vec<ModeBar> 
 
 /// A `Material::id`-safe kebab-case id from free text (at most 64 characters).
 pub fn kebab_id(prefix: &str, text: &str) -> String {
-    let raw: String = text.to_lowercase().chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '-' }).collect();
-    let mut id = String::new();
-    for part in raw.split('-').filter(|p| !p.is_empty()) {
-        if !id.is_empty() {
-            id.push('-');
-        }
-        id.push_str(part);
-    }
-    let id = if id.is_empty() { prefix.to_string() } else { format!("{prefix}-{id}") };
-    id.chars().take(64).collect::<String>().trim_end_matches('-').to_string()
+    presets::kebab_id(prefix, text)
 }
 
 #[cfg(test)]
