@@ -320,6 +320,52 @@ fn open_wav(path: &Path) -> Result<WavData, EstimateError> {
     Ok(WavData { format, reader: r, len, declared, rf64_unsized })
 }
 
+/// Least samples of one value at the waveform's peak that make it "held" there.
+const HELD_RUN: usize = 2;
+/// Least such runs at that one value that make it a clip's level: a struck object's ring
+/// decays, so its peak value comes once (a slow peak may hold a 16-bit code for two or
+/// three samples); a clip or a limiter holds many peaks at one level.
+const HELD_RUNS: usize = 3;
+/// Longest run counted, s: a clipped peak of a 25 Hz mode lasts under 20 ms; a longer one is
+/// a constant (a padding, a test signal), not a peak.
+const HELD_MAX_S: f64 = 0.02;
+
+/// Runs `[from, to)` of samples equal to the waveform's largest (or smallest) value, if
+/// [`HELD_RUNS`] or more of them are [`HELD_RUN`] to `max_run` samples long and the value
+/// is at least −26 dBFS: clipped or limited there, at full scale or under it (then every
+/// sample at that value was cut off, a peak that only touched the level too).
+fn held_at_peak(x: &[f32], max_run: usize) -> Vec<(usize, usize)> {
+    let top = x.iter().fold(0.0f32, |m, &v| m.max(v));
+    let bottom = x.iter().fold(0.0f32, |m, &v| m.min(v));
+    let mut out = Vec::new();
+    for level in [top, bottom] {
+        if level.abs() < 0.05 {
+            continue;
+        }
+        let mut runs = Vec::new();
+        let mut i = 0;
+        while i < x.len() {
+            if x[i] == level {
+                let a = i;
+                while i < x.len() && x[i] == level {
+                    i += 1;
+                }
+                if i - a <= max_run {
+                    runs.push((a, i));
+                }
+            } else {
+                i += 1;
+            }
+        }
+        // Held there often: the level is a clip's, and every sample at it was cut off.
+        if runs.iter().filter(|r| r.1 - r.0 >= HELD_RUN).count() >= HELD_RUNS {
+            out.extend(runs);
+        }
+    }
+    out.sort_unstable();
+    out
+}
+
 /// Chunk ids written after the samples by recorders and editors (metadata, markers, loops;
 /// matched in either case).
 const TRAILING_IDS: [&[u8; 4]; 36] = [
@@ -678,6 +724,34 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
             peak_any / step,
             spec.valid_bits
         ));
+    }
+    // Clipped or limited below full scale (an interface's limiter, an editor's clip at
+    // −0.2 dB): the waveform held flat at its own peak level.
+    let held =
+        if wrong_units { Vec::new() } else { held_at_peak(&mono, (HELD_MAX_S * f64::from(spec.sample_rate)) as usize) };
+    if let Some(&(a, _)) = held.first().filter(|_| analysis) {
+        let level = f64::from(mono[a].abs());
+        if level < 0.999 {
+            warnings.push(format!(
+                "{}: the waveform is held flat at its peak level ({:.1} dBFS) in {} places: clipped or limited below full scale; lower the gain before the limiter (those stretches are left out of the analysis where enough of their impact is left)",
+                path.display(),
+                20.0 * level.log10(),
+                held.len()
+            ));
+        }
+    }
+    if !held.is_empty() {
+        clip_runs.extend(held);
+        clip_runs.sort_unstable();
+        // One run where the two rules found the same stretch.
+        let mut merged: Vec<(usize, usize)> = Vec::with_capacity(clip_runs.len());
+        for r in clip_runs {
+            match merged.last_mut() {
+                Some(m) if r.0 < m.1 => m.1 = m.1.max(r.1),
+                _ => merged.push(r),
+            }
+        }
+        clip_runs = merged;
     }
     // Remove the DC offset: a constant would otherwise show up as a zero-frequency "mode".
     if analysis && mean != 0.0 {

@@ -411,6 +411,16 @@ fn clipped_strikes_are_analysed_after_the_clipping() {
         );
         assert!(rep.warnings.iter().any(|w| w.contains("impact(s) clipped")), "{:?}", rep.warnings);
         worst = worst.max(e1.abs()).max(e2.abs());
+        // The same strikes through a limiter at −0.18 dBFS (float, held at ±0.98): found as
+        // held flat at the peak level (a tester's such files had α₂ off by up to 194 %).
+        let limited: Vec<f64> = x.iter().map(|v| v.clamp(-0.98, 0.98)).collect();
+        let p = tmp(&format!("limited-session-{seed}"));
+        write_wav_f32(&p, &limited, fs as u32).unwrap();
+        let rep = estimate(std::slice::from_ref(&p), &Options::default(), &|_| {}, &cancel).unwrap();
+        let (e1, e2) = (rep.params[0] / a1 - 1.0, rep.params[1] / a2 - 1.0);
+        eprintln!("seed {seed}, limited at 0.98: alpha {:?} ({e1:+.4}, {e2:+.4})", rep.params);
+        assert!(rep.warnings.iter().any(|w| w.contains("held flat at its peak level")), "{:?}", rep.warnings);
+        worst = worst.max(e1.abs()).max(e2.abs());
     }
     assert!(worst < 0.02, "law off by {:.1} % with clipped strikes", 100.0 * worst);
 }
@@ -444,6 +454,19 @@ fn clipping_is_found_where_it_is_and_only_there() {
     let p = tmp("clip-float");
     write_wav_f32(&p, &x, fs).unwrap();
     assert_eq!(load_wav(&p, None).unwrap().clipped, vec![(500, 502)]);
+
+    // A decaying 40 Hz ring from 0.95 of full scale, 16-bit: its slow peaks hold a code
+    // for a sample or two, each peak at its own (lower) level: not held flat.
+    let ring: Vec<Vec<f64>> = (0..fs as usize)
+        .map(|k| {
+            let t = f64::from(k as u32) / f64::from(fs);
+            vec![0.95 * (-1.5 * t).exp() * (std::f64::consts::TAU * 40.0 * t).sin()]
+        })
+        .collect();
+    let p = tmp("slow-ring");
+    write_int(&p, 16, 1, fs, &ring);
+    let r = load_wav(&p, None).unwrap();
+    assert!(r.clipped.is_empty() && !r.warnings.iter().any(|w| w.contains("held flat")), "{:?}", r.clipped);
 
     use estimator::segment::{clear_of_clipping, Segment};
     let piece = Segment { start: 1000, end: 9000, snr_db: 60.0, noise_var: 1e-9 };
