@@ -427,7 +427,7 @@ pub fn extract_features(
                 file: name.clone(),
                 onset_s: s.start as f64 / fs,
                 reason: format!(
-                    "clipped ({n} samples at full scale) with no stretch of {:.0} ms without clipping (its clipping's harmonics would be fitted as modes); lower the recording gain",
+                    "clipped ({n} clipped samples) with no stretch of {:.0} ms without clipping (its clipping's harmonics would be fitted as modes); lower the recording gain",
                     1e3 * opts.segment.min_impact_s
                 ),
             });

@@ -345,16 +345,17 @@ pub struct ClippedPiece {
 
 /// Each piece with clipped samples inside it is analysed over its longest stretch without
 /// them, if that is at least `min_len` samples long; else it is left out (returned third,
-/// with its clipped samples): fitted whole, its clipping's harmonics became most of its
-/// features (a black-box tester: a 150 ms strike driven 2× over full scale gave α₁ −99.7 %). `clipped`: runs `[from, to)` of frames at full scale, in time
-/// order, as [`crate::wav::Recording::clipped`]; a piece is clipped if two or more samples
-/// at full scale lie in it (a value held, or peaks cut off at the same extreme value), and
-/// then every run in it is left out; one sample at full scale is a normalised recording's
-/// peak, and its piece is kept whole. A clipped waveform is cut off at
-/// full scale: no sum of damped sinusoids explains it (Ren §4's model), and the fits bend
-/// to it: a test file of ten Rayleigh modes with 12 samples clipped at its first strike gave
-/// α₂ 33 % low. Clipping is at the loud start of a strike, so the stretch kept is mostly
-/// the ring after it: the piece then starts after its last clipped sample.
+/// with its clipped samples).
+///
+/// `clipped`: runs `[from, to)` of clipped frames, ascending and apart, as
+/// [`crate::wav::Recording::clipped`]. A piece is clipped if two or more such samples lie in
+/// it (a value held, or peaks cut off at one extreme value), and then every run in it is
+/// left out; one sample at full scale is a normalised recording's peak, and its piece is
+/// kept whole. A clipped waveform is cut off: no sum of damped sinusoids explains it (Ren
+/// §4's model), and the fits bend to it (ten Rayleigh modes with 12 samples clipped at the
+/// first strike: α₂ 33 % low; fitted whole, a 150 ms strike driven 2× over full scale gave
+/// α₁ −99.7 %, its clipping's harmonics most of its features). Clipping is at the loud
+/// start of a strike, so the stretch kept is mostly the ring after its last clipped sample.
 pub fn clear_of_clipping(
     pieces: Vec<Segment>,
     clipped: &[(usize, usize)],
@@ -365,9 +366,11 @@ pub fn clear_of_clipping(
     let pieces = pieces
         .into_iter()
         .filter_map(|p| {
-            let runs: Vec<(usize, usize)> = clipped
+            // The runs inside (ascending and apart: a binary search finds the first).
+            let first = clipped.partition_point(|r| r.1 <= p.start);
+            let runs: Vec<(usize, usize)> = clipped[first..]
                 .iter()
-                .filter(|r| r.1 > p.start && r.0 < p.end)
+                .take_while(|r| r.0 < p.end)
                 .map(|r| (r.0.max(p.start), r.1.min(p.end)))
                 .collect();
             let samples: usize = runs.iter().map(|r| r.1 - r.0).sum();

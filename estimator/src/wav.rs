@@ -45,8 +45,9 @@ pub struct Recording {
     /// order: a value held at ±0.999 or over (the run's first sample and those that held
     /// it), or a single sample at the format's largest value (±1 for float; the largest
     /// code for integers). One such sample is a normalised file's peak; two or more in one
-    /// impact are its peaks cut off (`segment::clear_of_clipping`). Empty when the float
-    /// samples are not scaled to ±1 (wrong units).
+    /// impact are its peaks cut off (`segment::clear_of_clipping`). Also the samples at a
+    /// level the waveform is held flat at below full scale (a limiter; `held_at_peak`).
+    /// Ascending and apart. Empty when the float samples are not scaled to ±1 (wrong units).
     pub clipped: Vec<(usize, usize)>,
 }
 
