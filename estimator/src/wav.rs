@@ -327,8 +327,8 @@ const HELD_RUN: usize = 2;
 /// decays, so its peak value comes once (a slow peak may hold a 16-bit code for two or
 /// three samples); a clip or a limiter holds many peaks at one level.
 const HELD_RUNS: usize = 3;
-/// Longest run counted, s: a clipped peak of a 25 Hz mode lasts under 20 ms; a longer one is
-/// a constant (a padding, a test signal), not a peak.
+/// Longest run counted, s: a peak clipped however hard lasts under half its period (20 ms
+/// at 25 Hz); a longer run is a constant (a padding, a test signal), not a peak.
 const HELD_MAX_S: f64 = 0.02;
 
 /// Runs `[from, to)` of samples equal to the waveform's largest (or smallest) value, if
@@ -741,19 +741,18 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
             ));
         }
     }
-    if !held.is_empty() {
-        clip_runs.extend(held);
-        clip_runs.sort_unstable();
-        // One run where the two rules found the same stretch.
-        let mut merged: Vec<(usize, usize)> = Vec::with_capacity(clip_runs.len());
-        for r in clip_runs {
-            match merged.last_mut() {
-                Some(m) if r.0 < m.1 => m.1 = m.1.max(r.1),
-                _ => merged.push(r),
-            }
+    clip_runs.extend(held);
+    clip_runs.sort_unstable();
+    // Ascending and apart: one run where the two rules (or two channels' held values)
+    // found overlapping stretches.
+    let mut merged: Vec<(usize, usize)> = Vec::with_capacity(clip_runs.len());
+    for r in clip_runs {
+        match merged.last_mut() {
+            Some(m) if r.0 < m.1 => m.1 = m.1.max(r.1),
+            _ => merged.push(r),
         }
-        clip_runs = merged;
     }
+    let clip_runs = merged;
     // Remove the DC offset: a constant would otherwise show up as a zero-frequency "mode".
     if analysis && mean != 0.0 {
         // (From every sample: the padding stays constant, digital silence at the take's
