@@ -488,6 +488,82 @@ fn cancelling_doublets_do_not_pull_the_law_down() {
     }
 }
 
+/// Issue 10 part 4: partials that are each an equal pair of modes in opposite phase at the
+/// strike (a plate's or a bell's near-degenerate twins struck on a node of their sum: the
+/// partial swells from nothing as sin(πΔf t)), 0.1–2 Hz apart in a 2 s record, decaying
+/// alike as the damping law makes twins decay. The fit splits such a partial into members
+/// that trade decay against frequency (e^(−d₁t) − e^(−d₂t) swells like the pair's beat); a
+/// refit with one decay for the cluster (`features::TIE_SPAN`) recovers it. Known
+/// truth: 8 files of 3–8 partials at 300–6000 Hz, 60 % of them such pairs, on the Rayleigh
+/// law c = 6 + 1.5·10⁻⁸ ω² (d = c/2), −100 dB noise. Measured when written: pairs' decays
+/// within 10 % 25 of 29, median error 0.5 %; without the refit 11 of 29 and 14.5 %. The
+/// partials that are one mode stay within 1 % (all 19).
+#[test]
+fn antiphase_twins_decay_as_the_law_says() {
+    use estimator::features::extract_impact;
+    use estimator::synth::{add_noise, Rng};
+    use estimator::ExtractOptions;
+    let fs = 44_100.0;
+    let n = (2.0 * fs) as usize;
+    let d_true = |f: f64| {
+        let w = std::f64::consts::TAU * f;
+        (6.0 + 1.5e-8 * w * w) / 2.0
+    };
+    let (mut errors, mut singles) = (Vec::new(), Vec::new());
+    for seed in 0..8u64 {
+        let mut rng = Rng::new(500 + seed);
+        let count = 3 + (rng.uniform() * 6.0) as usize;
+        let mut freqs: Vec<f64> = (0..count).map(|_| rng.range(300.0, 6000.0)).collect();
+        freqs.sort_by(f64::total_cmp);
+        let mut modes = Vec::new();
+        let mut twins = Vec::new();
+        for &f in &freqs {
+            let (d, a, phase) = (d_true(f), rng.range(0.3, 1.0), rng.range(0.0, std::f64::consts::TAU));
+            modes.push((f, d, a, phase));
+            let twin = rng.uniform() < 0.6;
+            if twin {
+                modes.push((f + rng.range(0.1, 2.0), d, a, phase + std::f64::consts::PI));
+            }
+            twins.push(twin);
+        }
+        let mut x = render_phased(&modes, fs, n);
+        let peak = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        x.iter_mut().for_each(|v| *v *= 0.8 / peak);
+        add_noise(&mut x, 100.0, n, &mut Rng::new(900 + seed));
+        let x: Vec<f32> = x.iter().map(|&v| v as f32).collect();
+        let fit = extract_impact(&x, fs, 0.0, &ExtractOptions::default(), &AtomicBool::new(false)).unwrap();
+        for (&f, &twin) in freqs.iter().zip(&twins) {
+            // The strongest partial within 0.5 % (a resolved pair may be two).
+            let found = fit
+                .features
+                .iter()
+                .filter(|m| (m.freq_hz - f).abs() < 0.005 * f)
+                .max_by(|a, b| a.amplitude.total_cmp(&b.amplitude));
+            let err = found.map_or(f64::INFINITY, |m| (m.decay_per_s / d_true(f) - 1.0).abs());
+            if twin {
+                errors.push(err);
+            } else {
+                singles.push(err);
+            }
+        }
+    }
+    errors.sort_by(f64::total_cmp);
+    let within = errors.iter().filter(|&&e| e < 0.1).count();
+    let median = errors[errors.len() / 2];
+    let singles_within = singles.iter().filter(|&&e| e < 0.01).count();
+    eprintln!(
+        "twins within 10 %: {within} of {}, median error {median:.4}; single partials within 1 %: {singles_within} of {}",
+        errors.len(),
+        singles.len()
+    );
+    assert!(
+        within * 5 >= errors.len() * 3 && median < 0.03,
+        "twins within 10 %: {within} of {}, median {median}",
+        errors.len()
+    );
+    assert_eq!(singles_within, singles.len(), "single partials: {singles:?}");
+}
+
 /// A partial whose members the record cannot tell apart is reported with the amplitude of
 /// the one exponential at its late slope that carries their sum's energy: one mode the fit
 /// split into two near-equal members (a black-box tester's case, each reported with about
