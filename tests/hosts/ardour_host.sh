@@ -171,7 +171,9 @@ done
 # with no plugin loaded at all, backtraces in ExportGraphBuilder::reset /
 # PortExportChannel::prepare_export).  A phase that dies before printing its
 # DONE line is therefore retried (up to $TRIES times) and the crash reported.
-TRIES="${ARDOUR_TRIES:-4}"
+# Four tries were once not enough: a stop-49 run saw the plugin-free reference
+# click's export die four times in a row (then 0 and 1 crashes on two reruns).
+TRIES="${ARDOUR_TRIES:-6}"
 CRASHES=0
 run_phase () { # label args...
 	local label="$1"; shift
@@ -206,9 +208,10 @@ run_phase state-set state-set
 run_phase state-check state-check
 run_phase render-Resonator_reloaded render Resonator Resonator_reloaded
 echo "      info: ardour7-lua phases took $(elapsed "$t_lua")s, $CRASHES crashed attempt(s)"
-# Ardour's own export crash hits about one export in seven: more than four crashes in a run
-# (of seven exports and state phases) is taken as the plugins' doing, not Ardour's.
-check "Ardour crashed at most 4 times in the run" $([ "$CRASHES" -le 4 ] && echo 1 || echo 0) "$CRASHES crashed attempt(s)"
+# Ardour's own export crash hits about one export in seven, sometimes in bursts: more than
+# six crashes in a run (of seven exports and state phases) is taken as the plugins' doing,
+# not Ardour's.
+check "Ardour crashed at most 6 times in the run" $([ "$CRASHES" -le 6 ] && echo 1 || echo 0) "$CRASHES crashed attempt(s)"
 # Ardour's own warnings/errors (minus the missing-MP3-encoder notes), deduplicated
 cat "$WORK"/ardour-*.log | grep -aE '^\[(WARNING|ERROR|FATAL)\]|^Error|[Vv][Ss][Tt]3|[Pp]lugin' | grep -avE '^(RESULT|INFO|DONE)\|' | grep -v 'encoder is not available' | sort | uniq -c | sed 's/^ */      ardour: /'
 
