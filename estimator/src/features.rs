@@ -767,6 +767,24 @@ fn coarse_search(ev: &ModelEval, target: &[C64], band: &Band, w: usize, fs: f64)
     best
 }
 
+/// A band of one level where a cluster of modes is refitted ([`Search::cluster_band`]): its
+/// first bin, the target (residual plus the cluster's modes), the cost of the cluster's
+/// present fit and the noise's share of the band.
+struct ClusterBand {
+    k0: usize,
+    target: Vec<C64>,
+    cost: f64,
+    noise: f64,
+}
+
+/// The angular frequencies the modes `ids` cover, ω ± 3d (their half-power bands three
+/// times over).
+fn span(modes: &[Mode], ids: &[usize]) -> (f64, f64) {
+    ids.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &j| {
+        (lo.min(modes[j].omega - 3.0 * modes[j].d), hi.max(modes[j].omega + 3.0 * modes[j].d))
+    })
+}
+
 /// The state of one impact's extraction (Ren §4): the time-domain residual and its
 /// multi-level spectra, the modes found so far and the peaks rejected.
 struct Search<'a> {
@@ -1102,11 +1120,7 @@ impl<'a> Search<'a> {
             }
             self.resplit_cluster(&cluster, &broad, &mut absorbed);
         }
-        let mut i = 0;
-        self.modes.retain(|_| {
-            i += 1;
-            !absorbed.get(i - 1).copied().unwrap_or(false)
-        });
+        self.drop_absorbed(&absorbed);
         Ok(())
     }
 
@@ -1115,7 +1129,6 @@ impl<'a> Search<'a> {
     /// marked `absorbed` when the new cluster replaces them.
     fn resplit_cluster(&mut self, ringing: &[usize], broad: &[usize], absorbed: &mut [bool]) {
         const MAX_SPLIT: usize = 4;
-        const MAX_BINS: usize = 400;
         // A cluster that explains all but this share of its band's power is taken as right.
         const MIN_UNEXPLAINED: f64 = 0.02;
         // A cluster leaving more than this share of its band unexplained is refitted too.
@@ -1127,27 +1140,20 @@ impl<'a> Search<'a> {
         let bin_hz = fs / lev.m as f64;
         let to_bin = |omega: f64| omega / std::f64::consts::TAU / bin_hz;
         let modes = &self.modes;
-        let lo = ringing.iter().map(|&j| modes[j].omega - 3.0 * modes[j].d).fold(f64::INFINITY, f64::min);
-        let hi = ringing.iter().map(|&j| modes[j].omega + 3.0 * modes[j].d).fold(f64::NEG_INFINITY, f64::max);
+        let (lo, hi) = span(modes, ringing);
         let cluster: Vec<usize> = ringing
             .iter()
             .copied()
             .chain(broad.iter().copied().filter(|&j| !absorbed[j] && modes[j].omega > lo && modes[j].omega < hi))
             .collect();
-        let k0 = (to_bin(lo).floor().max(1.0) as usize).saturating_sub(2);
-        let k1 = ((to_bin(hi).ceil() as usize) + 2).min(lev.spec.len() - 2);
-        if k1 <= k0 + 4 || k1 - k0 > MAX_BINS {
+        // Target: the residual plus the cluster's own modes. What noise alone leaves over the
+        // band: a cluster that explains the band down to it is left alone, and fits under it
+        // are no better than at it.
+        let Some(ClusterBand { k0, target, cost: cost_old, noise: band_noise }) =
+            self.cluster_band(level, ringing, &cluster)
+        else {
             return;
-        }
-        // Target: the residual plus the cluster's own modes.
-        let zps: Vec<ZPow> = cluster.iter().map(|&j| zpow(&ev, modes[j].omega, modes[j].d)).collect();
-        let model =
-            |k: usize| -> C64 { cluster.iter().zip(&zps).map(|(&j, zp)| mode_value(&ev, zp, modes[j].b, k)).sum() };
-        let target: Vec<C64> = (k0..=k1).map(|k| lev.spec[k] + model(k)).collect();
-        let cost_old: f64 = target.iter().zip(k0..).map(|(t, k)| (t - model(k)).norm_sqr()).sum();
-        // What noise alone leaves over the band (as in `fit_peak`): a cluster that explains the
-        // band down to it is left alone, and fits under it are no better than at it.
-        let band_noise = self.sigma2 * lev.sw2 * target.len() as f64 * (2.0 * lev.w as f64 / lev.m as f64).min(1.0);
+        };
         let power: f64 = target.iter().map(|t| t.norm_sqr()).sum();
         if cost_old <= 2.0 * band_noise || cost_old < MIN_UNEXPLAINED * power {
             return;
@@ -1339,11 +1345,7 @@ impl<'a> Search<'a> {
             }
             self.tie_cluster(&c, resolution, &mut absorbed);
         }
-        let mut i = 0;
-        self.modes.retain(|_| {
-            i += 1;
-            !absorbed.get(i - 1).copied().unwrap_or(false)
-        });
+        self.drop_absorbed(&absorbed);
         Ok(())
     }
 
@@ -1356,33 +1358,22 @@ impl<'a> Search<'a> {
     /// [`TIE_TOLERANCE`] of its energy replaces the members (those it does not need are
     /// marked `absorbed`).
     fn tie_cluster(&mut self, members: &[usize], resolution: f64, absorbed: &mut [bool]) {
-        const MAX_BINS: usize = 400;
         let fs = self.fs;
         let t = self.r.len() as f64 / fs;
         let modes = &self.modes;
         let level = self.cluster_level(members);
         let lev = &self.spectra.levels[level];
         let ev = ModelEval::new(lev, fs);
-        let bin_hz = fs / lev.m as f64;
-        let to_bin = |omega: f64| omega / std::f64::consts::TAU / bin_hz;
-        let lo = members.iter().map(|&j| modes[j].omega - 3.0 * modes[j].d).fold(f64::INFINITY, f64::min);
-        let hi = members.iter().map(|&j| modes[j].omega + 3.0 * modes[j].d).fold(f64::NEG_INFINITY, f64::max);
-        let k0 = (to_bin(lo).floor().max(1.0) as usize).saturating_sub(2);
-        let k1 = ((to_bin(hi).ceil() as usize) + 2).min(lev.spec.len() - 2);
-        if k1 <= k0 + 4 || k1 - k0 > MAX_BINS {
-            return;
-        }
         // Target: the residual plus the members (the other modes in the band stay as they
         // are: refitted with the members on the band alone, a broad one could grow into
         // junk the band does not see).
-        let zps: Vec<ZPow> = members.iter().map(|&j| zpow(&ev, modes[j].omega, modes[j].d)).collect();
-        let model =
-            |k: usize| -> C64 { members.iter().zip(&zps).map(|(&j, zp)| mode_value(&ev, zp, modes[j].b, k)).sum() };
-        let target: Vec<C64> = (k0..=k1).map(|k| lev.spec[k] + model(k)).collect();
-        let cost_free: f64 = target.iter().zip(k0..).map(|(t, k)| (t - model(k)).norm_sqr()).sum();
-        let power: f64 = (k0..=k1).map(|k| model(k).norm_sqr()).sum();
-        // What noise alone leaves over the band (as in `fit_peak`).
-        let band_noise = self.sigma2 * lev.sw2 * target.len() as f64 * (2.0 * lev.w as f64 / lev.m as f64).min(1.0);
+        let Some(ClusterBand { k0, target, cost: cost_free, noise: band_noise }) =
+            self.cluster_band(level, members, members)
+        else {
+            return;
+        };
+        // The members' power over the band.
+        let power: f64 = target.iter().zip(&lev.spec[k0..]).map(|(t, r)| (t - r).norm_sqr()).sum();
         // The one mode started at the members' energy-weighted decay and frequency, with
         // their summed amplitude.
         let weight = |j: usize| modes[j].b.norm_sqr() / modes[j].d.max(1e-9);
@@ -1437,6 +1428,40 @@ impl<'a> Search<'a> {
                 return;
             }
         }
+    }
+
+    /// The band of level `level` that the modes `span` cover (ω ± 3d, 2 bins more each side,
+    /// at most 400 bins) with the target of a refit of the modes `fit` there: the residual's
+    /// spectrum plus theirs, the cost of their present fit and what noise alone leaves over
+    /// the band (as in `fit_peak`). `None` for a band too narrow or too wide.
+    fn cluster_band(&self, level: usize, span_of: &[usize], fit: &[usize]) -> Option<ClusterBand> {
+        const MAX_BINS: usize = 400;
+        let lev = &self.spectra.levels[level];
+        let ev = ModelEval::new(lev, self.fs);
+        let bin_hz = self.fs / lev.m as f64;
+        let to_bin = |omega: f64| omega / std::f64::consts::TAU / bin_hz;
+        let modes = &self.modes;
+        let (lo, hi) = span(modes, span_of);
+        let k0 = (to_bin(lo).floor().max(1.0) as usize).saturating_sub(2);
+        let k1 = ((to_bin(hi).ceil() as usize) + 2).min(lev.spec.len() - 2);
+        if k1 <= k0 + 4 || k1 - k0 > MAX_BINS {
+            return None;
+        }
+        let zps: Vec<ZPow> = fit.iter().map(|&j| zpow(&ev, modes[j].omega, modes[j].d)).collect();
+        let model = |k: usize| -> C64 { fit.iter().zip(&zps).map(|(&j, zp)| mode_value(&ev, zp, modes[j].b, k)).sum() };
+        let target: Vec<C64> = (k0..=k1).map(|k| lev.spec[k] + model(k)).collect();
+        let cost = target.iter().zip(k0..).map(|(t, k)| (t - model(k)).norm_sqr()).sum();
+        let noise = self.sigma2 * lev.sw2 * target.len() as f64 * (2.0 * lev.w as f64 / lev.m as f64).min(1.0);
+        Some(ClusterBand { k0, target, cost, noise })
+    }
+
+    /// Removes the modes a pass marked `absorbed` (kept until its end so indices held).
+    fn drop_absorbed(&mut self, absorbed: &[bool]) {
+        let mut i = 0;
+        self.modes.retain(|_| {
+            i += 1;
+            !absorbed.get(i - 1).copied().unwrap_or(false)
+        });
     }
 
     /// The longest level any of the modes `c` was fitted on (the longest on which its peak
