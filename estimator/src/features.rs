@@ -1105,14 +1105,7 @@ impl<'a> Search<'a> {
                 _ => clusters.push(vec![i]),
             }
         }
-        // Each cluster is looked at on its level (`cluster_level`), computed once for the pass.
-        let mut used = vec![false; self.spectra.levels.len()];
-        clusters.iter().for_each(|c| used[self.cluster_level(c)] = true);
-        for (l, &u) in used.iter().enumerate() {
-            if u {
-                self.spectra.compute(l, &self.r);
-            }
-        }
+        self.compute_cluster_levels(&clusters);
         let mut absorbed = vec![false; self.modes.len()];
         for cluster in clusters {
             if cancel.load(Ordering::Relaxed) {
@@ -1331,13 +1324,7 @@ impl<'a> Search<'a> {
         if clusters.is_empty() {
             return Ok(());
         }
-        let mut used = vec![false; self.spectra.levels.len()];
-        clusters.iter().for_each(|c| used[self.cluster_level(c)] = true);
-        for (l, &u) in used.iter().enumerate() {
-            if u {
-                self.spectra.compute(l, &self.r);
-            }
-        }
+        self.compute_cluster_levels(&clusters);
         let mut absorbed = vec![false; self.modes.len()];
         for c in clusters {
             if cancel.load(Ordering::Relaxed) {
@@ -1453,6 +1440,18 @@ impl<'a> Search<'a> {
         let cost = target.iter().zip(k0..).map(|(t, k)| (t - model(k)).norm_sqr()).sum();
         let noise = self.sigma2 * lev.sw2 * target.len() as f64 * (2.0 * lev.w as f64 / lev.m as f64).min(1.0);
         Some(ClusterBand { k0, target, cost, noise })
+    }
+
+    /// The spectra of the residual on the levels where `clusters` are looked at
+    /// ([`Search::cluster_level`]), computed once for a pass.
+    fn compute_cluster_levels(&mut self, clusters: &[Vec<usize>]) {
+        let mut used = vec![false; self.spectra.levels.len()];
+        clusters.iter().for_each(|c| used[self.cluster_level(c)] = true);
+        for (l, &u) in used.iter().enumerate() {
+            if u {
+                self.spectra.compute(l, &self.r);
+            }
+        }
     }
 
     /// Removes the modes a pass marked `absorbed` (kept until its end so indices held).
