@@ -350,8 +350,9 @@ pub struct ClippedPiece {
 /// `clipped`: runs `[from, to)` of clipped frames, ascending and apart, as
 /// [`crate::wav::Recording::clipped`]. A piece is clipped if two or more such samples lie in
 /// it (a value held, or peaks cut off at one extreme value), and then every run in it is
-/// left out; one sample at full scale is a normalised recording's peak, and its piece is
-/// kept whole. A clipped waveform is cut off: no sum of damped sinusoids explains it (Ren
+/// left out; one sample at full scale, or two in one run, is a normalised recording's peak
+/// (a peak between two samples rounds both onto the top code), and its piece is kept
+/// whole. A clipped waveform is cut off: no sum of damped sinusoids explains it (Ren
 /// §4's model), and the fits bend to it (ten Rayleigh modes with 12 samples clipped at the
 /// first strike: α₂ 33 % low; fitted whole, a 150 ms strike driven 2× over full scale gave
 /// α₁ −99.7 %, its clipping's harmonics most of its features). Clipping is at the loud
@@ -374,7 +375,7 @@ pub fn clear_of_clipping(
                 .map(|r| (r.0.max(p.start), r.1.min(p.end)))
                 .collect();
             let samples: usize = runs.iter().map(|r| r.1 - r.0).sum();
-            if samples < 2 {
+            if samples < 2 || runs.len() == 1 && samples == 2 {
                 return Some(p);
             }
             // The clean stretches: before the first run, between runs, after the last.

@@ -46,7 +46,7 @@ pub struct Recording {
     /// it), or a single sample at the format's largest value (±1 for float; the largest
     /// code for integers). One such sample is a normalised file's peak; two or more in one
     /// impact are its peaks cut off (`segment::clear_of_clipping`). Also the samples at a
-    /// level the waveform is held flat at below full scale (a limiter; `held_at_peak`).
+    /// level a channel in use is held flat at below full scale (a limiter; `HeldPeak`).
     /// Ascending and apart. Empty when the float samples are not scaled to ±1 (wrong units).
     pub clipped: Vec<(usize, usize)>,
 }
@@ -331,40 +331,64 @@ const HELD_RUNS: usize = 3;
 /// at 25 Hz); a longer run is a constant (a padding, a test signal), not a peak.
 const HELD_MAX_S: f64 = 0.02;
 
-/// Runs `[from, to)` of samples equal to the waveform's largest (or smallest) value, if
-/// [`HELD_RUNS`] or more of them are [`HELD_RUN`] to `max_run` samples long and the value
-/// is at least −26 dBFS: clipped or limited there, at full scale or under it (then every
-/// sample at that value was cut off, a peak that only touched the level too).
-fn held_at_peak(x: &[f32], max_run: usize) -> Vec<(usize, usize)> {
-    let top = x.iter().fold(0.0f32, |m, &v| m.max(v));
-    let bottom = x.iter().fold(0.0f32, |m, &v| m.min(v));
-    let mut out = Vec::new();
-    for level in [top, bottom] {
-        if level.abs() < 0.05 {
-            continue;
-        }
-        let mut runs = Vec::new();
-        let mut i = 0;
-        while i < x.len() {
-            if x[i] == level {
-                let a = i;
-                while i < x.len() && x[i] == level {
-                    i += 1;
-                }
-                if i - a <= max_run {
-                    runs.push((a, i));
-                }
-            } else {
-                i += 1;
-            }
-        }
-        // Held there often: the level is a clip's, and every sample at it was cut off.
-        if runs.iter().filter(|r| r.1 - r.0 >= HELD_RUN).count() >= HELD_RUNS {
-            out.extend(runs);
+/// One channel's peak values as it is read, for a level it is held flat at: its largest
+/// (and, apart, its smallest) value so far and the runs `[from, to)` of frames at exactly
+/// that value, from [`HELD_RUN`] samples up to `max_run` long (a longer run is a constant).
+/// Kept per channel in use, so that a channel limited below full scale is found in a
+/// stereo mix whose other channel is not (the mix is not flat there). Its memory is the runs
+/// at the peak value only: a new peak starts them again.
+#[derive(Clone, Debug)]
+struct HeldPeak {
+    /// +1 for the largest value, −1 for the smallest.
+    sign: f64,
+    /// `sign` × the extreme value so far (0 before any sample over it).
+    level: f64,
+    runs: Vec<(usize, usize)>,
+    /// The frame the run at `level` now being read started at.
+    open: Option<usize>,
+    max_run: usize,
+}
+
+impl HeldPeak {
+    fn new(sign: f64, max_run: usize) -> Self {
+        Self { sign, level: 0.0, runs: Vec::new(), open: None, max_run }
+    }
+
+    fn push(&mut self, frame: usize, v: f64) {
+        let x = self.sign * v;
+        if x > self.level {
+            self.level = x;
+            self.runs.clear();
+            self.open = Some(frame);
+        } else if x == self.level {
+            self.open.get_or_insert(frame);
+        } else {
+            self.close(frame);
         }
     }
-    out.sort_unstable();
-    out
+
+    fn close(&mut self, frame: usize) {
+        if let Some(a) = self.open.take() {
+            if frame - a <= self.max_run {
+                self.runs.push((a, frame));
+            }
+        }
+    }
+
+    /// The samples were rescaled by `k` (exact: a power of two).
+    fn rescale(&mut self, k: f64) {
+        self.level *= k;
+    }
+
+    /// The level (a magnitude) and every run at it, if [`HELD_RUNS`] or more of them are
+    /// [`HELD_RUN`] samples long or longer and the level is at least −26 dBFS: clipped or
+    /// limited there, at full scale or under it (then every sample at that value was cut
+    /// off, a peak that only touched the level too).
+    fn finish(mut self, end: usize) -> Option<(f64, Vec<(usize, usize)>)> {
+        self.close(end);
+        let held = self.runs.iter().filter(|r| r.1 - r.0 >= HELD_RUN).count() >= HELD_RUNS;
+        (self.level >= 0.05 && held).then_some((self.level, self.runs))
+    }
 }
 
 /// Chunk ids written after the samples by recorders and editors (metadata, markers, loops;
@@ -523,6 +547,10 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
     let full_code = 1.0 - 1.5 / f64::from(1u32 << (spec.valid_bits.clamp(2, 32) - 1).min(31));
     // Each channel's previous sample (clipping is a value held).
     let mut prev = vec![f64::NAN; channels];
+    // Each channel's largest and smallest values and where they are held (a limiter).
+    let max_run = (HELD_MAX_S * f64::from(spec.sample_rate)) as usize;
+    let mut peaks: Vec<[HeldPeak; 2]> =
+        (0..channels).map(|_| [HeldPeak::new(1.0, max_run), HeldPeak::new(-1.0, max_run)]).collect();
     // Whole frames at a time, 64 KiB or so per read.
     let per_read = (65_536 / frame_bytes).max(1);
     let mut buf = vec![0u8; per_read * frame_bytes];
@@ -567,6 +595,7 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
                 *v = (f64::from(*v) * k) as f32;
             }
             peak_any *= k;
+            peaks.iter_mut().flatten().for_each(|p| p.rescale(k));
             clipped = 0;
             clip_runs.clear();
             justified = Some(1.0);
@@ -609,6 +638,11 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
                 }
                 if let Some(p) = prev.get_mut(ch) {
                     *p = v;
+                }
+                if in_use {
+                    if let Some(pk) = peaks.get_mut(ch) {
+                        pk.iter_mut().for_each(|p| p.push(done + f, v));
+                    }
                 }
                 seen += 1;
                 peak_any = peak_any.max(v.abs());
@@ -727,21 +761,39 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
         ));
     }
     // Clipped or limited below full scale (an interface's limiter, an editor's clip at
-    // −0.2 dB): the waveform held flat at its own peak level.
-    let held =
-        if wrong_units { Vec::new() } else { held_at_peak(&mono, (HELD_MAX_S * f64::from(spec.sample_rate)) as usize) };
-    if let Some(&(a, _)) = held.first().filter(|_| analysis) {
-        let level = f64::from(mono[a].abs());
-        if level < 0.999 {
-            warnings.push(format!(
-                "{}: the waveform is held flat at its peak level ({:.1} dBFS) in {} places: clipped or limited below full scale; lower the gain before the limiter (those stretches are left out of the analysis where enough of their impact is left)",
-                path.display(),
-                20.0 * level.log10(),
-                held.len()
-            ));
+    // −0.2 dB): a channel in use held flat at its own peak level. Each channel apart: a
+    // stereo take whose one channel went through a limiter is not flat in the mix. In a mix,
+    // only at a level within 6 dB of the loudest channel's peak: the limited channel is the
+    // hot one, and a quieter channel's steady tone (a test tone, a hum without noise) holds
+    // its top code at every peak.
+    let mut below = (0usize, 0.0f64, Vec::new());
+    let least = if channels > 1 && channel.is_none() { 0.5 * peak_any } else { 0.0 };
+    for (ch, pk) in peaks.into_iter().enumerate() {
+        let found = pk.into_iter().filter_map(|p| p.finish(done)).filter(|&(level, _)| !wrong_units && level >= least);
+        for (level, runs) in found {
+            if level < 0.999 {
+                below.0 += runs.len();
+                below.1 = below.1.max(level);
+                below.2.push(ch + 1);
+            }
+            clip_runs.extend(runs);
         }
     }
-    clip_runs.extend(held);
+    if analysis && below.0 > 0 {
+        below.2.dedup();
+        let which = if channels > 1 && channel.is_none() {
+            let list: Vec<String> = below.2.iter().map(ToString::to_string).collect();
+            format!(" (channel {} of {channels})", list.join(" and "))
+        } else {
+            String::new()
+        };
+        warnings.push(format!(
+            "{}: the waveform{which} is held flat at its peak level ({:.1} dBFS) in {} places: clipped or limited below full scale; lower the gain before the limiter (those stretches are left out of the analysis where enough of their impact is left)",
+            path.display(),
+            20.0 * below.1.log10(),
+            below.0
+        ));
+    }
     clip_runs.sort_unstable();
     // Ascending and apart: one run where the two rules (or two channels' held values)
     // found overlapping stretches.

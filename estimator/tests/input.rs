@@ -421,14 +421,24 @@ fn clipped_strikes_are_analysed_after_the_clipping() {
         eprintln!("seed {seed}, limited at 0.98: alpha {:?} ({e1:+.4}, {e2:+.4})", rep.params);
         assert!(rep.warnings.iter().any(|w| w.contains("held flat at its peak level")), "{:?}", rep.warnings);
         worst = worst.max(e1.abs()).max(e2.abs());
+        // Stereo, 16-bit: the left channel through that limiter, the right one 3 dB lower
+        // and clean. The mix is not flat anywhere; the left channel is, and is found there.
+        let frames: Vec<Vec<f64>> = x.iter().map(|&v| vec![v.clamp(-0.98, 0.98), 0.7 * v]).collect();
+        let p = tmp(&format!("limited-left-{seed}"));
+        write_int(&p, 16, 2, fs as u32, &frames);
+        let rep = estimate(std::slice::from_ref(&p), &Options::default(), &|_| {}, &cancel).unwrap();
+        let (e1, e2) = (rep.params[0] / a1 - 1.0, rep.params[1] / a2 - 1.0);
+        eprintln!("seed {seed}, left channel limited at 0.98: alpha {:?} ({e1:+.4}, {e2:+.4})", rep.params);
+        assert!(rep.warnings.iter().any(|w| w.contains("(channel 1 of 2) is held flat")), "{:?}", rep.warnings);
+        worst = worst.max(e1.abs()).max(e2.abs());
     }
     assert!(worst < 0.02, "law off by {:.1} % with clipped strikes", 100.0 * worst);
 }
 
 /// What the reader takes for clipping: a value held at full scale (in the channel analysed),
 /// or single samples at the format's largest value; not a float peak over 1 (float holds
-/// it) nor a sample under full scale. One sample at full scale alone (a normalised file's
-/// peak) leaves its impact whole; two or more are peaks cut off, and the impact is analysed
+/// it) nor a sample under full scale. One sample at full scale alone, or two in one run (a
+/// normalised file's peak) leaves its impact whole; two or more are peaks cut off, and the impact is analysed
 /// over its longest stretch without them, or left out if none is as long as the minimum.
 #[test]
 fn clipping_is_found_where_it_is_and_only_there() {
@@ -467,12 +477,35 @@ fn clipping_is_found_where_it_is_and_only_there() {
     write_int(&p, 16, 1, fs, &ring);
     let r = load_wav(&p, None).unwrap();
     assert!(r.clipped.is_empty() && !r.warnings.iter().any(|w| w.contains("held flat")), "{:?}", r.clipped);
+    // The same ring on the left, and on the right a steady 100 Hz tone 7.5 dB under it
+    // whose every peak falls between two samples (both hold its top code): in the mix, a
+    // quieter channel's steady peaks are not a limiter (it would be the hot channel).
+    let stereo: Vec<Vec<f64>> = ring
+        .iter()
+        .enumerate()
+        .map(|(k, l)| {
+            let t = (k as f64 + 0.5) / f64::from(fs);
+            vec![l[0], 0.4 * (std::f64::consts::TAU * 100.0 * t).sin()]
+        })
+        .collect();
+    let p = tmp("ring-and-tone");
+    write_int(&p, 16, 2, fs, &stereo);
+    let r = load_wav(&p, None).unwrap();
+    assert!(r.clipped.is_empty() && !r.warnings.iter().any(|w| w.contains("held flat")), "{:?}", r.clipped);
 
     use estimator::segment::{clear_of_clipping, Segment};
     let piece = Segment { start: 1000, end: 9000, snr_db: 60.0, noise_var: 1e-9 };
     // One sample at full scale: a peak, kept whole.
     let (kept, moved, _) = clear_of_clipping(vec![piece], &[(1010, 1011)], 800);
     assert_eq!((kept[0], moved.len()), (piece, 0));
+    // Two in one run: a normalised peak between two samples, both on the top code; kept.
+    let (kept, moved, _) = clear_of_clipping(vec![piece], &[(1010, 1012)], 800);
+    assert_eq!((kept[0], moved.len()), (piece, 0));
+    // Two apart, or three in a run: peaks cut off.
+    let (_, moved, _) = clear_of_clipping(vec![piece], &[(1010, 1011), (1050, 1051)], 800);
+    assert_eq!((moved[0].from, moved[0].to), (1051, 9000));
+    let (_, moved, _) = clear_of_clipping(vec![piece], &[(1010, 1013)], 800);
+    assert_eq!((moved[0].from, moved[0].to), (1013, 9000));
     // Peaks cut off early and once late: the longest stretch is after the early ones.
     let (kept, moved, _) = clear_of_clipping(vec![piece], &[(1010, 1011), (1050, 1052), (8500, 8501)], 800);
     assert_eq!((kept[0].start, kept[0].end), (1052, 8500));
