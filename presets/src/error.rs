@@ -17,6 +17,16 @@ pub enum PresetError {
         source: std::io::Error,
     },
 
+    /// The file is larger than any preset ([`crate::MAX_PRESET_BYTES`]): another kind of
+    /// file, or a device that never ends (`/dev/zero`); not read into memory.
+    #[error("preset file `{}` is larger than {} MiB, more than any material or bank; give the material or bank file itself", path.display(), max >> 20)]
+    TooLarge {
+        /// The file.
+        path: PathBuf,
+        /// The largest size read, bytes.
+        max: u64,
+    },
+
     /// The file was read but is not UTF-8 text (a UTF-16 file from a Windows editor, a
     /// Latin-1 one, a damaged one with NUL bytes).
     #[error("preset file `{}` is not UTF-8 text ({found}). Save it as UTF-8 in your editor, or re-export the preset from Struck", path.display())]

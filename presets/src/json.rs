@@ -159,7 +159,9 @@ pub(crate) fn to_pretty<T: Serialize>(value: &T) -> String {
 /// not UTF-8 (or holds a NUL byte: damaged) to [`PresetError::Encoding`] saying what it
 /// looks like.
 pub(crate) fn read(path: &Path) -> Result<String, PresetError> {
-    let bytes = std::fs::read(path).map_err(|source| PresetError::Io { path: path.to_path_buf(), source })?;
+    let bytes = crate::read_capped(path, crate::MAX_PRESET_BYTES)
+        .map_err(|source| PresetError::Io { path: path.to_path_buf(), source })?
+        .ok_or(PresetError::TooLarge { path: path.to_path_buf(), max: crate::MAX_PRESET_BYTES })?;
     // UTF-16 or UTF-32 of ASCII text without a byte-order mark is valid UTF-8 (NUL bytes
     // between the characters): a NUL in the first two bytes is never JSON.
     if bytes.len() >= 2 && (bytes[0] == 0 || bytes[1] == 0) {
@@ -193,6 +195,7 @@ pub(crate) fn read(path: &Path) -> Result<String, PresetError> {
 /// ([`crate::output::AtomicFile`]), so that a failed or interrupted write never leaves a
 /// half-written preset behind nor truncates the old one.
 pub(crate) fn write(path: &Path, text: &str) -> Result<(), PresetError> {
+    crate::output::check_kind(path, crate::output::Kind::Json)?;
     Ok(crate::output::write_atomically(path, text.as_bytes())?)
 }
 

@@ -31,6 +31,23 @@ pub mod texture;
 pub use bank::{Bank, BankReference, DrawSurface, StrikePoint, MAX_BANK_MODES, MAX_BANK_POINTS, MAX_DRAW_TRIANGLES};
 pub use damping::{DampingModel, DampingSpec, AUDIBLE_LAMBDA_MAX, AUDIBLE_LAMBDA_MIN, MAX_EXPONENT};
 pub use error::PresetError;
+
+/// Largest material, bank or texture file read, bytes (512 MiB): a bank of
+/// [`MAX_BANK_MODES`] modes at [`MAX_BANK_POINTS`] points is under 100 MB of JSON.
+pub const MAX_PRESET_BYTES: u64 = 512 << 20;
+
+/// The whole of the file at `path` if it holds at most `max` bytes, `None` if more (read no
+/// further than `max` + 1 bytes: a device that never ends, `/dev/zero`, or a huge file of
+/// another kind is not read into memory).
+///
+/// # Errors
+/// Opening or reading the file failed.
+pub fn read_capped(path: &std::path::Path, max: u64) -> std::io::Result<Option<Vec<u8>>> {
+    use std::io::Read;
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)?.take(max.saturating_add(1)).read_to_end(&mut bytes)?;
+    Ok((bytes.len() as u64 <= max).then_some(bytes))
+}
 pub use factory::{
     factory_bank, factory_banks, factory_material, factory_materials, FACTORY_BANK_IDS, FACTORY_MATERIAL_IDS,
 };

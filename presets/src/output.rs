@@ -68,6 +68,17 @@ pub enum OutputError {
         /// The file.
         path: PathBuf,
     },
+    /// The destination is an existing file of another kind than the output (a recording
+    /// where a material goes): a mistyped `--out` would destroy it.
+    #[error("cannot write {}: it is {found}, and this output is {kind}; Struck does not replace a file of another kind: choose another name (or delete it first)", path.display())]
+    OtherKind {
+        /// The destination.
+        path: PathBuf,
+        /// What the existing file is ("a WAV recording", "a MIDI file", …).
+        found: &'static str,
+        /// What the output is ("JSON", "a WAV file").
+        kind: &'static str,
+    },
     /// Writing, syncing or renaming failed.
     #[error("cannot write {}: {source}", path.display())]
     Io {
@@ -105,14 +116,77 @@ pub fn same_file(a: &Path, b: &Path) -> bool {
     }
 }
 
+/// What an output file holds, for [`check_kind`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// A JSON document (a material, a bank, a report).
+    Json,
+    /// A WAV file (a render, a residual).
+    Wav,
+}
+
+/// What the first bytes of an existing file say it is: `None` for the kind `kind` itself (or
+/// an empty file), else how to name it.
+fn other_kind(head: &[u8], kind: Kind) -> Option<&'static str> {
+    let wav =
+        head.len() >= 12 && matches!(&head[..4], b"RIFF" | b"RIFX" | b"RF64" | b"BW64") && &head[8..12] == b"WAVE";
+    let text = head.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(head);
+    let json = text.iter().find(|b| !b.is_ascii_whitespace()).is_some_and(|&b| b == b'{' || b == b'[');
+    let blank = text.iter().all(u8::is_ascii_whitespace);
+    match kind {
+        _ if blank => None,
+        Kind::Json if json => None,
+        Kind::Wav if wav => None,
+        _ if wav => Some("a WAV recording"),
+        _ if json => Some("a JSON file"),
+        _ if head.starts_with(b"MThd") => Some("a MIDI file"),
+        Kind::Json => Some("not a JSON file"),
+        Kind::Wav => Some("not a WAV file"),
+    }
+}
+
+/// Checks that `path`, if it is an existing regular file, holds what the output is (its
+/// first bytes: a WAV header for a WAV output, `{` or `[` for JSON; an empty file is
+/// anything): `struck estimate --out take1.wav take2.wav` would otherwise replace the
+/// recording `take1.wav` with a material. Devices, pipes and descriptors are not looked
+/// at (nothing there is replaced), nor a file that cannot be read (writing it will say why).
+///
+/// # Errors
+/// [`OutputError::OtherKind`].
+pub fn check_kind(path: &Path, kind: Kind) -> Result<(), OutputError> {
+    use std::io::Read;
+    let (target, stream) = resolve_target(path);
+    if stream || !fs::metadata(&target).is_ok_and(|m| m.is_file()) {
+        return Ok(());
+    }
+    let mut head = Vec::with_capacity(64);
+    let Ok(file) = File::open(&target) else { return Ok(()) };
+    if file.take(64).read_to_end(&mut head).is_err() {
+        return Ok(());
+    }
+    match other_kind(&head, kind) {
+        Some(found) => Err(OutputError::OtherKind {
+            path: path.to_path_buf(),
+            found,
+            kind: match kind {
+                Kind::Json => "JSON",
+                Kind::Wav => "a WAV file",
+            },
+        }),
+        None => Ok(()),
+    }
+}
+
 /// Checks, before long work, that `path` can be written and is none of `inputs`: its folder
 /// exists and accepts a new file (one is created and removed), it is not a folder, not a
-/// read-only file, and not the same file as an input.
+/// read-only file, not the same file as an input, and not an existing file of another kind
+/// than `kind` ([`check_kind`]).
 ///
 /// # Errors
 /// The first problem found, as an [`OutputError`].
-pub fn check_output(path: &Path, inputs: &[&Path]) -> Result<(), OutputError> {
+pub fn check_output(path: &Path, inputs: &[&Path], kind: Kind) -> Result<(), OutputError> {
     check_not_input(path, inputs)?;
+    check_kind(path, kind)?;
     // Creating (and dropping) the temporary file proves the folder is writable.
     AtomicFile::create(path).map(drop)
 }
@@ -597,27 +671,71 @@ mod tests {
         let _ = fs::remove_dir_all(dir);
     }
 
+    /// A mistyped `--out` naming a recording (or a material where a render goes) is refused,
+    /// and the file is left as it was; a file of the output's own kind, an empty one and a
+    /// new name are fine.
+    #[test]
+    fn a_file_of_another_kind_is_not_replaced() {
+        let dir = scratch("kind");
+        let wav = dir.join("take1.wav");
+        let mut header = b"RIFF\x24\x00\x00\x00WAVEfmt ".to_vec();
+        header.extend_from_slice(&[0; 24]);
+        fs::write(&wav, &header).unwrap();
+        let json = dir.join("mat.json");
+        fs::write(&json, "\u{feff}\n  {\"id\": \"m\"}").unwrap();
+        let notes = dir.join("notes.txt");
+        fs::write(&notes, "struck glass, take 3").unwrap();
+        let midi = dir.join("phrase.mid");
+        fs::write(&midi, b"MThd\x00\x00\x00\x06").unwrap();
+        let empty = dir.join("empty.json");
+        fs::write(&empty, "").unwrap();
+        let found = |p: &Path, k: Kind| match check_output(p, &[], k) {
+            Err(OutputError::OtherKind { found, .. }) => Some(found),
+            Err(e) => panic!("{e}"),
+            Ok(()) => None,
+        };
+        assert_eq!(found(&wav, Kind::Json), Some("a WAV recording"));
+        assert_eq!(found(&json, Kind::Wav), Some("a JSON file"));
+        assert_eq!(found(&midi, Kind::Wav), Some("a MIDI file"));
+        assert_eq!(found(&notes, Kind::Json), Some("not a JSON file"));
+        assert_eq!(found(&wav, Kind::Wav), None);
+        assert_eq!(found(&json, Kind::Json), None);
+        assert_eq!(found(&empty, Kind::Wav), None);
+        assert_eq!(found(&dir.join("new.wav"), Kind::Json), None);
+        let e = check_output(&wav, &[], Kind::Json).unwrap_err().to_string();
+        assert!(e.starts_with("cannot write ") && e.contains("choose another name"), "{e}");
+        assert_eq!(fs::read(&wav).unwrap(), header);
+        // Through a link: what it points to is looked at.
+        #[cfg(unix)]
+        {
+            let link = dir.join("link.json");
+            std::os::unix::fs::symlink(&wav, &link).unwrap();
+            assert_eq!(found(&link, Kind::Json), Some("a WAV recording"));
+        }
+        let _ = fs::remove_dir_all(dir);
+    }
+
     #[test]
     fn bad_destinations_are_refused_before_any_write() {
         let dir = scratch("refuse");
         let missing = dir.join("no-such-folder").join("x.json");
-        assert!(matches!(check_output(&missing, &[]), Err(OutputError::NoFolder { .. })));
-        assert!(matches!(check_output(&dir, &[]), Err(OutputError::IsAFolder { .. })));
+        assert!(matches!(check_output(&missing, &[], Kind::Json), Err(OutputError::NoFolder { .. })));
+        assert!(matches!(check_output(&dir, &[], Kind::Json), Err(OutputError::IsAFolder { .. })));
         let input = dir.join("in.wav");
         fs::write(&input, "input").unwrap();
         // The same file through another spelling of its path.
         let other_spelling = dir.join(".").join("in.wav");
-        let e = check_output(&other_spelling, &[&input]).unwrap_err();
+        let e = check_output(&other_spelling, &[&input], Kind::Json).unwrap_err();
         assert!(matches!(e, OutputError::SameAsInput { .. }), "{e}");
         assert!(e.to_string().starts_with("cannot write "), "{e}");
         assert_eq!(fs::read_to_string(&input).unwrap(), "input");
         let ro = dir.join("ro.json");
-        fs::write(&ro, "keep").unwrap();
+        fs::write(&ro, "{\"keep\": 1}").unwrap();
         let mut p = fs::metadata(&ro).unwrap().permissions();
         p.set_readonly(true);
         fs::set_permissions(&ro, p).unwrap();
-        assert!(matches!(check_output(&ro, &[]), Err(OutputError::ReadOnly { .. })));
-        assert!(check_output(&dir.join("fine.json"), &[&input]).is_ok());
+        assert!(matches!(check_output(&ro, &[], Kind::Json), Err(OutputError::ReadOnly { .. })));
+        assert!(check_output(&dir.join("fine.json"), &[&input], Kind::Json).is_ok());
         assert!(!dir.join("fine.json").exists());
         assert!(check_distinct(&[&dir.join("a.json"), &dir.join("./a.json")]).is_err());
         assert!(check_distinct(&[&dir.join("a.json"), &dir.join("b.json")]).is_ok());
@@ -673,7 +791,7 @@ mod tests {
             eprintln!("mkfifo is not available: skipped");
             return;
         }
-        check_output(&fifo, &[]).unwrap();
+        check_output(&fifo, &[], Kind::Json).unwrap();
         let reader = {
             let fifo = fifo.clone();
             std::thread::spawn(move || fs::read(fifo).unwrap())

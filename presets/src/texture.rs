@@ -177,7 +177,12 @@ impl TextureFile {
                 if meta.len() > 40 * MAX_TEXELS as u64 {
                     return Err(format!("{shown}: {} bytes, too large for a texture", meta.len()));
                 }
-                let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {shown}: {e}"))?;
+                // (Read no further than that: a device's length is 0, `/dev/zero` never ends.)
+                let bytes = crate::read_capped(path, 40 * MAX_TEXELS as u64)
+                    .map_err(|e| format!("cannot read {shown}: {e}"))?
+                    .ok_or_else(|| format!("{shown}: too large for a texture"))?;
+                let text =
+                    String::from_utf8(bytes).map_err(|_| format!("cannot read {shown}: it is not UTF-8 text"))?;
                 let (texel, heights) = parse_text(&text).map_err(|e| format!("{shown}: {e}"))?;
                 TextureFile::new(&name, texel, &heights).map_err(|e| format!("{shown}: {e}"))
             }

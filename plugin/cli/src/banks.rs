@@ -297,7 +297,7 @@ fn tune_dimensions(
     {
         return Err("--modes or --points out of range".into());
     }
-    presets::output::check_output(out, &[]).map_err(|e| e.to_string())?;
+    presets::output::check_output(out, &[], presets::output::Kind::Json).map_err(|e| e.to_string())?;
     let tuned = fem::tune::tune_dimensions(&shape, &vary, first_mode, &targets, &material, opts.resolution, &|line| {
         eprintln!("{line}")
     })
@@ -512,7 +512,7 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
             if !(1..=presets::MAX_BANK_MODES).contains(&modes) || !(1..=presets::MAX_BANK_POINTS).contains(&points) {
                 return Err("--modes or --points out of range".into());
             }
-            presets::output::check_output(out, &[]).map_err(|e| e.to_string())?;
+            presets::output::check_output(out, &[], presets::output::Kind::Json).map_err(|e| e.to_string())?;
             let tuned = fem::tune::tune_undercut_bar(
                 length,
                 width,
@@ -584,7 +584,7 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
             }
             // The output is checked before the (long) solve: writable, and not the mesh read.
             let inputs: Vec<&Path> = mesh.iter().map(PathBuf::as_path).collect();
-            presets::output::check_output(out, &inputs).map_err(|e| e.to_string())?;
+            presets::output::check_output(out, &inputs, presets::output::Kind::Json).map_err(|e| e.to_string())?;
             let opts = BuildOptions {
                 max_modes: modes,
                 max_freq_hz: max_freq,

@@ -133,7 +133,7 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
     outputs.extend(args.report.as_deref());
     output::check_distinct(&outputs).map_err(|e| e.to_string())?;
     for out in &outputs {
-        output::check_output(out, &inputs).map_err(|e| e.to_string())?;
+        output::check_output(out, &inputs, output::Kind::Json).map_err(|e| e.to_string())?;
     }
     let bank = bank.as_ref();
     let opts = estimator::Options {
@@ -297,7 +297,7 @@ pub fn residual(args: &ResidualArgs) -> Result<String, String> {
         return Err("--impact counts from 1".into());
     }
     let inputs = [args.file.as_path(), args.material.as_path()];
-    output::check_output(&args.out, &inputs).map_err(|e| e.to_string())?;
+    output::check_output(&args.out, &inputs, output::Kind::Wav).map_err(|e| e.to_string())?;
     // A factory material by id, name or index (as `render --material` takes), or a file.
     let lib = Library::factory();
     let material = match args.material.to_str() {
@@ -439,7 +439,7 @@ pub fn bank_from_recording(args: &BankCaptureArgs) -> Result<String, String> {
     }
     let material = fem::Material { young: args.young, density: args.density, poisson: args.poisson };
     material.validate().map_err(|e| e.to_string())?;
-    output::check_output(&args.out, &[args.file.as_path()]).map_err(|e| e.to_string())?;
+    output::check_output(&args.out, &[args.file.as_path()], output::Kind::Json).map_err(|e| e.to_string())?;
     let opts = estimator::Options {
         channel: args.channel,
         extract: extract_options(args.min_decay_per_s)?,

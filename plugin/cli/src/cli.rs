@@ -743,6 +743,9 @@ const WAV_FRAME_BYTES: u64 = 8;
 /// bytes, of which the RIFF size field counts all but the first 8.
 const WAV_HEADER_BYTES_COUNTED: u64 = 60;
 
+/// Largest MIDI file read, bytes (64 MiB: a long orchestral file is a few megabytes).
+pub const MAX_MIDI_BYTES: u64 = 64 << 20;
+
 /// Frames of the longest stereo 32-bit float WAV: its RIFF size field (a `u32`) must hold the
 /// data and the header.
 pub const MAX_WAV_FRAMES: u64 = (u32::MAX as u64 - WAV_HEADER_BYTES_COUNTED) / WAV_FRAME_BYTES;
@@ -800,7 +803,15 @@ pub fn render_with_stats(opts: &RenderOptions) -> Result<(String, RenderStats), 
         events.extend(note_events(&parse_notes(text)?, sr));
     }
     if let Some(path) = &opts.midi {
-        let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+        let bytes = presets::read_capped(path, MAX_MIDI_BYTES)
+            .map_err(|e| format!("cannot read {}: {e}", path.display()))?
+            .ok_or_else(|| {
+                format!(
+                    "{}: larger than {} MiB, more than any MIDI file; give the .mid file itself",
+                    path.display(),
+                    MAX_MIDI_BYTES >> 20
+                )
+            })?;
         events.extend(crate::midi_file::read_midi(&bytes, sr).map_err(|e| format!("{}: {e}", path.display()))?);
     }
     if opts.notes.is_none() && opts.midi.is_none() && input.is_none() {
@@ -863,6 +874,7 @@ pub fn render_with_stats(opts: &RenderOptions) -> Result<(String, RenderStats), 
     let inputs = render_inputs(opts);
     let input_refs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
     presets::output::check_not_input(&opts.out, &input_refs).map_err(|e| e.to_string())?;
+    presets::output::check_kind(&opts.out, presets::output::Kind::Wav).map_err(|e| e.to_string())?;
     let mut sound = opts.sound.clone();
     // --normalize measures the plugin's own peak: the output safety would bend it.
     if opts.normalize.is_some() && !sound.set.iter().any(|kv| kv.trim_start().starts_with("safety")) {

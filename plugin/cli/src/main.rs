@@ -339,6 +339,12 @@ fn main() -> ExitCode {
             }
             // `struck` or `struck bank` alone: clap would print the whole help as an error.
             ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => return fail(&missing_subcommand(&e)),
+            ErrorKind::InvalidUtf8 => {
+                return fail(&format!(
+                    "an argument is not UTF-8 text (a file name in another encoding?): rename the file or give its name in UTF-8 (see `{} --help`)",
+                    command_path()
+                ))
+            }
             _ => return fail(&clap_one_line(&e)),
         },
     };
@@ -381,8 +387,9 @@ fn fail(message: &str) -> ExitCode {
 fn command_path() -> String {
     let mut cmd = Cli::command();
     let mut path = vec!["struck".to_string()];
-    for arg in std::env::args().skip(1) {
-        let Some(sub) = cmd.find_subcommand(&arg).cloned() else {
+    // (`args_os`: a file name that is not UTF-8 is an argument too; `args` panics on it.)
+    for arg in std::env::args_os().skip(1) {
+        let Some(sub) = arg.to_str().and_then(|a| cmd.find_subcommand(a)).cloned() else {
             continue;
         };
         path.push(sub.get_name().to_string());

@@ -426,20 +426,23 @@ fn a_wav_with_an_odd_sized_chunk_before_the_data_reads_like_the_plain_file() {
 }
 
 /// Contents that must survive a failed run.
-const PRECIOUS: &[u8] = b"precious: must survive a failed run";
+/// An existing output the user keeps (JSON: a material, a bank, a report).
+const PRECIOUS: &[u8] = b"{\"precious\": \"must survive a failed run\"}";
+/// An existing WAV output the user keeps (a RIFF/WAVE header, then text).
+const PRECIOUS_WAV: &[u8] = b"RIFF\x2c\x00\x00\x00WAVEprecious: must survive a failed run";
 
 #[test]
 fn render_never_replaces_an_input_or_a_file_on_failure() {
     let dir = scratch("render-out");
     let out = dir.join("out.wav");
-    std::fs::write(&out, PRECIOUS).unwrap();
+    std::fs::write(&out, PRECIOUS_WAV).unwrap();
     let out_s = out.to_str().unwrap();
     // A write that fails mid-render (the file size limit stands for a full disk): 10 s of
     // stereo float is 3.8 MB, the limit at most 100 KiB.
     let o = struck_with_file_limit(&dir, 100, &["render", "--notes", "60:100", "--seconds", "10", "--out", out_s]);
     let e = error_line(&o);
     assert!(e.starts_with(&format!("cannot write {out_s}")), "{e}");
-    assert_eq!(std::fs::read(&out).unwrap(), PRECIOUS);
+    assert_eq!(std::fs::read(&out).unwrap(), PRECIOUS_WAV);
     assert_eq!(listing(&dir), ["out.wav"], "the temporary file is removed");
 
     // Inputs given as outputs: the MIDI file, a material file, a bank file; also through
@@ -477,13 +480,69 @@ fn render_never_replaces_an_input_or_a_file_on_failure() {
     assert!(e.contains("out.wav/x.wav"), "{e}");
     let e = error_line(&struck(&dir, &["render", "--out", dir.to_str().unwrap()]));
     assert!(e.contains("it is a folder"), "{e}");
-    assert_eq!(std::fs::read(&out).unwrap(), PRECIOUS);
+    assert_eq!(std::fs::read(&out).unwrap(), PRECIOUS_WAV);
 
     // A successful render replaces the file.
     let o = struck(&dir, &["render", "--notes", "60:100", "--seconds", "0.5", "--out", out_s]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert_eq!(hound::WavReader::open(&out).unwrap().duration(), 24_000);
     assert!(listing(&dir).iter().all(|n| !n.starts_with('.')), "{:?}", listing(&dir));
+}
+
+/// A mistyped `--out` that names a file of another kind (a black-box tester: `estimate --out
+/// take1.wav take2.wav` turned the recording take1.wav into a material; `render --out
+/// mymaterial.json` turned a material into audio) is refused before any work, and the file
+/// stays as it was.
+#[test]
+fn an_output_never_replaces_a_file_of_another_kind() {
+    let dir = scratch("other-kind");
+    let rec = strikes(&dir);
+    let take = dir.join("take1.wav");
+    std::fs::copy(&rec, &take).unwrap();
+    let wav_before = std::fs::read(&take).unwrap();
+    let e = error_line(&struck(&dir, &["estimate", "--out", take.to_str().unwrap(), rec.to_str().unwrap()]));
+    assert!(e.contains("it is a WAV recording, and this output is JSON"), "{e}");
+    let e = error_line(&struck(&dir, &["bank", "capture", rec.to_str().unwrap(), "--out", take.to_str().unwrap()]));
+    assert!(e.contains("it is a WAV recording"), "{e}");
+    assert_eq!(std::fs::read(&take).unwrap(), wav_before);
+    let material = dir.join("mymaterial.json");
+    presets::factory_material("glass-ren2013").unwrap().save(&material).unwrap();
+    let json_before = std::fs::read(&material).unwrap();
+    let e = error_line(&struck(
+        &dir,
+        &["render", "--notes", "60:100", "--seconds", "1", "--out", material.to_str().unwrap()],
+    ));
+    assert!(e.contains("it is a JSON file, and this output is a WAV file"), "{e}");
+    assert_eq!(std::fs::read(&material).unwrap(), json_before);
+    // Its own kind is replaced as before.
+    let o = struck(&dir, &["render", "--notes", "60:100", "--seconds", "0.2", "--out", take.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+/// Inputs that are not files of their kind are read no further than the largest such file
+/// (a tester's `render --material /dev/zero` grew to 9.2 GB in 20 s), and a file name that
+/// is not UTF-8 is a one-line error, not a panic.
+#[cfg(target_os = "linux")]
+#[test]
+fn endless_inputs_and_names_that_are_not_utf8_are_one_line_errors() {
+    use std::os::unix::ffi::OsStrExt;
+    let dir = scratch("endless");
+    let out = dir.join("o.wav");
+    let out_s = out.to_str().unwrap();
+    let t = Instant::now();
+    let e = error_line(&struck(&dir, &["render", "--material", "/dev/zero", "--out", out_s]));
+    assert!(e.contains("larger than 512 MiB"), "{e}");
+    assert!(t.elapsed() < Duration::from_secs(60), "{:?}", t.elapsed());
+    let e = error_line(&struck(&dir, &["render", "--midi", "/dev/zero", "--out", out_s]));
+    assert!(e.contains("larger than 64 MiB"), "{e}");
+    let e = error_line(&struck(&dir, &["render", "--texture", "/dev/zero", "--out", out_s]));
+    assert!(!e.is_empty(), "{e}");
+    let odd = dir.join(std::ffi::OsStr::from_bytes(b"m\xff.json"));
+    presets::factory_material("glass-ren2013").unwrap().save(&odd).unwrap();
+    let o = command(&dir, &["modes"]).arg("--material").arg(&odd).output().unwrap();
+    let e = error_line(&o);
+    assert!(e.contains("not UTF-8") && e.contains("struck modes --help"), "{e}");
+    assert!(!out.exists());
 }
 
 #[test]
