@@ -789,6 +789,46 @@ const LOW_TONAL_WINDOWS: usize = 4;
 const DECAY_CHECK_S: [f64; 3] = [0.2, 0.4, 0.8];
 /// Frames averaged at each of [`DECAY_CHECK_S`] (25 ms).
 const DECAY_CHECK_FRAMES: usize = 10;
+/// Where a broad rise that is neither tonal nor fast is checked for a ring that dies away
+/// ([`rings_down`]: a cymbal, a gong), s after its onset.
+const RING_DOWN_S: [f64; 4] = [0.2, 0.4, 0.8, 1.6];
+/// How far (dB under the onset's level) a [`rings_down`] ring must fall by one of
+/// [`RING_DOWN_S`]: a noise floor that starts stays where it started.
+const RING_DOWN_DB: f64 = 10.0;
+/// Most a [`rings_down`] ring may rise from one check to the next (dB): a crash cymbal's
+/// energy moves between its bands as it rings (a tester's 18" crash: 6.9 dB under its onset
+/// at 0.2 s, 4.6 dB at 0.4 s, then 11 and 18 dB).
+const RING_DOWN_REGROW_DB: f64 = 3.0;
+/// Most a [`rings_down`] ring may fall from one check to the next (dB): a burst of noise
+/// that stops (a noise floor switched off, a gate closing) drops to the floor at once; a
+/// struck object's ring falls 5–15 dB per doubling of time.
+const RING_DOWN_STEP_DB: f64 = 20.0;
+
+/// Whether the sound from frame `j` (its onset's level `e_on`) dies away as a struck
+/// object's ring does, without a tonal spectrum: a cymbal, a gong, a splash whose partials
+/// are too dense to be sharp in 40 ms and whose ring blooms for tens of milliseconds, so it
+/// is neither tonal nor fast (a black-box tester's 68 real clips: 7 cymbals gave "no impacts
+/// found", their onsets taken for a noise floor that starts). At each of [`RING_DOWN_S`]
+/// that fits in the file (at least two), the mean energy over [`DECAY_CHECK_FRAMES`]: never
+/// over the onset's by more than [`RING_DOWN_REGROW_DB`] (a louder sound after a floor that
+/// started is the strike, found at its own onset), falling by [`RING_DOWN_DB`] by one of
+/// them (a floor that starts stays), and gradually: no check over the one before by more
+/// than [`RING_DOWN_REGROW_DB`] nor under it by more than [`RING_DOWN_STEP_DB`].
+fn rings_down(e: &[f64], j: usize, at: &[usize], e_on: f64) -> bool {
+    let levels: Vec<f64> = at
+        .iter()
+        .map(|&d| j + d)
+        .filter(|&a| a + DECAY_CHECK_FRAMES <= e.len())
+        .map(|a| {
+            let mean = e[a..a + DECAY_CHECK_FRAMES].iter().sum::<f64>() / DECAY_CHECK_FRAMES as f64;
+            10.0 * (mean / e_on.max(1e-300)).max(1e-30).log10()
+        })
+        .collect();
+    levels.len() >= 2
+        && levels.iter().all(|&l| l <= RING_DOWN_REGROW_DB)
+        && levels.iter().any(|&l| l <= -RING_DOWN_DB)
+        && levels.windows(2).all(|w| w[1] <= w[0] + RING_DOWN_REGROW_DB && w[1] >= w[0] - RING_DOWN_STEP_DB)
+}
 /// A sound the file starts with that is not the file's loudest, whose mean energy 0.2 s on is
 /// within this (dB) of its first 25 ms's and has not fallen this much 0.4, 0.8 or 1.6 s on, is a
 /// steady sound (a hum, a room tone), not a strike. A ring that slow (every partial's decay
@@ -1315,6 +1355,7 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
     // ... and on four times that (6 Hz bins) for low partials a few bins apart.
     let mut longer_fft = RealFftPlanner::<f64>::new().plan_fft_forward(LOW_TONAL_WINDOWS * tonal_len);
     let decay_at: Vec<usize> = DECAY_CHECK_S.iter().map(|&t| (t * fs) as usize / hop).collect();
+    let ring_down_at: Vec<usize> = RING_DOWN_S.iter().map(|&t| (t * fs) as usize / hop).collect();
     let (late_a, late_b) = ((0.075 * fs) as usize / hop, (0.1 * fs) as usize / hop);
     let file_head = (0.25 * fs) as usize / hop;
     let same_strike = (SAME_STRIKE_S * fs) as usize / hop;
@@ -1521,7 +1562,13 @@ pub fn segment(x: &[f32], fs: f64, opts: &SegmentOptions) -> Segmentation {
                 let low_drum = !(steady || tonal || transient || file_start || ringing)
                     && decays
                     && long_tonal_share(x, j * hop, LOW_TONAL_WINDOWS * tonal_len, &mut longer_fft) >= TONAL_SHARE;
-                if (tonal || transient || file_start || ringing || low_drum) && !steady {
+                // A cymbal, a gong: a rise that is neither tonal nor fast, and then dies away
+                // gradually ([`rings_down`]; its first frames may not be broad: a crash's
+                // rise is in a few bands first; a bowed ride's first 10 ms are 8 dB under
+                // what follows, and the rise 20 ms on is its onset).
+                let noisy_ring = !(steady || tonal || transient || file_start || ringing || low_drum)
+                    && rings_down(&e, j, &ring_down_at, e_on);
+                if (tonal || transient || file_start || ringing || low_drum || noisy_ring) && !steady {
                     let s = s_hint.unwrap_or_else(|| sample_onset(x, j, hop, frame));
                     if onsets.last().is_none_or(|&(o, _)| s > o) {
                         // A quiet onset followed within `SAME_STRIKE_S` by one whose first
