@@ -33,6 +33,15 @@ impl MaterialArgs {
     fn material(self) -> Result<fem::Material, String> {
         let m = fem::Material { young: self.young, density: self.density, poisson: self.poisson };
         m.validate().map_err(|e| e.to_string())?;
+        warn_material_units(&m);
+        Ok(m)
+    }
+}
+
+/// Warns about a modulus or a density in the wrong units (see [`MaterialArgs`]); `bank
+/// capture` takes them too.
+pub(crate) fn warn_material_units(m: &fem::Material) {
+    {
         if m.young < SOFTEST_YOUNG_PA {
             warn(&format!(
                 "--young {} Pa is softer than any struck solid (soft rubber is about 1e6 Pa): --young takes pascals (steel 200e9, glass 63e9, oak 11e9)",
@@ -45,7 +54,21 @@ impl MaterialArgs {
                 m.density
             ));
         }
-        Ok(m)
+    }
+}
+
+/// A built-in shape's dimensions over this (m) are larger than any object struck for its
+/// sound (a church bell is about 3 m): most likely millimetres or centimetres typed as metres.
+const LARGEST_OBJECT_M: f64 = 10.0;
+
+/// Warns about `--dims` that look like millimetres (a tester's `--shape bowl --dims 80,4`
+/// built an 80 m bowl ringing at 0.7–3 Hz without a word; over 100 m is refused).
+fn warn_dims_units(shape: &Shape) {
+    let largest = shape.dimensions().iter().take(3).fold(0.0f64, |m, &v| m.max(v));
+    if largest > LARGEST_OBJECT_M {
+        warn(&format!(
+            "--dims: {largest} m is larger than any struck object (a church bell is about 3 m): --dims takes metres (80 mm is 0.08)"
+        ));
     }
 }
 
@@ -384,6 +407,7 @@ pub fn parse_shape(name: &str, dims: &str) -> Result<Shape, String> {
         _ => Shape::SphereShell { radius: v[0], wall: v[1] },
     };
     shape.validate().map_err(|e| e.to_string())?;
+    warn_dims_units(&shape);
     Ok(shape)
 }
 
@@ -499,6 +523,14 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
                 let vary = vary.unwrap_or_else(|| "outer_radius".into());
                 let opts = tuned_build_options(modes, resolution, points);
                 return tune_dimensions(&shape, &dims, &ratios, &vary, first_mode, tolerance, material, opts, &output);
+            }
+            // (A tester's `--first-mode 1000` and `--tolerance -5` on an undercut were taken
+            // without a word: it tunes modes 1–3 and has no tolerance.)
+            if first_mode != 1 {
+                return Err(format!("--first-mode {first_mode}: an undercut tunes bending modes 1, 2 and 3; --first-mode goes with --vary"));
+            }
+            if !(tolerance.is_finite() && tolerance > 0.0) {
+                return Err("--tolerance must be > 0 cents".into());
             }
             let material = material.material()?;
             let out = &output.out;

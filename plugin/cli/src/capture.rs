@@ -151,6 +151,18 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
     for w in &report.warnings {
         warn(w);
     }
+    // What was left out, as `features` says it (a tester's second file, a hum, gave nothing
+    // to the fit and only the report said so).
+    end_progress_line();
+    for s in report.skipped.iter().filter(|s| !estimator::segment::is_precursor(&s.reason)) {
+        eprintln!("skipped impact in {} at {:.3} s: {}", s.file, s.onset_s, s.reason);
+    }
+    for f in report.files.iter().filter(|f| f.impacts_used == 0) {
+        warn(&format!(
+            "{}: nothing from this file went into the fit ({} impact(s) found, none used)",
+            f.file, f.impacts_found
+        ));
+    }
     let damping = report.damping();
     let stem = args.out.file_stem().and_then(|s| s.to_str()).unwrap_or("material");
     // (From the file's name: "a--b", "é" or "-" make no id by themselves.)
@@ -439,6 +451,7 @@ pub fn bank_from_recording(args: &BankCaptureArgs) -> Result<String, String> {
     }
     let material = fem::Material { young: args.young, density: args.density, poisson: args.poisson };
     material.validate().map_err(|e| e.to_string())?;
+    crate::banks::warn_material_units(&material);
     output::check_output(&args.out, &[args.file.as_path()], output::Kind::Json).map_err(|e| e.to_string())?;
     let opts = estimator::Options {
         channel: args.channel,

@@ -519,6 +519,22 @@ fn an_output_never_replaces_a_file_of_another_kind() {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
 }
 
+/// A file that gives the fit nothing (a hum beside the strikes) is said on the terminal, not
+/// only in the report's "skipped" list.
+#[test]
+fn estimate_says_which_files_gave_nothing() {
+    let dir = scratch("gave-nothing");
+    let rec = strikes(&dir);
+    let hum = dir.join("hum.wav");
+    write_float_wav(&hum, 48_000, 48_000, |i| 0.3 * (std::f64::consts::TAU * 50.0 * i as f64 / 48_000.0).sin());
+    let m = dir.join("m.json");
+    let o = struck(&dir, &["estimate", rec.to_str().unwrap(), hum.to_str().unwrap(), "--out", m.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(err.contains("skipped impact in") && err.contains("hum.wav"), "{err}");
+    assert!(err.contains("hum.wav: nothing from this file went into the fit"), "{err}");
+}
+
 /// Inputs that are not files of their kind are read no further than the largest such file
 /// (a tester's `render --material /dev/zero` grew to 9.2 GB in 20 s), and a file name that
 /// is not UTF-8 is a one-line error, not a panic.
@@ -1206,6 +1222,10 @@ fn bank_tune_refuses_bad_requests_in_one_line() {
         (vec!["--shape", "tube", "--dims", "1,0.02", "--ratios", "1,2.7"], "--dims for tube takes 3"),
         (vec!["--shape", "tube", "--dims", "1,0.02,0.002", "--ratios", "1,2.7", "--first-mode", "0"], "--first-mode"),
         (vec!["--shape", "tube", "--dims", "1,0.02,0.002", "--ratios", "1,2.7", "--tolerance", "-1"], "--tolerance"),
+        // An undercut tunes modes 1–3 and has no tolerance: said, not ignored (a tester's
+        // `--first-mode 1000` and `--tolerance -5` were taken without a word).
+        (vec!["--dims", "0.3,0.04,0.02", "--ratios", "1,4,10", "--first-mode", "2"], "--first-mode goes with --vary"),
+        (vec!["--dims", "0.3,0.04,0.02", "--ratios", "1,4,10", "--tolerance", "-5"], "--tolerance must be > 0"),
     ] {
         let mut a = vec!["bank", "tune", "--out", o];
         a.extend(args.iter().copied());
@@ -1778,6 +1798,18 @@ fn small_mistakes_get_clear_words() {
     );
     let o = struck(&dir, &[&args[..], &["--density", "7.85", "--out", bank.to_str().unwrap()]].concat());
     assert!(stderr(&o).contains("--density 7.85 kg/m³ is lighter"), "{}", stderr(&o));
+    // Millimetres typed as metres (a tester's 80 m bowl rang at 0.7–3 Hz without a word).
+    let bowl = ["bank", "build", "--shape", "bowl", "--dims", "80,4", "--resolution", "4", "--modes", "4"];
+    let o = struck(&dir, &[&bowl[..], &["--out", bank.to_str().unwrap()]].concat());
+    assert!(stderr(&o).contains("--dims: 80 m is larger than any struck object"), "{}", stderr(&o));
+    // `bank capture` takes a material too.
+    let rec = strikes(&dir);
+    let captured = dir.join("c.json");
+    let o = struck(
+        &dir,
+        &["bank", "capture", rec.to_str().unwrap(), "--young", "200", "--out", captured.to_str().unwrap()],
+    );
+    assert!(stderr(&o).contains("--young 200 Pa is softer"), "{}", stderr(&o));
     // And a mesh that coarse says how far off its frequencies are (estimated from two coarser
     // solves; 351 DOFs gave 100 modes up to 194 kHz without a word); a fine one does not.
     assert!(stderr(&o).contains("--resolution 4 is coarse for this shape"), "{}", stderr(&o));
