@@ -19,13 +19,6 @@ pub struct MaterialArgs {
     pub poisson: f64,
 }
 
-/// Young's moduli under this (Pa) are softer than any solid an object is struck for (soft
-/// rubber ≈ 1 MPa; the softest foams 0.1 MPa): most likely GPa or MPa typed as Pa.
-const SOFTEST_YOUNG_PA: f64 = 1e5;
-/// Densities under this (kg/m³) are lighter than solid foams (≈ 30 kg/m³ and up; aerogels
-/// are ≈ 1–100): most likely g/cm³ typed as kg/m³.
-const LIGHTEST_DENSITY: f64 = 20.0;
-
 impl MaterialArgs {
     /// The FEM material, validated; a modulus or a density in the wrong units is warned about
     /// (a black-box tester's `--young 200` gave a bar of 0–6 Hz, `--density 7.85` one of
@@ -33,27 +26,8 @@ impl MaterialArgs {
     fn material(self) -> Result<fem::Material, String> {
         let m = fem::Material { young: self.young, density: self.density, poisson: self.poisson };
         m.validate().map_err(|e| e.to_string())?;
-        warn_material_units(&m);
+        crate::capture::warn_material_units(&m);
         Ok(m)
-    }
-}
-
-/// Warns about a modulus or a density in the wrong units (see [`MaterialArgs`]); `bank
-/// capture` takes them too.
-pub(crate) fn warn_material_units(m: &fem::Material) {
-    {
-        if m.young < SOFTEST_YOUNG_PA {
-            warn(&format!(
-                "--young {} Pa is softer than any struck solid (soft rubber is about 1e6 Pa): --young takes pascals (steel 200e9, glass 63e9, oak 11e9)",
-                m.young
-            ));
-        }
-        if m.density < LIGHTEST_DENSITY {
-            warn(&format!(
-                "--density {} kg/m³ is lighter than any solid but an aerogel: --density takes kg/m³ (steel 7850, glass 2500, water 1000), not g/cm³",
-                m.density
-            ));
-        }
     }
 }
 

@@ -451,7 +451,7 @@ pub fn bank_from_recording(args: &BankCaptureArgs) -> Result<String, String> {
     }
     let material = fem::Material { young: args.young, density: args.density, poisson: args.poisson };
     material.validate().map_err(|e| e.to_string())?;
-    crate::banks::warn_material_units(&material);
+    warn_material_units(&material);
     output::check_output(&args.out, &[args.file.as_path()], output::Kind::Json).map_err(|e| e.to_string())?;
     let opts = estimator::Options {
         channel: args.channel,
@@ -591,4 +591,28 @@ fn choose_modes<'a>(
     // Two partials at one λ would be one mode (the bank's eigenvalues ascend strictly).
     kept.dedup_by(|b, a| b.lambda() <= a.lambda());
     (kept, Dropped { low_q, below, pitch_hz })
+}
+
+/// Young's moduli under this (Pa) are softer than any solid an object is struck for (soft
+/// rubber ≈ 1 MPa; the softest foams 0.1 MPa): most likely GPa or MPa typed as Pa.
+const SOFTEST_YOUNG_PA: f64 = 1e5;
+/// Densities under this (kg/m³) are lighter than solid foams (≈ 30 kg/m³ and up; aerogels
+/// are ≈ 1–100): most likely g/cm³ typed as kg/m³.
+const LIGHTEST_DENSITY: f64 = 20.0;
+
+/// Warns about a modulus or a density in the wrong units (`bank build`, `bank tune`,
+/// `bank capture`).
+pub(crate) fn warn_material_units(m: &fem::Material) {
+    if m.young < SOFTEST_YOUNG_PA {
+        warn(&format!(
+                "--young {} Pa is softer than any struck solid (soft rubber is about 1e6 Pa): --young takes pascals (steel 200e9, glass 63e9, oak 11e9)",
+                m.young
+            ));
+    }
+    if m.density < LIGHTEST_DENSITY {
+        warn(&format!(
+                "--density {} kg/m³ is lighter than any solid but an aerogel: --density takes kg/m³ (steel 7850, glass 2500, water 1000), not g/cm³",
+                m.density
+            ));
+    }
 }
