@@ -217,8 +217,15 @@ pub fn kebab_id(prefix: &str, text: &str) -> String {
 
 /// Checks that `id` is non-empty kebab-case: `a-z`, `0-9` and single inner hyphens.
 pub(crate) fn check_id(id: &str) -> Result<(), PresetError> {
+    // (At most 64 characters of it: a tester's 100,000-character id was echoed whole.)
+    let shown: String = id.chars().take(64).collect();
+    let shown = if shown.len() < id.len() {
+        format!("{shown:?}… ({} characters)", id.chars().count())
+    } else {
+        format!("{id:?}")
+    };
     let bad = |reason: &str| {
-        PresetError::invalid("id", format!("{reason} (found {id:?}); use kebab-case like \"glass-ren2013\""))
+        PresetError::invalid("id", format!("{reason} (found {shown}); use kebab-case like \"glass-ren2013\""))
     };
     if id.is_empty() {
         return Err(bad("must not be empty"));
@@ -278,5 +285,15 @@ mod tests {
             check_id(&id).unwrap_or_else(|e| panic!("{text:?} -> {id:?}: {e}"));
         }
         assert_eq!(kebab_id("", "é-!"), "");
+    }
+
+    /// A refused id is quoted up to 64 characters (a tester's 100,000-character id made a
+    /// 100 KB error line).
+    #[test]
+    fn a_refused_id_is_quoted_short() {
+        let e = check_id(&"X".repeat(100_000)).unwrap_err().to_string();
+        assert!(e.len() < 400 && e.contains("… (100000 characters)"), "{} chars: {}", e.len(), &e[..200]);
+        let e = check_id("Glass").unwrap_err().to_string();
+        assert!(e.contains("(found \"Glass\")"), "{e}");
     }
 }

@@ -1216,6 +1216,7 @@ fn bank_tune_refuses_bad_requests_in_one_line() {
         (vec!["--dims", "0.3,0.04", "--ratios", "1,4,10"], "--dims for bar takes 3"),
         (vec!["--shape", "plate", "--dims", "0.3,0.04,0.02", "--ratios", "1,4,10"], "only a bar can be tuned"),
         (vec!["--dims", "0.3,0.04,0.02", "--ratios", "1,4,10", "--exponent", "40"], "exponent"),
+        (vec!["--dims", "0.3,0.04,0.02", "--ratios", "1,4,10", "--exponent", "0"], "exponent must be a ratio above 0"),
         // Fitting dimensions (--vary, tubes).
         (vec!["--dims", "0.3,0.04,0.02", "--ratios", "1,2.7", "--vary", "depth"], "'depth' is not a dimension of bar"),
         (vec!["--shape", "tube", "--dims", "1,0.02,0.002", "--ratios", "1,0.5"], "--ratios must rise from 1"),

@@ -277,13 +277,20 @@ impl Shape {
     /// # Errors
     /// [`FemError::InvalidShape`] naming the dimension.
     pub fn validate(&self) -> Result<(), FemError> {
-        for (name, v) in self.field_names().iter().zip(self.dimensions()) {
-            if !(v.is_finite() && v > 0.0 && v <= MAX_DIMENSION_M) {
+        for (i, (name, v)) in self.field_names().iter().zip(self.dimensions()).enumerate() {
+            // An undercut's depth, cut and exponent are ratios, not lengths (a tester's
+            // `--exponent 0` was told "exponent must be a length in metres").
+            let ratio = matches!(self, Shape::UndercutBar { .. }) && i >= 3;
+            if !(v.is_finite() && v > 0.0 && (ratio || v <= MAX_DIMENSION_M)) {
+                let what = if ratio {
+                    "a ratio above 0 (depth under 0.95 of the thickness, cut at most 1 of the length, exponent 1..=16)"
+                        .to_string()
+                } else {
+                    format!("a length in metres above 0 and at most {MAX_DIMENSION_M}")
+                };
                 return Err(FemError::InvalidShape {
                     shape: self.kind(),
-                    reason: format!(
-                        "{name} must be a length in metres above 0 and at most {MAX_DIMENSION_M}, found {v}"
-                    ),
+                    reason: format!("{name} must be {what}, found {v}"),
                 });
             }
         }
