@@ -27,8 +27,10 @@ pub const ENERGY_TICKS: u64 = 4;
 pub const SILENCE_ENERGY: f32 = 1e-12;
 /// Voices beyond the pool where a stolen voice fades out ([`STEAL_FADE_D`]) while its slot
 /// plays the new note: a steal cut the stolen voice within a sample (a black-box tester: a
-/// voice at 0.129 made a 0.097 step, a click at −20 dBFS). With all of them fading (steals
-/// faster than one per 5 ms or so), a steal cuts as before.
+/// voice at 0.129 made a 0.097 step, a click at −20 dBFS). With all of them fading, a steal
+/// cuts as before (estimated, not measured: a spare frees once its voice is under
+/// [`SILENCE_ENERGY`], about 17 ms after stealing a voice at −20 dB at [`STEAL_FADE_D`], so
+/// steals faster than about one per 4–5 ms).
 pub const STEAL_SPARES: usize = 4;
 /// Extra decay rate of a stolen voice's modes while it fades, s⁻¹: −60 dB in 10 ms (modes
 /// under about 110 Hz, over-damped by it, creep back instead, without ringing).

@@ -169,18 +169,12 @@ fn import_mesh_file_within(
         )));
     }
     // No further than the limit either: a device's length is 0 (a link to `/dev/zero`).
-    let mut bytes = Vec::new();
-    std::io::Read::read_to_end(
-        &mut std::io::Read::take(std::fs::File::open(path).map_err(io)?, MAX_MESH_FILE_BYTES + 1),
-        &mut bytes,
-    )
-    .map_err(io)?;
-    if bytes.len() as u64 > MAX_MESH_FILE_BYTES {
-        return Err(FemError::Mesh(format!(
+    let bytes = presets::read_capped(path, MAX_MESH_FILE_BYTES).map_err(io)?.ok_or_else(|| {
+        FemError::Mesh(format!(
             "{} is over the limit of {MAX_MESH_FILE_BYTES} bytes; simplify the mesh",
             path.display()
-        )));
-    }
+        ))
+    })?;
     match kind {
         MeshFileKind::Gmsh => {
             let text = String::from_utf8_lossy(&bytes);
