@@ -100,6 +100,36 @@ fn the_contact_is_proportional_to_the_force() {
     assert!(err < 1e-4 * size, "not proportional: error {err} of {size}");
 }
 
+/// A lasting contact does not build up without bound on low, lightly damped modes
+/// (`dsp::engine::MAX_CONTACT_ENERGY`): a black-box tester found a scrape of the sphere shell
+/// at *Size* 20 (modes at 13–25 Hz, steel: T60 5.8 s) at −2 dBFS RMS with +9 dBFS peaks, 23 dB
+/// over size 1, with *Normalise level* on. Held 4 s at velocity 127 (safety off), its last 2 s
+/// stay within 2 dB of the ceiling's −14 dBFS RMS and still sound (over −30 dBFS); the
+/// ceiling leaves the plate at size 1 alone (trim 1 after 2 s of a scrape, a slide and a roll).
+#[test]
+fn a_lasting_contact_on_low_lightly_damped_modes_stays_under_its_ceiling() {
+    let notes = [held(60, 127, 0.0, 4.0)];
+    let events = note_events(&notes, f64::from(SR));
+    for excitation in [SCRAPE, ROLL] {
+        let set = [("excite", excitation), ("size", 20.0), ("safety", 0.0)];
+        let mut h = host("fem-sphere-shell", "steel-sterling-hybrid", SR, &set);
+        let (out, _) = h.render(&events, 4 * SR as usize, 512);
+        assert!(out[0].iter().all(|x| x.is_finite()));
+        let tail = &out[0][2 * SR as usize..];
+        let level = db(rms(tail));
+        let trim = h.plugin().engine().expect("active").contact_trim().expect("a contact sounds");
+        println!("excitation {excitation}: last 2 s at {level:.1} dBFS RMS, trim {trim:.3}");
+        assert!((-30.0..=-12.0).contains(&level), "excitation {excitation}: {level:.1} dBFS RMS");
+    }
+    for excitation in [SCRAPE, SLIDE, ROLL] {
+        let set = [("excite", excitation), ("speed", 1.0), ("safety", 0.0)];
+        let mut h = host("rect-plate", "steel-sterling-hybrid", SR, &set);
+        h.render(&note_events(&[held(60, 127, 0.0, 3.0)], f64::from(SR)), 2 * SR as usize, 512);
+        let trim = h.plugin().engine().expect("active").contact_trim().expect("a contact sounds");
+        assert_eq!(trim, 1.0, "excitation {excitation}");
+    }
+}
+
 /// Frequency (Hz) of the strongest line between `lo` and `hi` in the spectrum of x²
 /// (the energy envelope), over `x[start..]`, zero-padded to 2¹⁸ points.
 fn envelope_line(x: &[f32], start: usize, lo: f64, hi: f64) -> f64 {
