@@ -5,6 +5,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use crate::error::Shown;
 use crate::json;
 use crate::PresetError;
 
@@ -330,13 +331,13 @@ impl Bank {
             if !l.is_finite() || l <= 0.0 {
                 return Err(PresetError::invalid(
                     field,
-                    format!("eigenvalues must be finite and > 0 (rad^2/s^2), found {l}"),
+                    format!("eigenvalues must be finite and > 0 (rad^2/s^2), found {}", Shown(l)),
                 ));
             }
             if l < previous {
                 return Err(PresetError::invalid(
                     field,
-                    format!("eigenvalues must be in ascending order, but {l} follows {previous}; sort the modes (and their gains) by lambda"),
+                    format!("eigenvalues must be in ascending order, but {} follows {}; sort the modes (and their gains) by lambda", Shown(l), Shown(previous)),
                 ));
             }
             previous = l;
@@ -383,12 +384,18 @@ impl Bank {
             }
             for (m, &g) in row.iter().enumerate() {
                 if !g.is_finite() {
-                    return Err(PresetError::invalid(format!("gains[{p}][{m}]"), format!("must be finite, found {g}")));
+                    return Err(PresetError::invalid(
+                        format!("gains[{p}][{m}]"),
+                        format!("must be finite, found {}", Shown(f64::from(g))),
+                    ));
                 }
                 if g.abs() > 1.0 + GAIN_TOLERANCE {
                     return Err(PresetError::invalid(
                         format!("gains[{p}][{m}]"),
-                        format!("|gain| must be <= 1 (gains are normalised so the largest is 1), found {g}"),
+                        format!(
+                            "|gain| must be <= 1 (gains are normalised so the largest is 1), found {}",
+                            Shown(f64::from(g))
+                        ),
                     ));
                 }
                 max = max.max(g.abs());
@@ -421,7 +428,7 @@ impl Bank {
             } else {
                 Err(PresetError::invalid(
                     format!("reference.{field}"),
-                    format!("must be finite and > 0 ({unit}), found {v}"),
+                    format!("must be finite and > 0 ({unit}), found {}", Shown(v)),
                 ))
             }
         };
@@ -431,7 +438,7 @@ impl Bank {
         if !(r.poisson.is_finite() && r.poisson > -1.0 && r.poisson < 0.5) {
             return Err(PresetError::invalid(
                 "reference.poisson",
-                format!("Poisson's ratio must be in (-1, 0.5), found {}", r.poisson),
+                format!("Poisson's ratio must be in (-1, 0.5), found {}", Shown(r.poisson)),
             ));
         }
         for (i, &d) in r.dimensions_m.iter().enumerate() {

@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 use dsp::damping::MAX_CAUGHEY_TERMS;
 use dsp::Damping;
 
+use crate::error::Shown;
 use crate::PresetError;
 
 /// Lowest eigenvalue checked for c(λ) ≥ 0: (2π · 20 Hz)² rad²/s².
@@ -67,7 +68,7 @@ impl DampingSpec {
             if !a.is_finite() {
                 return Err(PresetError::invalid(
                     format!("damping.params[{i}]"),
-                    format!("must be a finite number, found {a}"),
+                    format!("must be a finite number, found {}", Shown(a)),
                 ));
             }
         }
@@ -77,7 +78,7 @@ impl DampingSpec {
                     format!("damping.params[{i}]"),
                     format!(
                         "{what} of the {name} model must be >= 0 (negative damping makes modes grow), found {}",
-                        p[i]
+                        Shown(p[i])
                     ),
                 ))
             } else {
@@ -90,7 +91,7 @@ impl DampingSpec {
             } else {
                 Err(PresetError::invalid(
                     format!("damping.params[{i}]"),
-                    format!("the {name} exponent must be in (0, {MAX_EXPONENT}], found {}", p[i]),
+                    format!("the {name} exponent must be in (0, {MAX_EXPONENT}], found {}", Shown(p[i])),
                 ))
             }
         };
@@ -234,6 +235,18 @@ mod tests {
             Err(PresetError::Invalid { field, .. }) => field,
             other => panic!("expected Invalid, got {other:?}"),
         }
+    }
+
+    /// A huge number in a message is shown in scientific notation, not with its 308 digits;
+    /// an everyday one as written.
+    #[test]
+    fn messages_show_huge_numbers_briefly() {
+        let e = spec(DampingModel::Rayleigh, &[-1e308, 0.0]).to_damping().unwrap_err().to_string();
+        assert!(e.contains("found -1e308") && e.len() < 200, "{e}");
+        let e = spec(DampingModel::Rayleigh, &[-2.5, 0.0]).to_damping().unwrap_err().to_string();
+        assert!(e.contains("found -2.5"), "{e}");
+        assert_eq!(Shown(1.5e-7).to_string(), "1.5e-7");
+        assert_eq!(Shown(0.0).to_string(), "0");
     }
 
     #[test]

@@ -88,3 +88,19 @@ impl PresetError {
         PresetError::Json { what: what.to_string(), line: e.line(), column: e.column(), message }
     }
 }
+
+/// A number as a message shows it: as Rust prints it from 10⁻⁴ to 10⁹ (and 0), in
+/// scientific notation outside (a black-box tester's 1e308 was echoed with its 308 digits).
+#[derive(Clone, Copy, Debug)]
+pub struct Shown(pub f64);
+
+impl std::fmt::Display for Shown {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let a = self.0.abs();
+        if !self.0.is_finite() || a == 0.0 || (1e-4..1e9_f64).contains(&a) {
+            write!(f, "{}", self.0)
+        } else {
+            write!(f, "{:e}", self.0)
+        }
+    }
+}

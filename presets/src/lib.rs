@@ -30,7 +30,7 @@ pub mod texture;
 
 pub use bank::{Bank, BankReference, DrawSurface, StrikePoint, MAX_BANK_MODES, MAX_BANK_POINTS, MAX_DRAW_TRIANGLES};
 pub use damping::{DampingModel, DampingSpec, AUDIBLE_LAMBDA_MAX, AUDIBLE_LAMBDA_MIN, MAX_EXPONENT};
-pub use error::PresetError;
+pub use error::{PresetError, Shown};
 
 /// Largest material, bank or texture file read, bytes (512 MiB): a bank of
 /// [`MAX_BANK_MODES`] modes at [`MAX_BANK_POINTS`] points is under 100 MB of JSON.

@@ -4,6 +4,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use crate::error::Shown;
 use crate::json;
 use crate::{DampingSpec, PresetError};
 
@@ -175,7 +176,10 @@ impl Material {
             if !(g.is_finite() && g > 0.0) {
                 return Err(PresetError::invalid(
                     "specific_modulus",
-                    format!("must be finite and > 0 (E/rho in m^2/s^2, e.g. 2.6e7 for steel), or null if unknown; found {g}"),
+                    format!(
+                        "must be finite and > 0 (E/rho in m^2/s^2, e.g. 2.6e7 for steel), or null if unknown; found {}",
+                        Shown(g)
+                    ),
                 ));
             }
         }
@@ -189,7 +193,7 @@ impl Material {
                     "support.mean_c_per_s",
                     format!(
                         "must be finite and in 0..=100000 (1/s, mean extra damping c over modes); found {}",
-                        sd.mean_c_per_s
+                        Shown(sd.mean_c_per_s)
                     ),
                 ));
             }
@@ -252,7 +256,7 @@ impl RecordedModes {
             if !(m.lambda.is_finite() && m.lambda > 0.0) {
                 return Err(PresetError::invalid(
                     field("lambda"),
-                    format!("must be finite and > 0 (rad^2/s^2); found {}", m.lambda),
+                    format!("must be finite and > 0 (rad^2/s^2); found {}", Shown(m.lambda)),
                 ));
             }
             if m.partials == 0 {
@@ -264,7 +268,7 @@ impl RecordedModes {
             if !(m.extra_c_per_s.is_finite() && (0.0..=1e5).contains(&m.extra_c_per_s)) {
                 return Err(PresetError::invalid(
                     field("extra_c_per_s"),
-                    format!("must be finite and in 0..=100000 (1/s); found {}", m.extra_c_per_s),
+                    format!("must be finite and in 0..=100000 (1/s); found {}", Shown(m.extra_c_per_s)),
                 ));
             }
         }

@@ -158,7 +158,10 @@ impl ResidualSpectrogram {
             ));
         }
         if !self.top_db.is_finite() {
-            return Err(PresetError::invalid("residual.top_db", format!("must be finite, found {}", self.top_db)));
+            return Err(PresetError::invalid(
+                "residual.top_db",
+                format!("must be finite, found {}", crate::Shown(self.top_db)),
+            ));
         }
         if self.frames as usize * self.bins() > MAX_CELLS {
             return Err(PresetError::invalid(

@@ -1287,6 +1287,13 @@ pub fn print_params(json: bool) -> Result<(), String> {
 /// As [`configured_host`].
 pub fn print_modes(opts: &SoundOptions, note: u8, velocity: u8, json: bool) -> Result<(), String> {
     let modes = predicted_modes(opts, note, velocity)?;
+    if modes.is_empty() {
+        // An empty table is an answer, not an error; but say why the strike would be silent.
+        warn(&format!(
+            "no mode sounds at key {note}: every mode is over Nyquist ({} Hz at this sample rate) or does not ring (lower the key or raise --size)",
+            opts.sample_rate / 2
+        ));
+    }
     if json {
         let v: Vec<_> = modes
             .iter()

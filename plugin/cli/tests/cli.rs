@@ -290,6 +290,19 @@ fn out_of_range_set_values_are_errors_naming_the_range() {
     }
 }
 
+/// `modes` with every mode over Nyquist (the cup at size 0.05, key 127) prints an empty table
+/// and says why on stderr (a black-box tester: an empty table and exit 0, not a word).
+#[test]
+fn modes_says_why_nothing_sounds() {
+    let dir = scratch("modes-none");
+    let o = struck(&dir, &["modes", "--object", "fem-cup", "--size", "0.05", "--note", "127", "--json"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(String::from_utf8_lossy(&o.stdout).trim(), "[]");
+    assert!(stderr(&o).contains("no mode sounds at key 127") && stderr(&o).contains("24000 Hz"), "{}", stderr(&o));
+    let o = struck(&dir, &["modes", "--object", "fem-cup", "--json"]);
+    assert!(!stderr(&o).contains("no mode sounds"), "{}", stderr(&o));
+}
+
 /// A format-0 MIDI file (96 ppq): `track` wrapped in its header and chunk.
 fn midi(track: &[u8]) -> Vec<u8> {
     let mut f = b"MThd\x00\x00\x00\x06\x00\x00\x00\x01\x00\x60MTrk".to_vec();
@@ -1227,6 +1240,8 @@ fn bank_tune_refuses_bad_requests_in_one_line() {
         // `--first-mode 1000` and `--tolerance -5` were taken without a word).
         (vec!["--dims", "0.3,0.04,0.02", "--ratios", "1,4,10", "--first-mode", "2"], "--first-mode goes with --vary"),
         (vec!["--dims", "0.3,0.04,0.02", "--ratios", "1,4,10", "--tolerance", "-5"], "--tolerance must be > 0"),
+        // Out of an undercut's reach (was "bad mesh" after analysing the deepest undercut).
+        (vec!["--dims", "0.3,0.04,0.02", "--ratios", "1,400,1000"], "out of an undercut's reach"),
     ] {
         let mut a = vec!["bank", "tune", "--out", o];
         a.extend(args.iter().copied());

@@ -780,7 +780,7 @@ pub enum FemError {
         eigenvalues: Vec<f64>,
     },
     /// No elastic mode is in range.
-    #[error("no elastic modes below the frequency limit; raise max_freq_hz")]
+    #[error("no elastic modes below the frequency limit; raise it (--max-freq)")]
     NoModes,
     /// The bank failed validation.
     #[error("the built bank is invalid: {0}")]

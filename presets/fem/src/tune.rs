@@ -427,6 +427,10 @@ pub fn tune_dimensions(
     Ok(TunedShape { shape: at(&p), bending_hz: f[first - 1..].to_vec(), cents: r, evaluations })
 }
 
+/// How far (cents, the norm of both ratios' errors) the thin-beam start may be from the
+/// targets before [`tune_undercut_bar`] refuses them as out of an undercut's reach.
+pub const BEAM_REACH_CENTS: f64 = 600.0;
+
 /// Tunes the undercut of a `length` × `width` × `thickness` bar (flat-bottom exponent
 /// `exponent`) so that its first three vertical bending modes stand at 1 : `targets[0]` :
 /// `targets[1]` (see the module's documentation). `progress` gets a line per FEM analysis.
@@ -458,6 +462,18 @@ pub fn tune_undercut_bar(
         "thin-beam start: depth {:.4}, cut {:.4} ({:+.2}, {:+.2} cents)",
         start.0[0], start.0[1], start.1[0], start.1[1]
     ));
+    // Far out of the 1-D model's reach (it is within tens of cents of the FEM where both
+    // reach): say so, rather than analysing the deepest undercut the profile allows (its
+    // elements invert: "bad mesh", a black-box tester's finding for 1:400:1000).
+    if norm(start.1) > BEAM_REACH_CENTS {
+        return Err(FemError::InvalidShape {
+            shape: "undercut-bar",
+            reason: format!(
+                "1:{}:{} is out of an undercut's reach: the nearest (depth {:.3}, cut {:.3}) is {:+.0} and {:+.0} cents off in the thin-beam model (a free bar is 1:2.76:5.40, marimbas 1:4:10)",
+                targets[0], targets[1], start.0[0], start.0[1], start.1[0], start.1[1]
+            ),
+        });
+    }
     let mut evaluations = 0;
     let mut last = [0.0; 3];
     let mut f = |p: [f64; 2]| -> Result<[f64; 2], FemError> {
@@ -514,6 +530,19 @@ mod tests {
         let shallow = beam_frequencies(0.2, 0.5, 4.0, 60).unwrap();
         let deep = beam_frequencies(0.5, 0.5, 4.0, 60).unwrap();
         assert!(deep[1] / deep[0] > shallow[1] / shallow[0]);
+    }
+
+    /// Ratios far out of an undercut's reach are refused before any FEM analysis, with the
+    /// reason (a black-box tester's 1:400:1000 analysed the deepest undercut and failed with
+    /// "bad mesh": its elements inverted); the marimba's 1:4:10 is within it.
+    #[test]
+    fn ratios_out_of_an_undercuts_reach_are_refused_at_once() {
+        let lines = std::cell::Cell::new(0);
+        let count = |_: &str| lines.set(lines.get() + 1);
+        let e = tune_undercut_bar(0.3, 0.04, 0.01, 4.0, [400.0, 1000.0], &Material::STEEL, 40, &count).unwrap_err();
+        assert!(e.to_string().contains("out of an undercut's reach"), "{e}");
+        assert_eq!(lines.get(), 1, "only the thin-beam start");
+        assert!(norm(beam_start(4.0, [4.0, 10.0]).1) < BEAM_REACH_CENTS);
     }
 
     /// A slender tube's bending modes, picked out among its shell and torsion modes, against
