@@ -77,6 +77,9 @@ fn contact_trim(trim: f32, before: f32, energy: f32, dt: f64) -> f32 {
     (f64::from(trim).ln() + step).min(0.0).exp().max(1e-6) as f32
 }
 
+/// Largest pitch bend or note tuning the engine plays, semitones (CLAP's tuning expression
+/// spans ±128; four octaves either way is already past most objects' audible modes).
+pub const MAX_BEND_ST: f32 = 48.0;
 /// Most voice-terminated notices buffered between two drains.
 pub const MAX_TERMINATED: usize = 256;
 /// Smoothing time constant of glided parameters (modulus ratio, size, decay scale), seconds.
@@ -578,6 +581,8 @@ struct Voice {
     lambda_factor: f64,
     position: f32,
     position_offset: f32,
+    /// Per-note tuning, semitones (CLAP's tuning expression; [`Engine::set_note_tuning`]).
+    tuning: f64,
     pressure: f32,
     released: bool,
     /// Its note-off came while the sustain pedal held its channel: released at pedal up.
@@ -653,6 +658,7 @@ impl Voice {
             lambda_factor: 1.0,
             position: 0.5,
             position_offset: 0.0,
+            tuning: 0.0,
             pressure: 0.0,
             released: false,
             sustained: false,
@@ -1789,6 +1795,8 @@ pub struct Engine {
     wheel_speed: Option<f64>,
     /// Sustain pedal (CC 64) down, one bit per MIDI channel ([`Engine::set_sustain`]).
     sustain: u16,
+    /// Pitch bend of each MIDI channel, semitones ([`Engine::set_pitch_bend`]).
+    bend: [f64; 16],
     /// Audio in is wanted, and where its contact starts on the strike path.
     input_on: bool,
     input_position: f32,
@@ -1844,6 +1852,7 @@ impl Engine {
             pool: max_voices,
             user_texture: None,
             wheel_speed: None,
+            bend: [0.0; 16],
             sustain: 0,
             input_on: false,
             input_position: 0.5,
@@ -1907,6 +1916,7 @@ impl Engine {
         self.num_terminated = 0;
         self.wheel_speed = None;
         self.sustain = 0;
+        self.bend = [0.0; 16];
         self.residuals.clear();
         self.params = self.target;
         self.glide = Glide {
@@ -2026,6 +2036,41 @@ impl Engine {
         self.glide.modulus_ratio * lambda_factor / (self.glide.size * self.glide.size)
     }
 
+    /// λ scale of voice `v` as it sounds: [`Self::lambda_scale`] of its note, times its
+    /// channel's pitch bend and its own tuning (λ ∝ f², so 2^(semitones/6)).
+    fn voice_scale(&self, v: usize) -> f64 {
+        let voice = &self.voices[v];
+        let bend = self.bend.get(usize::from(voice.note.channel)).copied().unwrap_or(0.0);
+        self.lambda_scale(voice.lambda_factor) * ((bend + voice.tuning) / 6.0).exp2()
+    }
+
+    /// Pitch bend of MIDI `channel` (0..16), semitones: every sounding note on it moves
+    /// there at the next control tick ([`CONTROL_INTERVAL`]; its modes keep their states, so
+    /// the ring bends without a click) and later notes on it start there, until it is set
+    /// again (0: none; [`Self::reset`] clears it). Realtime-safe.
+    pub fn set_pitch_bend(&mut self, channel: u8, semitones: f32) {
+        let Some(b) = self.bend.get_mut(usize::from(channel)) else { return };
+        let st = if semitones.is_finite() { f64::from(semitones.clamp(-MAX_BEND_ST, MAX_BEND_ST)) } else { 0.0 };
+        if *b != st {
+            *b = st;
+            for v in self.voices.iter_mut().filter(|v| v.active && v.note.channel == channel) {
+                v.dirty = true;
+            }
+        }
+    }
+
+    /// Tuning of one note, semitones (CLAP's per-note tuning expression), on top of its
+    /// channel's bend; as [`Self::set_pitch_bend`]. Realtime-safe.
+    pub fn set_note_tuning(&mut self, note: NoteId, semitones: f32) {
+        let st = if semitones.is_finite() { f64::from(semitones.clamp(-MAX_BEND_ST, MAX_BEND_ST)) } else { 0.0 };
+        for v in self.voices.iter_mut().filter(|v| v.matches(&note)) {
+            if v.tuning != st {
+                v.tuning = st;
+                v.dirty = true;
+            }
+        }
+    }
+
     fn effective_damping(&self) -> Damping {
         self.params.damping.scaled(self.glide.decay_scale)
     }
@@ -2083,6 +2128,7 @@ impl Engine {
             voice.lambda_factor = strike.lambda_factor;
             voice.pressure = 0.0;
             voice.position_offset = 0.0;
+            voice.tuning = 0.0;
             voice.start = self.clock;
             voice.energy = f32::MAX;
             voice.speed = None;
@@ -2297,7 +2343,7 @@ impl Engine {
         let damping = self.effective_damping();
         let support = self.effective_support();
         let fs = self.sample_rate;
-        let scale = self.lambda_scale(self.voices[v].lambda_factor);
+        let scale = self.voice_scale(v);
         let jitter = if p.variation > 0.0 {
             let var = p.variation.clamp(0.0, 1.0);
             let r = &mut self.variation_rng;
@@ -2424,7 +2470,7 @@ impl Engine {
         let damping = self.effective_damping();
         let support = self.effective_support();
         let fs = self.sample_rate;
-        let scale = self.lambda_scale(self.voices[v].lambda_factor);
+        let scale = self.voice_scale(v);
         let voice = &mut self.voices[v];
         let extra = voice.extra_d(&p);
         let obj = &self.objects[voice.object];

@@ -490,3 +490,84 @@ fn the_sustain_pedal_holds_released_notes_until_it_comes_up() {
     let (early, late) = (rms(&x[0][..sr / 10]), rms(&x[0][3 * sr / 2..]));
     assert!(early > 1e-4 && late < 1e-4 * early, "scrape under the pedal: {early:.2e} then {late:.2e}");
 }
+
+/// Pitch bend (a black-box tester's finding: it was ignored) and CLAP's per-note tuning,
+/// through `process()`: the bar's three strongest isolated modes, measured before and after a
+/// bend 0.3 s into the note, stand where the bank's λ puts them ([`expected_modes`], computed
+/// without the engine) and then at the equal-tempered ratio of the bend, within a cent: a full
+/// bend up at the default range (+2 semitones), a quarter-way bend down at *Pitch bend range*
+/// 12 (−6 semitones), a per-note tuning of −1.5 semitones. A note struck after the bend on its
+/// channel starts bent; a note on another channel is not touched (bit for bit), and Reset All
+/// Controllers (CC 121) centres the bend.
+#[test]
+fn pitch_bend_and_note_tuning_move_the_modes_by_their_ratio() {
+    use nice_plug::midi::{Channel, Key, VoiceID};
+    use nice_plug::prelude::NoteEvent;
+    use struck::offline::TimedEvent;
+    let sr = f64::from(SR);
+    let (object, material, key) = ("bar", "metal-ren2013", 48u8);
+    let truth = expected_modes(object, material, key);
+    let chosen = measurable(&predicted_modes(&opts(object, material, &[]), key, 100).unwrap(), sr, 40.0, 1.0, 3);
+    assert_eq!(chosen.len(), 3);
+    let at = |s: f64| (s * sr) as u64;
+    let on = |s: f64, channel: u8| TimedEvent {
+        sample: at(s),
+        event: NoteEvent::NoteOn {
+            timing: 0,
+            voice_id: VoiceID::ID(7),
+            channel: Channel::Number(channel),
+            key: Key::Number(key),
+            velocity: 0.8,
+        },
+    };
+    let bend = |s: f64, channel: u8, value: f32| TimedEvent {
+        sample: at(s),
+        event: NoteEvent::MidiPitchBend { timing: 0, channel, value },
+    };
+    let tuning = |s: f64, semitones: f32| TimedEvent {
+        sample: at(s),
+        event: NoteEvent::PolyTuning {
+            timing: 0,
+            voice_id: VoiceID::ID(7),
+            channel: Channel::Number(0),
+            key: Key::Number(key),
+            tuning: semitones,
+        },
+    };
+    let play = |set: &[(&str, f32)], events: &[TimedEvent]| {
+        let mut h = host(object, material, SR, set);
+        h.render(events, at(0.9) as usize, 512).0[0].clone()
+    };
+    // Each mode's frequency over [from, from + 0.2 s).
+    let measure = |x: &[f32], from: f64, ratio: f64| -> Vec<f64> {
+        chosen
+            .iter()
+            .map(|&(f, _, _)| {
+                let want = nearest_expected(&truth, f).0.freq_hz * ratio;
+                let (fm, _) = measure_mode(x, sr, want, at(from) as usize, 9600, 480);
+                cents(fm, want)
+            })
+            .collect()
+    };
+    let cases: [(&[(&str, f32)], TimedEvent, f64); 3] = [
+        (&[], bend(0.3, 0, 1.0), 2.0),
+        (&[("bendrange", 12.0)], bend(0.3, 0, 0.25), -6.0),
+        (&[], tuning(0.3, -1.5), -1.5),
+    ];
+    for (set, event, semitones) in cases {
+        let x = play(set, &[on(0.0, 0), event]);
+        let before = measure(&x, 0.05, 1.0);
+        let after = measure(&x, 0.4, (semitones / 12.0).exp2());
+        println!("{semitones:+} semitones: before {before:.3?} cents, after {after:.3?} cents");
+        assert!(before.iter().chain(&after).all(|c| c.abs() < 1.0), "{semitones:+}: {before:?} / {after:?}");
+    }
+    // Struck after the bend: bent from its first sample.
+    let x = play(&[], &[bend(0.0, 0, 1.0), on(0.1, 0)]);
+    let late = measure(&x, 0.15, (2.0f64 / 12.0).exp2());
+    assert!(late.iter().all(|c| c.abs() < 1.0), "{late:?}");
+    // Another channel's bend leaves the note alone; CC 121 centres the bend.
+    let plain = play(&[], &[on(0.0, 0)]);
+    assert_eq!(play(&[], &[on(0.0, 0), bend(0.3, 1, 1.0)]), plain);
+    let reset = TimedEvent { sample: 0, event: NoteEvent::MidiCC { timing: 0, channel: 0, cc: 121, value: 0.0 } };
+    assert_eq!(play(&[], &[bend(0.0, 0, 1.0), reset, on(0.0, 0)]), plain);
+}

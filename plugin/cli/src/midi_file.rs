@@ -82,7 +82,7 @@ pub fn read_midi(bytes: &[u8], sample_rate: f64) -> Result<Vec<TimedEvent>, Stri
                         pressure: f32::from(vel.as_int()) / 127.0,
                     }),
                     midly::MidiMessage::Controller { controller, value }
-                        if matches!(controller.as_int(), 1 | 64 | 74 | 120 | 123) =>
+                        if matches!(controller.as_int(), 1 | 64 | 74 | 120 | 121 | 123) =>
                     {
                         Some(NoteEvent::MidiCC {
                             timing: 0,
@@ -90,6 +90,10 @@ pub fn read_midi(bytes: &[u8], sample_rate: f64) -> Result<Vec<TimedEvent>, Stri
                             cc: controller.as_int(),
                             value: f32::from(value.as_int()) / 127.0,
                         })
+                    }
+                    // −1..1 (centre 0x2000 exactly 0) to the plugin's 0..1 (centre 0.5).
+                    midly::MidiMessage::PitchBend { bend } => {
+                        Some(NoteEvent::MidiPitchBend { timing: 0, channel: ch, value: 0.5 * (bend.as_f32() + 1.0) })
                     }
                     _ => None,
                 };
@@ -153,25 +157,28 @@ mod tests {
     }
 
     /// The gestures of a lasting contact: poly aftertouch (force) and the mod wheel (speed)
-    /// arrive as pressure and CC 1 on their note and channel.
+    /// arrive as pressure and CC 1 on their note and channel; a pitch bend as the plugin's
+    /// 0..1 (0x3000 of 0..0x3FFF is 0.75).
     #[test]
     fn reads_aftertouch_and_the_mod_wheel() {
         let mut trk = vec![];
         trk.extend([0x00, 0x91, 62, 90]); // note on, channel 2
         trk.extend([0x30, 0xA1, 62, 127]); // poly aftertouch 127 after 48 ticks (0.25 s)
         trk.extend([0x00, 0xB1, 1, 64]); // mod wheel 64
+        trk.extend([0x00, 0xE1, 0x00, 0x60]); // pitch bend 0x3000: half way up
         trk.extend([0x30, 0x81, 62, 0]);
         trk.extend([0x00, 0xFF, 0x2F, 0x00]);
         let mut f = b"MThd\x00\x00\x00\x06\x00\x00\x00\x01\x00\x60MTrk".to_vec();
         f.extend((trk.len() as u32).to_be_bytes());
         f.extend(trk);
         let ev = read_midi(&f, 48_000.0).unwrap();
-        assert_eq!(ev.len(), 4);
+        assert_eq!(ev.len(), 5);
         assert_eq!(ev[1].sample, 12_000);
         assert!(matches!(
             ev[1].event,
             NoteEvent::PolyPressure { channel: Channel::Number(1), key: Key::Number(62), pressure, .. } if pressure == 1.0
         ));
         assert!(matches!(ev[2].event, NoteEvent::MidiCC { channel: 1, cc: 1, value, .. } if value == 64.0 / 127.0));
+        assert!(matches!(ev[3].event, NoteEvent::MidiPitchBend { channel: 1, value, .. } if value == 0.75));
     }
 }

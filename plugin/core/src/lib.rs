@@ -408,6 +408,17 @@ impl<V: Variant> StruckPlugin<V> {
                 engine.set_note_speed(NoteId { voice_id: None, channel, key: NoteId::ANY }, speed_of(value))
             }
             NoteEvent::MidiChannelPressure { channel, pressure, .. } => engine.set_channel_pressure(channel, pressure),
+            // Pitch bend: the channel's notes, sounding and to come, by up to *Pitch bend
+            // range* either way (0.5 is none; 14-bit MIDI's centre 8192 may arrive as 8192/16383).
+            NoteEvent::MidiPitchBend { channel, value, .. } => {
+                let x = 2.0 * value - 1.0;
+                let x = if x.abs() < 1.0 / 8192.0 { 0.0 } else { x.clamp(-1.0, 1.0) };
+                engine.set_pitch_bend(channel, x * self.params.bend_range.value() as f32)
+            }
+            // CLAP's per-note tuning expression, semitones.
+            NoteEvent::PolyTuning { voice_id, channel, key, tuning, .. } => {
+                engine.set_note_tuning(note(voice_id, channel, key), tuning)
+            }
             // Channel mode messages: All Sound Off (CC 120) silences the channel's voices at
             // once, All Notes Off (CC 123) releases them (they ring on, damped by the
             // release damping, as after their note-offs).
@@ -419,8 +430,11 @@ impl<V: Variant> StruckPlugin<V> {
             }
             // The sustain pedal: note-offs wait for it to come up (a damper pedal).
             NoteEvent::MidiCC { channel, cc: 64, value, .. } => engine.set_sustain(channel, value >= 0.5),
-            // Reset All Controllers lifts the pedal too.
-            NoteEvent::MidiCC { channel, cc: 121, .. } => engine.set_sustain(channel, false),
+            // Reset All Controllers lifts the pedal and centres the pitch bend.
+            NoteEvent::MidiCC { channel, cc: 121, .. } => {
+                engine.set_sustain(channel, false);
+                engine.set_pitch_bend(channel, 0.0);
+            }
             // MPE timbre (CC 74) on a member channel → strike position of that channel's sounding
             // notes, and of its next ones.
             NoteEvent::MidiCC { channel, cc: 74, value, .. } => {

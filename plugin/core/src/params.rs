@@ -305,6 +305,10 @@ pub struct StruckParams {
     /// The mode tuned when *Pitch reference* is *Chosen mode*, 1 = lowest.
     #[id = "pitchmode"]
     pub pitch_mode: IntParam,
+    /// Semitones a full MIDI pitch bend moves the notes of its channel, either way (2 as
+    /// most keyboards; 48 for MPE's member channels).
+    #[id = "bendrange"]
+    pub bend_range: IntParam,
     /// Every strike at the same reference loudness (objects, sizes, keys, materials and the
     /// mallet change timbre, not level); off: the physical level of a unit impulse.
     #[id = "levelnorm"]
@@ -634,6 +638,7 @@ impl StruckParams {
                 .with_string_to_value(formatters::s2v_f32_percentage()),
             pitch_reference: EnumParam::new("Pitch reference", PitchReference::Lowest),
             pitch_mode: IntParam::new("Pitch mode", 1, IntRange::Linear { min: 1, max: MAX_PITCH_MODE }),
+            bend_range: IntParam::new("Pitch bend range", 2, IntRange::Linear { min: 0, max: 48 }).with_unit(" st"),
             normalize_level: BoolParam::new("Normalise level", true),
             output_safety: BoolParam::new("Output safety", true),
             noise: FloatParam::new("Noise", 0.0, FloatRange::Linear { min: 0.0, max: 1.0 })
