@@ -178,7 +178,7 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
         _ => None,
     };
     // The residual of the first impact (issue 15; Ren §6.1), unless asked not to.
-    let residual = if args.no_residual { None } else { capture_residual(&report, args.channel) };
+    let residual = if args.no_residual { None } else { capture_residual(&report, &args.files, args.channel) };
     let material = Material {
         schema_version: SCHEMA_VERSION,
         id,
@@ -253,12 +253,18 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
 /// A recording that cannot be read again keeps no residual (with a warning).
 fn capture_residual(
     report: &estimator::EstimateReport,
+    files: &[PathBuf],
     channel: Option<usize>,
 ) -> Option<presets::residual::ResidualSpectrogram> {
     let imp = report.impacts.first()?;
-    // The report names the file as displayed; a name that does not read back (a path that is
-    // not UTF-8) costs the residual, not the capture.
-    let rec = match estimator::load_wav(Path::new(&imp.file), channel) {
+    // The report names the file as displayed (lossily for a name that is not UTF-8): read
+    // back the input it names, not the name (a black-box tester's non-UTF-8 file name cost
+    // the residual).
+    let path = files
+        .iter()
+        .find(|f| f.display().to_string() == imp.file)
+        .map_or_else(|| PathBuf::from(&imp.file), Clone::clone);
+    let rec = match estimator::load_wav(&path, channel) {
         Ok(r) => r,
         Err(e) => {
             warn(&format!("no residual kept: {e}"));

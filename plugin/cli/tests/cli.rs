@@ -760,6 +760,19 @@ fn residual_writes_what_the_material_does_not_represent() {
     let bare = presets::Material::load(&bare).unwrap();
     assert!(bare.residual.is_none());
     assert_eq!(bare.id, "captured-bare");
+    // A recording whose name is not UTF-8 keeps its residual too (it was read back by its
+    // lossy display name and lost, a black-box tester's finding).
+    #[cfg(target_os = "linux")]
+    {
+        use std::os::unix::ffi::OsStrExt;
+        let odd = dir.join(std::ffi::OsStr::from_bytes(b"take\xff.wav"));
+        std::fs::copy(&rec, &odd).unwrap();
+        let m2 = dir.join("odd.json");
+        let o = command(&dir, &["estimate"]).arg(&odd).arg("--out").arg(&m2).output().unwrap();
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        assert!(!stderr(&o).contains("no residual kept"), "{}", stderr(&o));
+        assert!(presets::Material::load(&m2).unwrap().residual.is_some());
+    }
 }
 
 #[test]
