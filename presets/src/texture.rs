@@ -153,6 +153,32 @@ impl TextureFile {
         Ok(())
     }
 
+    /// A texture from the samples of WAV file `path` (one channel, full scale ±1): its heights
+    /// at [`WAV_FULL_SCALE_MM`] per full scale, [`DEFAULT_TEXEL_MM`] apart, named after the
+    /// file. (The reading itself is the caller's: this crate's `hound` reader, or the
+    /// estimator's, which takes more of the WAVs users have.)
+    ///
+    /// # Errors
+    /// More than [`MAX_TEXELS`] samples, a silent file, or a profile [`TextureFile::new`]
+    /// refuses, in a line naming the file.
+    pub fn from_wav_samples(path: &Path, samples: &[f64]) -> Result<TextureFile, String> {
+        let shown = path.display();
+        let name = path.file_stem().map_or_else(|| "texture".to_string(), |s| s.to_string_lossy().into_owned());
+        if samples.len() > MAX_TEXELS {
+            return Err(format!("{shown}: {} samples, over the {MAX_TEXELS} a texture may hold", samples.len()));
+        }
+        // A silent recording has no relief: it would play as the factory *Smooth* without a
+        // word; most likely the wrong file. (A flat row of an image can be meant, as against
+        // its spiral.)
+        if samples.len() >= 2 && samples.iter().all(|&h| h == samples[0]) {
+            return Err(format!(
+                "{shown}: silent (every sample the same): a texture WAV's samples are its heights, and a surface without relief plays as the factory texture Smooth"
+            ));
+        }
+        let heights: Vec<f64> = samples.iter().map(|&v| v * WAV_FULL_SCALE_MM).collect();
+        TextureFile::new(&name, DEFAULT_TEXEL_MM, &heights).map_err(|e| format!("{shown}: {e}"))
+    }
+
     /// Reads a texture file (see the module documentation for the formats).
     ///
     /// # Errors
@@ -194,31 +220,21 @@ impl TextureFile {
                 if frames > MAX_TEXELS {
                     return Err(format!("{shown}: {frames} samples, over the {MAX_TEXELS} a texture may hold"));
                 }
-                let scale = WAV_FULL_SCALE_MM;
                 let samples: Result<Vec<f64>, String> = match spec.sample_format {
                     hound::SampleFormat::Float => r
                         .samples::<f32>()
                         .step_by(channels)
-                        .map(|s| s.map(|v| f64::from(v) * scale).map_err(|e| wav_error(&shown, &e)))
+                        .map(|s| s.map(f64::from).map_err(|e| wav_error(&shown, &e)))
                         .collect(),
                     hound::SampleFormat::Int => {
                         let full = f64::from(1u32 << (spec.bits_per_sample.clamp(1, 32) - 1));
                         r.samples::<i32>()
                             .step_by(channels)
-                            .map(|s| s.map(|v| f64::from(v) / full * scale).map_err(|e| wav_error(&shown, &e)))
+                            .map(|s| s.map(|v| f64::from(v) / full).map_err(|e| wav_error(&shown, &e)))
                             .collect()
                     }
                 };
-                let heights = samples?;
-                // A silent recording has no relief: it would play as the factory *Smooth*
-                // without a word; most likely the wrong file. (A flat row of an image can be
-                // meant, as against its spiral.)
-                if heights.len() >= 2 && heights.iter().all(|&h| h == heights[0]) {
-                    return Err(format!(
-                        "{shown}: silent (every sample the same): a texture WAV's samples are its heights, and a surface without relief plays as the factory texture Smooth"
-                    ));
-                }
-                TextureFile::new(&name, DEFAULT_TEXEL_MM, &heights).map_err(|e| format!("{shown}: {e}"))
+                TextureFile::from_wav_samples(path, &samples?)
             }
             "png" => {
                 let open = || {

@@ -905,7 +905,7 @@ pub fn render_with_stats(opts: &RenderOptions) -> Result<(String, RenderStats), 
             // Not a factory texture's name: a texture file (its extension says which format).
             Err(_) if Path::new(t).extension().is_some() || Path::new(t).is_file() => {
                 user_texture = Some(
-                    presets::texture::TextureFile::load_with(Path::new(t), image_path)
+                    struck::user_texture::load_texture_file(Path::new(t), image_path)
                         .map_err(|e| format!("--texture: {e}"))?,
                 );
                 TEXTURES.len()

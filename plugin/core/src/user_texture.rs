@@ -7,7 +7,41 @@ use crossbeam_queue::ArrayQueue;
 use dsp::contact::Texture;
 use nice_plug::params::persist::PersistentField;
 use presets::texture::TextureFile;
+use std::path::Path;
 use std::sync::Mutex;
+
+/// Largest WAV file read as a texture, bytes: [`presets::texture::MAX_TEXELS`] frames of 8
+/// channels of 64-bit floats (read no further: the reader holds every sample).
+const MAX_TEXTURE_WAV_BYTES: u64 = presets::texture::MAX_TEXELS as u64 * 64;
+
+/// Reads a texture file as the editor and `struck render --texture` do: a WAV through the
+/// estimator's reader (its first channel), which takes the WAVs users have — chunks of odd
+/// length or before `fmt `, a data size left at 0xFFFFFFFF by a streaming writer, RF64,
+/// 64-bit float, extensible formats — where `hound` refuses them (a black-box tester's
+/// finding); a rate outside the estimator's 8–192 kHz (a texture has no rate) falls back to
+/// `hound`. Other formats as [`TextureFile::load_with`].
+///
+/// # Errors
+/// A one-line reason naming the file.
+pub fn load_texture_file(path: &Path, image_path: presets::texture::ImagePath) -> Result<TextureFile, String> {
+    let wav = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("wav"));
+    if !wav {
+        return TextureFile::load_with(path, image_path);
+    }
+    if let Ok(meta) = std::fs::metadata(path) {
+        if meta.is_file() && meta.len() > MAX_TEXTURE_WAV_BYTES {
+            return Err(format!("{}: {} bytes, too large for a texture", path.display(), meta.len()));
+        }
+    }
+    match estimator::wav::load_wav_exact(path, Some(0)) {
+        Ok(rec) => {
+            let samples: Vec<f64> = rec.samples.iter().map(|&v| f64::from(v)).collect();
+            TextureFile::from_wav_samples(path, &samples)
+        }
+        Err(estimator::EstimateError::SampleRate { .. }) => TextureFile::load_with(path, image_path),
+        Err(e) => Err(e.to_string()),
+    }
+}
 
 /// The user's texture file, and its handoff to the audio thread.
 pub struct UserTextureField {
@@ -109,5 +143,64 @@ impl<'a> PersistentField<'a, Option<TextureFile>> for UserTextureField {
             Ok(g) => f(&g),
             Err(p) => f(&p.into_inner()),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use presets::texture::ImagePath;
+
+    /// A WAV as some writers leave them: a 3-byte `JUNK` chunk (odd: padded) before `fmt `,
+    /// stereo 64-bit float, the data size left at 0xFFFFFFFF by a streaming writer.
+    fn odd_wav(samples: &[f64]) -> Vec<u8> {
+        let mut f = b"RIFF\xff\xff\xff\xffWAVEJUNK\x03\x00\x00\x00abc\x00fmt \x10\x00\x00\x00".to_vec();
+        f.extend(3u16.to_le_bytes()); // IEEE float
+        f.extend(2u16.to_le_bytes());
+        f.extend(48_000u32.to_le_bytes());
+        f.extend((48_000u32 * 16).to_le_bytes());
+        f.extend(16u16.to_le_bytes());
+        f.extend(64u16.to_le_bytes());
+        f.extend(b"data\xff\xff\xff\xff");
+        for &s in samples {
+            f.extend(s.to_le_bytes());
+            f.extend((-s).to_le_bytes());
+        }
+        f
+    }
+
+    /// The odd WAV reads as a texture (hound refuses it), with the same heights as the same
+    /// samples in a plain 32-bit float WAV read by `hound` (presets' reader), first channel.
+    #[test]
+    fn a_texture_wav_as_users_have_them_reads() {
+        let dir = std::env::temp_dir().join(format!("struck-texture-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let samples: Vec<f64> =
+            (0..5000).map(|i| 0.5 * (f64::from(i) * 0.37).sin() * (f64::from(i) * 0.011).cos()).collect();
+        let odd = dir.join("odd.wav");
+        std::fs::write(&odd, odd_wav(&samples)).unwrap();
+        assert!(TextureFile::load_with(&odd, ImagePath::Row).is_err(), "hound reads it: the test shows nothing");
+        let plain = dir.join("plain.wav");
+        let spec = hound::WavSpec {
+            channels: 1,
+            sample_rate: 48_000,
+            bits_per_sample: 32,
+            sample_format: hound::SampleFormat::Float,
+        };
+        let mut w = hound::WavWriter::create(&plain, spec).unwrap();
+        for &s in &samples {
+            w.write_sample(s as f32).unwrap();
+        }
+        w.finalize().unwrap();
+        let a = load_texture_file(&odd, ImagePath::Row).unwrap();
+        let b = TextureFile::load_with(&plain, ImagePath::Row).unwrap();
+        assert_eq!(a.heights_m, b.heights_m);
+        assert_eq!(a.texel_m, b.texel_m);
+        assert_eq!(a.name, "odd");
+        // A file that is not a WAV at all is a one-line error naming it.
+        std::fs::write(&odd, b"not a wav").unwrap();
+        let e = load_texture_file(&odd, ImagePath::Row).unwrap_err();
+        assert!(e.contains("odd.wav") && !e.contains('\n'), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -88,7 +88,7 @@ impl MaterialPanel {
         let path = PathBuf::from(self.texture_path.trim());
         let image_path =
             if self.texture_spiral { presets::texture::ImagePath::Spiral } else { presets::texture::ImagePath::Row };
-        let file = match presets::texture::TextureFile::load_with(&path, image_path) {
+        let file = match crate::user_texture::load_texture_file(&path, image_path) {
             Ok(f) => f,
             Err(e) => {
                 self.texture_message = Some(e);
