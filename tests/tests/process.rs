@@ -549,7 +549,8 @@ fn pitch_bend_and_note_tuning_move_the_modes_by_their_ratio() {
             })
             .collect()
     };
-    let cases: [(&[(&str, f32)], TimedEvent, f64); 3] = [
+    type Case<'a> = (&'a [(&'a str, f32)], TimedEvent, f64);
+    let cases: [Case; 3] = [
         (&[], bend(0.3, 0, 1.0), 2.0),
         (&[("bendrange", 12.0)], bend(0.3, 0, 0.25), -6.0),
         (&[], tuning(0.3, -1.5), -1.5),
