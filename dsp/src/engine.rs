@@ -77,9 +77,11 @@ fn contact_trim(trim: f32, before: f32, energy: f32, dt: f64) -> f32 {
     (f64::from(trim).ln() + step).min(0.0).exp().max(1e-6) as f32
 }
 
-/// Largest pitch bend or note tuning the engine plays, semitones (CLAP's tuning expression
-/// spans ±128; four octaves either way is already past most objects' audible modes).
-pub const MAX_BEND_ST: f32 = 48.0;
+/// Largest pitch bend range and note tuning the engine plays, semitones (CLAP's tuning
+/// expression spans ±120).
+pub const MAX_BEND_ST: f32 = 120.0;
+/// Pitch bend range until set ([`Engine::set_bend_range`]): most keyboards' 2 semitones.
+pub const DEFAULT_BEND_RANGE_ST: f64 = 2.0;
 /// Most voice-terminated notices buffered between two drains.
 pub const MAX_TERMINATED: usize = 256;
 /// Smoothing time constant of glided parameters (modulus ratio, size, decay scale), seconds.
@@ -1795,8 +1797,10 @@ pub struct Engine {
     wheel_speed: Option<f64>,
     /// Sustain pedal (CC 64) down, one bit per MIDI channel ([`Engine::set_sustain`]).
     sustain: u16,
-    /// Pitch bend of each MIDI channel, semitones ([`Engine::set_pitch_bend`]).
+    /// Pitch bend of each MIDI channel, −1..=1 of the range ([`Engine::set_pitch_bend`]).
     bend: [f64; 16],
+    /// Semitones of a full bend ([`Engine::set_bend_range`]).
+    bend_range: f64,
     /// Audio in is wanted, and where its contact starts on the strike path.
     input_on: bool,
     input_position: f32,
@@ -1853,6 +1857,7 @@ impl Engine {
             user_texture: None,
             wheel_speed: None,
             bend: [0.0; 16],
+            bend_range: DEFAULT_BEND_RANGE_ST,
             sustain: 0,
             input_on: false,
             input_position: 0.5,
@@ -2040,21 +2045,37 @@ impl Engine {
     /// channel's pitch bend and its own tuning (λ ∝ f², so 2^(semitones/6)).
     fn voice_scale(&self, v: usize) -> f64 {
         let voice = &self.voices[v];
-        let bend = self.bend.get(usize::from(voice.note.channel)).copied().unwrap_or(0.0);
+        let bend = self.bend.get(usize::from(voice.note.channel)).copied().unwrap_or(0.0) * self.bend_range;
         self.lambda_scale(voice.lambda_factor) * ((bend + voice.tuning) / 6.0).exp2()
     }
 
-    /// Pitch bend of MIDI `channel` (0..16), semitones: every sounding note on it moves
-    /// there at the next control tick ([`CONTROL_INTERVAL`]; its modes keep their states, so
-    /// the ring bends without a click) and later notes on it start there, until it is set
-    /// again (0: none; [`Self::reset`] clears it). Realtime-safe.
-    pub fn set_pitch_bend(&mut self, channel: u8, semitones: f32) {
+    /// Pitch bend of MIDI `channel` (0..16), −1..=1 of [`Self::set_bend_range`] (0: none):
+    /// every sounding note on it moves there at the next control tick ([`CONTROL_INTERVAL`];
+    /// its modes keep their states, so the ring bends without a click) and later notes on it
+    /// start there, until it is set again ([`Self::reset`] clears it). Realtime-safe.
+    pub fn set_pitch_bend(&mut self, channel: u8, amount: f32) {
         let Some(b) = self.bend.get_mut(usize::from(channel)) else { return };
-        let st = if semitones.is_finite() { f64::from(semitones.clamp(-MAX_BEND_ST, MAX_BEND_ST)) } else { 0.0 };
-        if *b != st {
-            *b = st;
+        let x = if amount.is_finite() { f64::from(amount.clamp(-1.0, 1.0)) } else { 0.0 };
+        if *b != x {
+            *b = x;
             for v in self.voices.iter_mut().filter(|v| v.active && v.note.channel == channel) {
                 v.dirty = true;
+            }
+        }
+    }
+
+    /// Semitones of a full pitch bend (0..=[`MAX_BEND_ST`]): a change moves the notes of bent
+    /// channels at once (a black-box tester: it waited for the next bend message).
+    /// Realtime-safe.
+    pub fn set_bend_range(&mut self, semitones: f32) {
+        let st = if semitones.is_finite() { f64::from(semitones.clamp(0.0, MAX_BEND_ST)) } else { 0.0 };
+        if self.bend_range != st {
+            self.bend_range = st;
+            let bend = self.bend;
+            for v in self.voices.iter_mut().filter(|v| v.active) {
+                if bend.get(usize::from(v.note.channel)).is_some_and(|&b| b != 0.0) {
+                    v.dirty = true;
+                }
             }
         }
     }

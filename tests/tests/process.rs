@@ -497,8 +497,9 @@ fn the_sustain_pedal_holds_released_notes_until_it_comes_up() {
 /// without the engine) and then at the equal-tempered ratio of the bend, within a cent: a full
 /// bend up at the default range (+2 semitones), a quarter-way bend down at *Pitch bend range*
 /// 12 (−6 semitones), a per-note tuning of −1.5 semitones. A note struck after the bend on its
-/// channel starts bent; a note on another channel is not touched (bit for bit), and Reset All
-/// Controllers (CC 121) centres the bend.
+/// channel starts bent; a note on another channel is not touched (bit for bit), Reset All
+/// Controllers (CC 121) centres the bend, and a new *Pitch bend range* applies to a bent
+/// channel at once.
 #[test]
 fn pitch_bend_and_note_tuning_move_the_modes_by_their_ratio() {
     use nice_plug::midi::{Channel, Key, VoiceID};
@@ -571,4 +572,12 @@ fn pitch_bend_and_note_tuning_move_the_modes_by_their_ratio() {
     assert_eq!(play(&[], &[on(0.0, 0), bend(0.3, 1, 1.0)]), plain);
     let reset = TimedEvent { sample: 0, event: NoteEvent::MidiCC { timing: 0, channel: 0, cc: 121, value: 0.0 } };
     assert_eq!(play(&[], &[bend(0.0, 0, 1.0), reset, on(0.0, 0)]), plain);
+    // *Pitch bend range* changed while the wheel is up moves the note at once (it waited for
+    // the next bend message: a black-box tester's finding).
+    let mut h = host(object, material, SR, &[]);
+    h.render(&[on(0.0, 0), bend(0.1, 0, 1.0)], at(0.3) as usize, 512);
+    h.set_param("bendrange", 12.0).unwrap();
+    let x = h.render(&[], at(0.4) as usize, 512).0[0].clone();
+    let octave = measure(&x, 0.1, 2.0);
+    assert!(octave.iter().all(|c| c.abs() < 1.0), "{octave:?}");
 }

@@ -412,8 +412,7 @@ impl<V: Variant> StruckPlugin<V> {
             // range* either way (0.5 is none; 14-bit MIDI's centre 8192 may arrive as 8192/16383).
             NoteEvent::MidiPitchBend { channel, value, .. } => {
                 let x = 2.0 * value - 1.0;
-                let x = if x.abs() < 1.0 / 8192.0 { 0.0 } else { x.clamp(-1.0, 1.0) };
-                engine.set_pitch_bend(channel, x * self.params.bend_range.value() as f32)
+                engine.set_pitch_bend(channel, if x.abs() < 1.0 / 8192.0 { 0.0 } else { x })
             }
             // CLAP's per-note tuning expression, semitones.
             NoteEvent::PolyTuning { voice_id, channel, key, tuning, .. } => {
@@ -642,10 +641,12 @@ impl<V: Variant> Plugin for StruckPlugin<V> {
         }
         let object = self.object_index();
         let input_position = self.params.strike_position.value();
+        let bend_range = self.params.bend_range.value() as f32;
         if let Some(e) = self.engine.as_mut() {
             e.set_params(sp);
             e.set_object(object);
             e.set_audio_input(take_input, input_position);
+            e.set_bend_range(bend_range);
         }
         // A user texture set since the last block (editor, command line, a loaded state).
         if let Some(e) = self.engine.as_mut() {
