@@ -82,6 +82,8 @@ fn contact_trim(trim: f32, before: f32, energy: f32, dt: f64) -> f32 {
 pub const MAX_BEND_ST: f32 = 120.0;
 /// Pitch bend range until set ([`Engine::set_bend_range`]): most keyboards' 2 semitones.
 pub const DEFAULT_BEND_RANGE_ST: f64 = 2.0;
+/// [`Voice::parked_at`] of a slot whose state is not kept aside.
+const NOT_PARKED: u64 = u64::MAX;
 /// Most voice-terminated notices buffered between two drains.
 pub const MAX_TERMINATED: usize = 256;
 /// Smoothing time constant of glided parameters (modulus ratio, size, decay scale), seconds.
@@ -606,6 +608,11 @@ struct Voice {
     /// starts: see [`PULSE_PREROLL`]), and how many have been rendered.
     contact_len: usize,
     contact_pos: usize,
+    /// Per slot, the state of a mode a pitch bend took past Nyquist, and the clock when it
+    /// did ([`NOT_PARKED`]: none): it comes back, decayed, when the bend returns.
+    parked_re: Vec<f32>,
+    parked_im: Vec<f32>,
+    parked_at: Vec<u64>,
     /// Per slot, the exact correction added to the state after the pulse's last, partial
     /// sample (see [`pulse_drive`]).
     corr_re: Vec<f32>,
@@ -676,6 +683,9 @@ impl Voice {
             contact_len: 0,
             contact_pos: 0,
             corr_re: vec![0.0; max_modes],
+            parked_re: vec![0.0; max_modes],
+            parked_im: vec![0.0; max_modes],
+            parked_at: vec![NOT_PARKED; max_modes],
             corr_im: vec![0.0; max_modes],
             corr_out: 0.0,
             shape: PulseShape::default(),
@@ -722,6 +732,7 @@ impl Voice {
         for &m in &self.mode_of_slot[..self.bank.len()] {
             self.slot_of_mode[usize::from(m)] = NO_SLOT;
         }
+        self.parked_at[..self.bank.len()].fill(NOT_PARKED);
         self.bank.clear();
         self.contact_len = 0;
         self.contact_pos = 0;
@@ -2492,6 +2503,7 @@ impl Engine {
         let support = self.effective_support();
         let fs = self.sample_rate;
         let scale = self.voice_scale(v);
+        let clock = self.clock;
         let voice = &mut self.voices[v];
         let extra = voice.extra_d(&p);
         let obj = &self.objects[voice.object];
@@ -2523,6 +2535,24 @@ impl Engine {
                 // tester's sphere shell at key 21 went silent within a sample of its note-off).
                 None => overdamped_decay(lambda, &damping, support, extra).map(|slow| (slow, 0.0)),
             };
+            // Past Nyquist: its state is kept aside (a bend up and back brings it back,
+            // decayed at its rate meanwhile; dropped, the bright partials of a note bent up
+            // and back were lost, a black-box tester's finding).
+            match pole {
+                None if lambda.is_finite() && lambda >= (PI * fs).powi(2) && voice.parked_at[k] == NOT_PARKED => {
+                    let (re, im) = voice.bank.state(k);
+                    if re != 0.0 || im != 0.0 {
+                        (voice.parked_re[k], voice.parked_im[k], voice.parked_at[k]) = (re, im, clock);
+                    }
+                }
+                Some((d, _)) if voice.parked_at[k] != NOT_PARKED => {
+                    let away = clock.saturating_sub(voice.parked_at[k]) as f64 / fs;
+                    let f = (-d * away).exp() as f32;
+                    voice.bank.set_state(k, voice.parked_re[k] * f, voice.parked_im[k] * f);
+                    voice.parked_at[k] = NOT_PARKED;
+                }
+                _ => {}
+            }
             // Past Nyquist (or invalid): silence it.
             voice.bank.set_coeffs(k, pole.map_or(ModeCoeffs::default(), |(d, omega)| ModeCoeffs::new(d, omega, fs)));
             let g = voice.drive_gain[k];

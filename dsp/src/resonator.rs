@@ -185,6 +185,19 @@ impl ResonatorBank {
         self.im[k] += im;
     }
 
+    /// The complex state of slot `k`.
+    #[inline]
+    pub fn state(&self, k: usize) -> (f32, f32) {
+        (self.re[k], self.im[k])
+    }
+
+    /// Sets the complex state of slot `k`.
+    #[inline]
+    pub fn set_state(&mut self, k: usize, re: f32, im: f32) {
+        self.re[k] = re;
+        self.im[k] = im;
+    }
+
     /// The complex pole of slot `k`.
     #[inline]
     pub fn pole(&self, k: usize) -> (f32, f32) {

@@ -581,3 +581,49 @@ fn pitch_bend_and_note_tuning_move_the_modes_by_their_ratio() {
     let octave = measure(&x, 0.1, 2.0);
     assert!(octave.iter().all(|c| c.abs() < 1.0), "{octave:?}");
 }
+
+/// A note bent far up and back keeps the partials the bend took past Nyquist: they come
+/// back at the level an unbent note has then (they were lost: a black-box tester's finding).
+#[test]
+fn a_note_bent_past_nyquist_and_back_keeps_its_bright_partials() {
+    use nice_plug::midi::{Channel, Key, VoiceID};
+    use nice_plug::prelude::NoteEvent;
+    use struck::offline::TimedEvent;
+    let sr = f64::from(SR);
+    let (object, material, key) = ("bar", "metal-ren2013", 48u8);
+    // Partials a 4-octave bend takes past Nyquist (over sr/32) and back.
+    let bright: Vec<_> =
+        measurable(&predicted_modes(&opts(object, material, &[]), key, 100).unwrap(), sr, 40.0, 1.0, 40)
+            .into_iter()
+            .filter(|&(f, _, _)| f > sr / 32.0 * 1.05)
+            .take(3)
+            .collect();
+    assert!(!bright.is_empty());
+    let at = |s: f64| (s * sr) as u64;
+    let on = TimedEvent {
+        sample: 0,
+        event: NoteEvent::NoteOn {
+            timing: 0,
+            voice_id: VoiceID::ID(7),
+            channel: Channel::Number(0),
+            key: Key::Number(key),
+            velocity: 0.8,
+        },
+    };
+    let bend = |s: f64, value: f32| TimedEvent {
+        sample: at(s),
+        event: NoteEvent::MidiPitchBend { timing: 0, channel: 0, value },
+    };
+    let play = |events: &[TimedEvent]| {
+        let mut h = host(object, material, SR, &[("bendrange", 48.0)]);
+        h.render(events, at(0.7) as usize, 512).0[0].clone()
+    };
+    let plain = play(&[on.clone()]);
+    let bent = play(&[on, bend(0.3, 1.0), bend(0.35, 0.5)]);
+    for &(f, _, _) in &bright {
+        let level = |x: &[f32]| amplitude(x, sr, f, at(0.4) as usize, 9600);
+        let db = 20.0 * (level(&bent) / level(&plain)).log10();
+        println!("{f:.0} Hz: {db:+.2} dB against the unbent note");
+        assert!(db.abs() < 1.0, "{f:.0} Hz: {db:+.2} dB");
+    }
+}
