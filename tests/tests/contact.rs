@@ -130,6 +130,25 @@ fn a_lasting_contact_on_low_lightly_damped_modes_stays_under_its_ceiling() {
     }
 }
 
+/// A tool held still on the object adds no DC: a scrape or a roll at speed 0 on the sphere
+/// shell at size 20 (modes from 13 Hz) rings on from its strike with a mean under −60 dBFS
+/// over its last 2 s (a black-box tester measured a −12 dBFS offset for the scrape and −7 for
+/// the roll: the force the profile had where the tool stood, played as a constant push).
+#[test]
+fn a_tool_held_still_adds_no_dc() {
+    let notes = [held(60, 127, 0.0, 4.0)];
+    let events = note_events(&notes, f64::from(SR));
+    for excitation in [SCRAPE, ROLL] {
+        let set = [("excite", excitation), ("size", 20.0), ("speed", 0.0), ("safety", 0.0)];
+        let mut h = host("fem-sphere-shell", "steel-sterling-hybrid", SR, &set);
+        let (out, _) = h.render(&events, 4 * SR as usize, 512);
+        let tail = &out[0][2 * SR as usize..];
+        let mean = tail.iter().map(|&x| f64::from(x)).sum::<f64>() / tail.len() as f64;
+        println!("excitation {excitation}: mean {:.1} dBFS, RMS {:.1} dBFS", db(mean.abs()), db(rms(tail)));
+        assert!(db(mean.abs()) < -60.0, "excitation {excitation}: DC at {:.1} dBFS", db(mean.abs()));
+    }
+}
+
 /// Frequency (Hz) of the strongest line between `lo` and `hi` in the spectrum of x²
 /// (the energy envelope), over `x[start..]`, zero-padded to 2¹⁸ points.
 fn envelope_line(x: &[f32], start: usize, lo: f64, hi: f64) -> f64 {
