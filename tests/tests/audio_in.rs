@@ -1,7 +1,7 @@
 //! Audio in (issue 16): the object as a resonator for any sound, through the plugin's own
 //! `process()` on its layout with an audio input (offline host, allocation assertions on).
 
-use dsp::engine::AUDIO_IN_RATE;
+use dsp::engine::{AUDIO_IN_HIGHPASS_HZ, AUDIO_IN_RATE};
 use struck::offline::{note_off, note_on, OfflineHost, TimedEvent};
 use struck::{Effect, Instrument, StruckPlugin, Variant};
 
@@ -23,6 +23,20 @@ fn host_of<V: Variant>(set: &[(&str, f32)], left: Vec<f32>, right: Vec<f32>) -> 
     h
 }
 
+/// The input's documented high-pass (`AUDIO_IN_HIGHPASS_HZ`), y[n] = x[n] − x[n−1] + r·y[n−1]
+/// with r = 1 − 2π·f/fs, run over `x` in f64.
+fn highpass(x: impl IntoIterator<Item = f64>) -> Vec<f64> {
+    let r = 1.0 - 2.0 * std::f64::consts::PI * AUDIO_IN_HIGHPASS_HZ / f64::from(SR);
+    let (mut last, mut y) = (0.0, 0.0);
+    x.into_iter()
+        .map(|v| {
+            y = v - last + r * y;
+            last = v;
+            y
+        })
+        .collect()
+}
+
 /// Σ a·e^(−d t)·sin(ω t) of `modes` at t = `k` samples after an impulse (f64).
 fn mode_sum(modes: &[(usize, f64, f64, f32)], k: f64) -> f64 {
     let t = k / f64::from(SR);
@@ -32,7 +46,8 @@ fn mode_sum(modes: &[(usize, f64, f64, f32)], k: f64) -> f64 {
 /// An impulse of fs/AUDIO_IN_RATE at the input rings the object's modes at the strike
 /// position as the closed-form sum of damped sinusoids of a velocity-1 strike with an ideal
 /// contact (each mode's amplitude = its gain at the position × the object's level), starting
-/// in the impulse's own sample (no latency); before it, the output is exactly zero. The
+/// in the impulse's own sample (no latency), through the input's 20 Hz high-pass (its
+/// recurrence run here over the closed form); before it, the output is exactly zero. The
 /// amplitudes are the bank's gains at the position times one level.
 #[test]
 fn an_input_impulse_rings_the_modes_at_the_position() {
@@ -57,8 +72,8 @@ fn impulse_rings_the_modes<V: Variant>() {
     assert!(out[0][..at].iter().all(|&y| y == 0.0), "output before the impulse");
     let peak = out[0].iter().fold(0.0f32, |m, y| m.max(y.abs()));
     assert!(peak > 0.01);
-    for k in 0..240 {
-        let want = mode_sum(&modes, (k + 1) as f64);
+    let want = highpass((0..2_400).map(|k| mode_sum(&modes, (k + 1) as f64)));
+    for (k, &want) in want.iter().enumerate() {
         let got = f64::from(out[0][at + k]);
         assert!((got - want).abs() <= 1e-5 * f64::from(peak), "{k} samples after: {got} vs {want}");
     }
@@ -86,7 +101,8 @@ fn silence_in_gives_exact_silence_out() {
 }
 
 /// A contact at speed 0 is a steady excitation at that point: the output for a noise input
-/// is each mode's own damped resonator (f64, direct recurrence) driven by the input, summed.
+/// is each mode's own damped resonator (f64, direct recurrence) driven by the input through
+/// its 20 Hz high-pass, summed.
 #[test]
 fn a_still_contact_is_a_steady_excitation_at_its_point() {
     let n = 6_000;
@@ -96,6 +112,7 @@ fn a_still_contact_is_a_steady_excitation_at_its_point() {
     let (out, _) = h.render(&[], n, 128);
     let modes = h.plugin().engine().expect("engine").input_modes(0.62);
     let fs = f64::from(SR);
+    let drive = highpass(x.iter().map(|&v| f64::from(v) * AUDIO_IN_RATE / fs));
     let mut want = vec![0.0f64; n];
     for &(_, f, d, a) in &modes {
         let (pr, pi) = (
@@ -104,7 +121,7 @@ fn a_still_contact_is_a_steady_excitation_at_its_point() {
         );
         let (mut yr, mut yi) = (0.0f64, 0.0f64);
         for (k, w) in want.iter_mut().enumerate() {
-            yr += f64::from(a) * f64::from(x[k]) * AUDIO_IN_RATE / fs;
+            yr += f64::from(a) * drive[k];
             (yr, yi) = (pr * yr - pi * yi, pr * yi + pi * yr);
             *w += yi;
         }
@@ -171,7 +188,8 @@ fn audio_in_is_block_size_invariant() {
 /// An input impulse of fs/AUDIO_IN_RATE is a velocity-1 strike with an ideal contact: against
 /// a real strike of the stiffest mallet (steel at full hardness, a 10 µs contact whose
 /// spectrum is flat within 0.04 % below 2 kHz), rendered through the strike's own exact pulse
-/// drive, the isolated modes under 2 kHz ring with the same amplitude within 0.5 %.
+/// drive, the isolated modes under 2 kHz ring with the same amplitude within 0.5 %, once the
+/// input's is divided by its 20 Hz high-pass's gain there, |1 − e^(−iω)| / |1 − r·e^(−iω)|.
 #[test]
 fn an_input_impulse_is_a_strike_with_an_ideal_contact() {
     let n = 24_000;
@@ -209,7 +227,11 @@ fn an_input_impulse_is_a_strike_with_an_ideal_contact() {
         if f > 2_000.0 || !isolated || a.abs() < 1e-3 {
             continue;
         }
-        let (ai, as_) = (amplitude(&input[0], sr, f, start, len), amplitude(&strike[0], sr, f, start, len));
+        let w = 2.0 * std::f64::consts::PI * f / sr;
+        let r = 1.0 - 2.0 * std::f64::consts::PI * AUDIO_IN_HIGHPASS_HZ / sr;
+        let gain = 2.0 * (w / 2.0).sin() / (1.0 - 2.0 * r * w.cos() + r * r).sqrt();
+        let ai = amplitude(&input[0], sr, f, start, len) / gain;
+        let as_ = amplitude(&strike[0], sr, f, start, len);
         assert!((ai / as_ - 1.0).abs() < 0.005, "mode {m} at {f:.1} Hz: input {ai} vs strike {as_}");
         checked += 1;
     }
@@ -297,7 +319,9 @@ fn the_effect_reports_its_slowest_modes_t60_as_its_tail() {
 
 /// The input's contact travels only while the input sounds: a click after 0, 1,000 or
 /// 37,777 samples of silence meets the object at the same point and rings the same, within
-/// float rounding (1e-6 of the peak: the resonators' blocks fall differently on the samples),
+/// 2e-4 of the peak (the input's 20 Hz high-pass drives the modes for a few ms after each
+/// click while the contact moves, with gains interpolated between 64-sample ticks that fall
+/// differently on the click: 5.7e-5 measured; 1e-6 without the high-pass),
 /// at a contact speed that would have carried the contact 0.5 m along the path in those
 /// 37,777 samples (a host that runs the plugin in silence before a render must not change
 /// it); two clicks 2,500 samples apart show that silence between sounds does not move it on.
@@ -322,6 +346,25 @@ fn silence_before_a_sound_does_not_move_the_inputs_contact() {
         let got = ring(lead);
         let worst = got.iter().zip(&reference).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
         println!("after {lead} samples of silence: max difference {worst:.2e} of a peak {peak:.3}");
-        assert!(worst <= 1e-6 * peak, "after {lead} samples of silence: {worst}");
+        assert!(worst <= 2e-4 * peak, "after {lead} samples of silence: {worst}");
+    }
+}
+
+/// A constant input (a file's DC offset, a control signal) is a constant push, which does not
+/// sound: through the effect, 0.5 held for 3 s, still or moving, leaves a mean under 1e-4 of
+/// the input over the last second (a black-box tester measured 0.147 of it at speed 0 and a
+/// swell to 3.5× that at 0.2 m/s, before the input's 20 Hz high-pass).
+#[test]
+fn a_constant_input_leaves_no_dc() {
+    let n = 3 * SR as usize;
+    for speed in [0.0, 0.2] {
+        let x = vec![0.5f32; n];
+        let mut h = host_of::<Effect>(&[("speed", speed)], x.clone(), x);
+        let (out, _) = h.render(&[], n, 512);
+        let last = &out[0][n - SR as usize..];
+        let mean = last.iter().map(|&y| f64::from(y)).sum::<f64>() / last.len() as f64;
+        println!("speed {speed}: mean {:.2e} of the input", mean / 0.5);
+        assert!(out[0].iter().all(|y| y.is_finite()));
+        assert!((mean / 0.5).abs() < 1e-4, "speed {speed}: mean {mean}");
     }
 }

@@ -618,7 +618,7 @@ fn a_note_bent_past_nyquist_and_back_keeps_its_bright_partials() {
         let mut h = host(object, material, SR, &[("bendrange", 48.0)]);
         h.render(events, at(0.7) as usize, 512).0[0].clone()
     };
-    let plain = play(&[on.clone()]);
+    let plain = play(&[on]);
     let bent = play(&[on, bend(0.3, 1.0), bend(0.35, 0.5)]);
     for &(f, _, _) in &bright {
         let level = |x: &[f32]| amplitude(x, sr, f, at(0.4) as usize, 9600);
