@@ -627,11 +627,15 @@ struct Voice {
     /// starts: see [`PULSE_PREROLL`]), and how many have been rendered.
     contact_len: usize,
     contact_pos: usize,
-    /// Per slot, the state of a mode a pitch bend took past Nyquist, and the clock when it
-    /// did ([`NOT_PARKED`]: none): it comes back, decayed, when the bend returns.
-    parked_re: Vec<f32>,
-    parked_im: Vec<f32>,
+    /// Per slot, the state of a mode a pitch bend took past Nyquist as of the clock
+    /// `parked_at` ([`NOT_PARKED`]: none), and the decay rate and angular frequency it rings
+    /// at up there (see [`Engine::rebuild`]); `parked` counts them.
+    parked_re: Vec<f64>,
+    parked_im: Vec<f64>,
     parked_at: Vec<u64>,
+    parked_d: Vec<f64>,
+    parked_omega: Vec<f64>,
+    parked: usize,
     /// Per slot, the exact correction added to the state after the pulse's last, partial
     /// sample (see [`pulse_drive`]).
     corr_re: Vec<f32>,
@@ -709,6 +713,9 @@ impl Voice {
             parked_re: vec![0.0; max_modes],
             parked_im: vec![0.0; max_modes],
             parked_at: vec![NOT_PARKED; max_modes],
+            parked_d: vec![0.0; max_modes],
+            parked_omega: vec![0.0; max_modes],
+            parked: 0,
             corr_im: vec![0.0; max_modes],
             corr_out: 0.0,
             shape: PulseShape::default(),
@@ -758,6 +765,7 @@ impl Voice {
             self.slot_of_mode[usize::from(m)] = NO_SLOT;
         }
         self.parked_at[..self.bank.len()].fill(NOT_PARKED);
+        self.parked = 0;
         self.bank.clear();
         self.contact_len = 0;
         self.contact_pos = 0;
@@ -812,6 +820,34 @@ impl Voice {
         for k in 0..self.bank.len() {
             self.bank.set_pulse_forcing(k, (self.gain_from[k], 0.0), (self.gain_to[k], 0.0));
         }
+    }
+
+    /// Rings parked slot `k`'s state on to `clock` at its rate past Nyquist (exactly: the
+    /// mode as it would ring at any sample rate over it).
+    fn ring_parked(&mut self, k: usize, clock: u64, fs: f64) {
+        let dt = clock.saturating_sub(self.parked_at[k]) as f64 / fs;
+        let r = (-self.parked_d[k] * dt).exp();
+        let (sn, cs) = (self.parked_omega[k] * dt).sin_cos();
+        let (re, im) = (self.parked_re[k], self.parked_im[k]);
+        self.parked_re[k] = r * (re * cs - im * sn);
+        self.parked_im[k] = r * (re * sn + im * cs);
+        self.parked_at[k] = clock;
+    }
+
+    /// |z|² of the parked slots at `clock` (added to the voice's energy, so a voice that only
+    /// rings past Nyquist is not ended while it still would ring when the bend returns).
+    fn parked_energy(&self, clock: u64, fs: f64) -> f32 {
+        if self.parked == 0 {
+            return 0.0;
+        }
+        let mut e = 0.0;
+        for k in 0..self.bank.len() {
+            if self.parked_at[k] != NOT_PARKED {
+                let dt = clock.saturating_sub(self.parked_at[k]) as f64 / fs;
+                e += (self.parked_re[k].powi(2) + self.parked_im[k].powi(2)) * (-2.0 * self.parked_d[k] * dt).exp();
+            }
+        }
+        e as f32
     }
 }
 
@@ -1037,7 +1073,7 @@ pub const MAX_DECAY_PER_SAMPLE: f64 = 10.0;
 fn mode_pole(lambda: f64, damping: &Damping, support_c: f64, extra_d: f64, sample_rate: f64) -> Option<(f64, f64)> {
     // SCIENCE.md §1: d = c/2, ω_d = sqrt(λ − d²); drop over-damped modes, modes at or
     // above Nyquist, and modes over within a sample (`MAX_DECAY_PER_SAMPLE`).
-    let d = 0.5 * (damping.c(lambda) + support_c) + extra_d;
+    let d = mode_decay(lambda, damping, support_c, extra_d);
     if !(d.is_finite() && lambda.is_finite()) || d < 0.0 || d * d >= lambda || d > MAX_DECAY_PER_SAMPLE * sample_rate {
         return None;
     }
@@ -1048,11 +1084,17 @@ fn mode_pole(lambda: f64, damping: &Damping, support_c: f64, extra_d: f64, sampl
     Some((d, omega))
 }
 
+/// A mode's decay rate d = c(λ)/2 plus its support's and the voice's extra (SCIENCE.md §1).
+#[inline]
+fn mode_decay(lambda: f64, damping: &Damping, support_c: f64, extra_d: f64) -> f64 {
+    0.5 * (damping.c(lambda) + support_c) + extra_d
+}
+
 /// The slow decay rate d − √(d² − λ) of a mode that [`mode_pole`]'s damping over-damps
 /// (d² ≥ λ > 0), or `None` if it is not over-damped (it rings, or lies past Nyquist) or the
 /// values are not finite.
 fn overdamped_decay(lambda: f64, damping: &Damping, support_c: f64, extra_d: f64) -> Option<f64> {
-    let d = 0.5 * (damping.c(lambda) + support_c) + extra_d;
+    let d = mode_decay(lambda, damping, support_c, extra_d);
     if !(d.is_finite() && lambda.is_finite()) || lambda <= 0.0 || d < 0.0 || d * d < lambda {
         return None;
     }
@@ -2568,23 +2610,42 @@ impl Engine {
                 // tester's sphere shell at key 21 went silent within a sample of its note-off).
                 None => overdamped_decay(lambda, &damping, support, extra).map(|slow| (slow, 0.0)),
             };
-            // Past Nyquist: its state is kept aside (a bend up and back brings it back,
-            // decayed at its rate meanwhile; dropped, the bright partials of a note bent up
-            // and back were lost, a black-box tester's finding).
-            match pole {
-                None if lambda.is_finite() && lambda >= (PI * fs).powi(2) && voice.parked_at[k] == NOT_PARKED => {
+            // Past Nyquist (a pitch bend took it there): its state is kept aside and rings on
+            // at the rate and frequency the law gives it there, so a bend up and back brings
+            // it back as a sample rate high enough to hold it would have (silenced, the bright
+            // partials of a note bent up and back were lost: a black-box tester's finding).
+            if voice.parked_at[k] != NOT_PARKED {
+                voice.ring_parked(k, clock, fs);
+            }
+            let away = match pole {
+                Some(_) => None,
+                None => {
+                    let d = mode_decay(lambda, &damping, support, extra);
+                    let omega = (lambda - d * d).sqrt();
+                    (d.is_finite() && d >= 0.0 && omega >= PI * fs && d <= MAX_DECAY_PER_SAMPLE * fs)
+                        .then_some((d, omega))
+                }
+            };
+            match (away, voice.parked_at[k] != NOT_PARKED) {
+                (Some((d, omega)), was) => {
                     let (re, im) = voice.bank.state(k);
-                    if re != 0.0 || im != 0.0 {
-                        (voice.parked_re[k], voice.parked_im[k], voice.parked_at[k]) = (re, im, clock);
+                    if !was && (re != 0.0 || im != 0.0) {
+                        (voice.parked_re[k], voice.parked_im[k]) = (f64::from(re), f64::from(im));
+                        voice.parked_at[k] = clock;
+                        voice.parked += 1;
                     }
+                    // The rate and frequency it rings at from now (the bend may move on).
+                    (voice.parked_d[k], voice.parked_omega[k]) = (d, omega);
                 }
-                Some((d, _)) if voice.parked_at[k] != NOT_PARKED => {
-                    let away = clock.saturating_sub(voice.parked_at[k]) as f64 / fs;
-                    let f = (-d * away).exp() as f32;
-                    voice.bank.set_state(k, voice.parked_re[k] * f, voice.parked_im[k] * f);
+                (None, true) => {
+                    // Back under Nyquist (its state, rung on, resumes) or gone (dropped).
+                    if pole.is_some() {
+                        voice.bank.set_state(k, voice.parked_re[k] as f32, voice.parked_im[k] as f32);
+                    }
                     voice.parked_at[k] = NOT_PARKED;
+                    voice.parked -= 1;
                 }
-                _ => {}
+                (None, false) => {}
             }
             // Past Nyquist (or invalid): silence it.
             voice.bank.set_coeffs(k, pole.map_or(ModeCoeffs::default(), |(d, omega)| ModeCoeffs::new(d, omega, fs)));
@@ -2697,6 +2758,11 @@ impl Engine {
                     let e = &mut self.voices[owner].energy;
                     *e = add_energy(*e, re, im);
                 }
+            }
+            let (clock, fs) = (self.clock, self.sample_rate);
+            for &v in &self.live[..self.live_len] {
+                let voice = &mut self.voices[v];
+                voice.energy += voice.parked_energy(clock, fs);
             }
         }
         for i in 0..self.live_len {
