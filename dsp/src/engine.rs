@@ -426,7 +426,8 @@ pub const AUDIO_IN_RATE: f64 = 3000.0;
 pub const AUDIO_IN_HIGHPASS_HZ: f64 = 20.0;
 /// The high-passed input is flushed to exact zero under this (in units of a velocity-1
 /// strike's impulse per sample: −230 dB under a full-scale input's 0.0625 at 48 kHz), so
-/// silence after a sound ends in exact zeros (no denormals, 0.2 s after full scale).
+/// silence (or a constant) after a sound ends in exact zeros, 0.2 s after full scale: no
+/// denormals, and the input's contact stops there.
 const INPUT_TAIL_FLOOR: f64 = 1e-13;
 
 /// The audio-in voice's note id (no host's: its end is not reported).
@@ -1321,16 +1322,19 @@ fn render_voice(voice: &mut Voice, buf: &mut [Vec<f32>; 3], lanes: &mut [f32], e
                 // object does not depend on how long the host ran the plugin in silence first.
                 let x = env.input.map_or(0.0, |x| x[i + j]);
                 let x = if x.is_finite() { x * env.input_scale() } else { 0.0 };
+                // Its changes drive the modes, not its DC (see AUDIO_IN_HIGHPASS_HZ), and
+                // they are what moves the contact: a DC offset under a sound (1e-6 added to a
+                // drum track moved the contact on through every gap between its hits, a
+                // black-box tester's finding) or a constant input does not.
+                let hp = f64::from(x) - voice.input_last + r * voice.input_hp;
+                voice.input_last = f64::from(x);
+                voice.input_hp = if hp.abs() < INPUT_TAIL_FLOOR { 0.0 } else { hp };
+                let x = voice.input_hp as f32;
                 voice.input_silent_run = if x != 0.0 { 0 } else { voice.input_silent_run.saturating_add(1) };
                 if voice.input_silent_run < CONTROL_INTERVAL as u32 {
                     voice.contact.travel(&surface, speed);
                     voice.input_heard = true;
                 }
-                // Its changes drive the modes, not its DC (see AUDIO_IN_HIGHPASS_HZ).
-                let hp = f64::from(x) - voice.input_last + r * voice.input_hp;
-                voice.input_last = f64::from(x);
-                voice.input_hp = if hp.abs() < INPUT_TAIL_FLOOR { 0.0 } else { hp };
-                let x = voice.input_hp as f32;
                 let t = (env.phase + i + j) as f32 * (1.0 / CONTROL_INTERVAL as f32);
                 (x * (1.0 - t), x * t)
             } else if voice.lasting {
