@@ -16,7 +16,8 @@ What it asserts, each a measured property:
 - expression: MIDI CC 74 (MPE timbre: strike position) and channel pressure (damping) still
   reach the plugin through VST3, each changing the sound;
 - state: a changed parameter survives `raw_state` (and a .vstpreset, `preset_data`) into a
-  fresh instance, which then renders like the changed one and unlike a default one;
+  fresh instance, which then renders like the changed one and unlike a default one, also
+  when the state is saved right after setting it, before another render;
 - the effect (StruckResonator.vst3, when given): loads as an effect, which is how every host
   reaches *Audio in*; the impulse of target/host-renders/resonator-in.wav played through it
   gives, sample for sample (1e-5), what the CLAP binary gave (resonator-out.wav, written by
@@ -199,6 +200,24 @@ def main():
 
         return carries_state(pedalboard.load_plugin(vst3), save, lambda p, s: setattr(p, "preset_data", s), "preset")
 
+    def state_right_after_a_change():
+        # A parameter set after a render, saved before the next one: the wrapper ignored the
+        # controller's value while the plugin was processing and waited for the next process
+        # call, so the state held the old value (a black-box tester, stop 53).
+        a = pedalboard.load_plugin(vst3)
+        render(a, sr, 0.2, messages)
+        a.parameters["size"].raw_value = 0.6
+        saved = a.raw_state
+        b = pedalboard.load_plugin(vst3)
+        b.raw_state = saved
+        size = b.parameters["size"].raw_value
+        assert abs(size - 0.6) < 1e-4, f"size is {size} (normalised) after restoring a state saved right after setting it"
+        again = render(a, sr, seconds, messages)
+        restored = render(b, sr, seconds, messages)
+        d = float(np.max(np.abs(again - restored)))
+        assert d <= 1e-6, f"the restored instance differs from the changed one by {d:.2e}"
+        return f"size {size:.4f} restored; renders differ by {d:.1e}"
+
     def effect_loads():
         t0 = time.perf_counter()
         fx = pedalboard.load_plugin(fx_vst3)
@@ -232,6 +251,7 @@ def main():
         check("continuous parameters are numbers to pedalboard and take values", parameters_take_numbers)
         check("raw_state carries a changed parameter into a new instance", state_round_trip)
         check("a .vstpreset (preset_data) carries a changed parameter into a new instance", preset_round_trip)
+        check("a parameter set after a render is in the state saved before the next", state_right_after_a_change)
     if fx_vst3:
         check("Struck Resonator loads as an effect", effect_loads)
         if "fx" in state:

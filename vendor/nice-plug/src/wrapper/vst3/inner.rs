@@ -550,11 +550,14 @@ impl<P: Vst3Plugin> WrapperInner<P> {
 
         match self.param_by_hash.get(&hash) {
             Some(param_ptr) => {
-                if unsafe { param_ptr._internal_set_normalized_value(normalized_value) } {
-                    if let Some(sample_rate) = sample_rate {
-                        unsafe { param_ptr._internal_update_smoother(sample_rate, false) };
-                    }
-
+                // Struck patch: the smoother follows the value whenever the audio thread sets it,
+                // changed or not (`setParamNormalized` may have stored the value already while
+                // the plugin was processing; its smoother was left for this call).
+                let changed = unsafe { param_ptr._internal_set_normalized_value(normalized_value) };
+                if let Some(sample_rate) = sample_rate {
+                    unsafe { param_ptr._internal_update_smoother(sample_rate, false) };
+                }
+                if changed {
                     #[cfg(feature = "editor")]
                     {
                         let task_posted =

@@ -784,8 +784,12 @@ impl<P: Vst3Plugin> IEditControllerTrait for Wrapper<P> {
     unsafe fn setParamNormalized(&self, id: ParamID, value: ParamValue) -> tresult {
         // If the plugin is currently processing audio, then this parameter change will also be sent
         // to the process function
+        // Struck patch: the value is stored now too (the parameters are atomics; the smoother
+        // is left to the audio thread, which updates it when the change arrives there), so the
+        // component's state holds it even if the host saves before its next process call:
+        // pedalboard's `raw_state` right after setting a parameter saved the old value.
         if self.inner.is_processing.load(Ordering::SeqCst) {
-            return kResultOk;
+            return self.inner.set_normalized_value_by_hash(id, value as f32, None);
         }
 
         let sample_rate = self
