@@ -429,6 +429,12 @@ pub const AUDIO_IN_HIGHPASS_HZ: f64 = 20.0;
 /// silence (or a constant) after a sound ends in exact zeros, 0.2 s after full scale: no
 /// denormals, and the input's contact stops there.
 const INPUT_TAIL_FLOOR: f64 = 1e-13;
+/// The input's contact travels while the high-passed input is at least this (full scale 1:
+/// −80 dBFS). A DC offset already there when the input starts is a step, which the high-pass
+/// passes as a decaying exponential (τ = 8 ms): with exact zero as the floor, 1e-6 of offset
+/// moved the contact for 80 ms, and every later sound met the object elsewhere (a black-box
+/// tester); now an offset s moves it for 8 ms × ln(s / 1e-4), none under 1e-4.
+pub const INPUT_TRAVEL_FLOOR: f32 = 1e-4;
 
 /// The audio-in voice's note id (no host's: its end is not reported).
 const INPUT_VOICE_ID: i32 = i32::MIN;
@@ -1308,6 +1314,7 @@ fn render_voice(voice: &mut Voice, buf: &mut [Vec<f32>; 3], lanes: &mut [f32], e
         let m = end - i;
         let [u0, u1, u2] = buf;
         let r = env.input_highpass_r();
+        let travel_floor = INPUT_TRAVEL_FLOOR * env.input_scale();
         for j in 0..m {
             let t = voice.contact_pos + j;
             (u0[j], u1[j]) = if in_contact {
@@ -1330,7 +1337,8 @@ fn render_voice(voice: &mut Voice, buf: &mut [Vec<f32>; 3], lanes: &mut [f32], e
                 voice.input_last = f64::from(x);
                 voice.input_hp = if hp.abs() < INPUT_TAIL_FLOOR { 0.0 } else { hp };
                 let x = voice.input_hp as f32;
-                voice.input_silent_run = if x != 0.0 { 0 } else { voice.input_silent_run.saturating_add(1) };
+                voice.input_silent_run =
+                    if x.abs() >= travel_floor { 0 } else { voice.input_silent_run.saturating_add(1) };
                 if voice.input_silent_run < CONTROL_INTERVAL as u32 {
                     voice.contact.travel(&surface, speed);
                     voice.input_heard = true;

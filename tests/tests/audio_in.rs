@@ -370,28 +370,35 @@ fn a_constant_input_leaves_no_dc() {
 }
 
 /// A DC offset under a sound does not move the input's contact: drum-like hits 0.5 s apart
-/// with exact silence between them, as they are and with 0.001 added throughout, at 0.2 m/s:
-/// the third hit's ring (1.0–1.3 s) is the same within 1 % of its RMS (the offset moved the
-/// contact on through every gap, 10 cm each, a black-box tester's finding).
+/// with exact silence between them, as they are and with an offset added, at 0.2 m/s: the
+/// third hit's ring (1.0–1.3 s) is the same within 1 % of its RMS, for 0.001 added from the
+/// first hit on (it moved the contact on through every gap, 10 cm each, a black-box tester's
+/// finding) and for 1e-6 and 5e-5 already there 0.25 s before the first hit (the offset's
+/// step moved it for 80 ms while the contact travelled down to exact zeros: a second one).
 #[test]
 fn a_dc_offset_does_not_move_the_inputs_contact() {
-    let n = (1.3 * f64::from(SR)) as usize;
+    let lead = 12_000;
+    let n = lead + (1.3 * f64::from(SR)) as usize;
     let mut r = dsp::exciter::Noise::new(5);
     let mut hits = vec![0.0f32; n];
-    for start in [0, 24_000, 48_000] {
+    for start in [lead, lead + 24_000, lead + 48_000] {
         for (k, y) in hits[start..start + 2_400].iter_mut().enumerate() {
             *y = 0.5 * r.next_sample() * (-(k as f32) / 300.0).exp();
         }
     }
-    let ring = |offset: f32| {
-        let x: Vec<f32> = hits.iter().map(|&v| v + offset).collect();
+    let ring = |offset: f32, from: usize| {
+        let x: Vec<f32> = hits.iter().enumerate().map(|(i, &v)| if i >= from { v + offset } else { v }).collect();
         let mut h = host_of::<Effect>(&[("speed", 0.2)], x.clone(), x);
-        h.render(&[], n, 512).0[0][48_000..].to_vec()
+        h.render(&[], n, 512).0[0][lead + 48_000..].to_vec()
     };
-    let (plain, offset) = (ring(0.0), ring(0.001));
+    let plain = ring(0.0, 0);
     let rms = |v: &[f32]| (v.iter().map(|&y| f64::from(y) * f64::from(y)).sum::<f64>() / v.len() as f64).sqrt();
-    let diff: Vec<f32> = plain.iter().zip(&offset).map(|(a, b)| a - b).collect();
-    println!("third hit: difference {:.2e} of its RMS", rms(&diff) / rms(&plain));
     assert!(rms(&plain) > 1e-4);
-    assert!(rms(&diff) < 0.01 * rms(&plain), "difference {:.3} of the RMS", rms(&diff) / rms(&plain));
+    for (offset, from) in [(0.001, lead), (1e-6, 0), (5e-5, 0)] {
+        let with = ring(offset, from);
+        let diff: Vec<f32> = plain.iter().zip(&with).map(|(a, b)| a - b).collect();
+        let share = rms(&diff) / rms(&plain);
+        println!("offset {offset:e} from sample {from}: third hit differs by {share:.2e} of its RMS");
+        assert!(share < 0.01, "offset {offset:e} from sample {from}: {share:.3} of the RMS");
+    }
 }
