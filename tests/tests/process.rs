@@ -585,9 +585,10 @@ fn pitch_bend_and_note_tuning_move_the_modes_by_their_ratio() {
 /// A note bent far up and back keeps the partials the bend took past Nyquist: they ring on up
 /// there at the material's rate for their bent frequency and come back when the bend returns,
 /// as at a sample rate that holds them (they were silenced for good: a black-box tester's
-/// finding). Bar at key 48, range 48, a full bend up for 8 control ticks (10.7 ms at 48 kHz)
-/// and back: the partials that cross 24 kHz (under 48 kHz, where a 96 kHz render keeps them
-/// below Nyquist) are then, against the unbent note, e^(−(d₁₆ − d)·t) of it with d and d₁₆
+/// finding). Bar at key 48, range 48, a full bend up for 500 samples (10.4 ms at 48 kHz; the
+/// events between control ticks, as bends take effect at their own sample) and back: the
+/// partials that cross 24 kHz (under 48 kHz, where a 96 kHz render keeps them below Nyquist)
+/// are then, against the unbent note, e^(−(d₁₆ − d)·t) of it with d and d₁₆
 /// the material file's Rayleigh decays at their frequency and 16 times it (computed without
 /// the engine) within 0.3 dB, and as loud as in the 96 kHz render within 0.1 dB. A voice all
 /// of whose partials are over Nyquist (key 96) is not ended while they would still ring.
@@ -608,8 +609,9 @@ fn a_note_bent_past_nyquist_and_back_keeps_its_bright_partials() {
             .take(3)
             .collect();
     assert!(!bright.is_empty());
-    // Events on control ticks (64 samples at either rate: 1.33 ms is 1 tick at 48 kHz, 2 at 96).
-    let (up, down) = (15_360.0 / sr, (15_360.0 + 512.0) / sr);
+    // Events between control ticks (17 samples after one at 48 kHz, 34 at 96): a bend takes
+    // effect at its own sample.
+    let (up, down) = ((15_360.0 + 17.0) / sr, (15_360.0 + 17.0 + 500.0) / sr);
     let play = |rate: u32, (object, material, key): (&str, &str, u8), bend: &[(f64, f32)], seconds: f64| {
         let at = |t: f64| (t * f64::from(rate)).round() as u64;
         let mut events = vec![TimedEvent {
@@ -645,17 +647,17 @@ fn a_note_bent_past_nyquist_and_back_keeps_its_bright_partials() {
         assert!((got - want).abs() < 0.3, "{f:.0} Hz: {got:+.2} dB, the law {want:+.2}");
         assert!(rate.abs() < 0.1, "{f:.0} Hz: {rate:+.3} dB against the 96 kHz render");
     }
-    // At key 96 every partial of the bar goes over 24 kHz: for 21 ms the voice sounds nothing,
+    // At key 96 every partial of the bar goes over 24 kHz: for 10.4 ms the voice sounds nothing,
     // but its states would still ring, so it is not ended and comes back by the law.
     let key = 96;
     let (truth, bent_truth) = (expected_modes(object, material, key), expected_modes(object, material, key + 48));
-    let hold = [(up, 1.0), (up + 512.0 / sr, 0.5)];
+    let hold = [(up, 1.0), (up + 500.0 / sr, 0.5)];
     let (plain, bent) = (play(SR, (object, material, key), &[], 0.7), play(SR, (object, material, key), &hold, 0.7));
     let f = truth.iter().map(|m| m.freq_hz).fold(f64::INFINITY, f64::min);
     let (d, d16) = (nearest_expected(&truth, f).0.decay_per_s, nearest_expected(&bent_truth, 16.0 * f).0.decay_per_s);
-    let want = -(d16 - d) * 512.0 / sr * 20.0 * std::f64::consts::LOG10_E;
+    let want = -(d16 - d) * 500.0 / sr * 20.0 * std::f64::consts::LOG10_E;
     let level = |x: &[f32]| amplitude(x, sr, f, (0.4 * sr) as usize, 9600);
     let got = db(level(&bent) / level(&plain));
-    println!("key 96, every partial away for 10.7 ms: {f:.0} Hz at {got:+.2} dB (the law: {want:+.2})");
+    println!("key 96, every partial away for 10.4 ms: {f:.0} Hz at {got:+.2} dB (the law: {want:+.2})");
     assert!((got - want).abs() < 0.3, "key 96: {got:+.2} dB, the law {want:+.2}");
 }
