@@ -501,7 +501,9 @@ impl ContactState {
             (self.micro_last, self.micro_primed) = (raw, true);
         }
         let r = 1.0 - std::f64::consts::TAU * MICRO_HIGHPASS_HZ / surface.fs;
-        self.micro_hp = raw - self.micro_last + r * self.micro_hp;
+        let hp = raw - self.micro_last + r * self.micro_hp;
+        // (flushed under 1e-30: a stopped tool's force ends in exact zeros, not denormals)
+        self.micro_hp = if hp.abs() < 1e-30 { 0.0 } else { hp };
         self.micro_last = raw;
         let micro = MICRO_LEVEL / surface.fs * self.micro_hp;
         let mut u = CONTACT_GAIN * force * (micro + meso / (2.0 * FASTEST_STRIKE_M_PER_S));

@@ -84,6 +84,13 @@ pub const MAX_BEND_ST: f32 = 120.0;
 pub const DEFAULT_BEND_RANGE_ST: f64 = 2.0;
 /// [`Voice::parked_at`] of a slot whose state is not kept aside.
 const NOT_PARKED: u64 = u64::MAX;
+/// [`Voice::retuned_at`] of a voice not retuned yet.
+const NEVER_RETUNED: u64 = u64::MAX;
+/// Fewest samples between two rebuilds of a voice for its pitch at the events' samples
+/// ([`Engine::retune_now`]): a stream of bends or tuning events denser than this (one per
+/// sample, from a host's sample-accurate ramp) is caught up at the control tick, so its cost
+/// stays within 4 rebuilds a tick.
+pub const RETUNE_MIN_GAP: u64 = 16;
 /// Most voice-terminated notices buffered between two drains.
 pub const MAX_TERMINATED: usize = 256;
 /// Smoothing time constant of glided parameters (modulus ratio, size, decay scale), seconds.
@@ -425,7 +432,7 @@ pub const AUDIO_IN_RATE: f64 = 3000.0;
 /// driven 0.5 % weaker, one at 100 Hz 2 %.
 pub const AUDIO_IN_HIGHPASS_HZ: f64 = 20.0;
 /// The high-passed input is flushed to exact zero under this (in units of a velocity-1
-/// strike's impulse per sample: −230 dB under a full-scale input's 0.0625 at 48 kHz), so
+/// strike's impulse per sample: −236 dB under a full-scale input's 0.0625 at 48 kHz), so
 /// silence (or a constant) after a sound ends in exact zeros, 0.2 s after full scale: no
 /// denormals, and the input's contact stops there.
 const INPUT_TAIL_FLOOR: f64 = 1e-13;
@@ -627,6 +634,11 @@ struct Voice {
     /// states there are the voice's, its bank's are stale); `usize::MAX`: none.
     held_from: usize,
     dirty: bool,
+    /// Its pitch changed (a bend or a tuning event): rebuilt at the start of the next render
+    /// call, at the event's sample ([`Engine::retune_pending`]); `retuned_at`, the clock of
+    /// the last such rebuild.
+    retune: bool,
+    retuned_at: u64,
     bank: ResonatorBank,
     slot_of_mode: Vec<u16>,
     mode_of_slot: Vec<u16>,
@@ -682,9 +694,9 @@ struct Voice {
     /// The audio-in voice's contact travelled since the last control tick: it is then
     /// expected to travel over the next tick too, else to stay put.
     input_heard: bool,
-    /// Consecutive exactly-zero input samples up to now (the contact travels while this is
-    /// under [`CONTROL_INTERVAL`]: through a sound's own zero crossings and exact zeros, not
-    /// through silence).
+    /// Consecutive samples of the high-passed input under [`INPUT_TRAVEL_FLOOR`] up to now
+    /// (the contact travels while this is under [`CONTROL_INTERVAL`]: through a sound's own
+    /// zero crossings, not through silence or a constant).
     input_silent_run: u32,
     /// The audio input's last scaled sample and its high-passed value
     /// ([`AUDIO_IN_HIGHPASS_HZ`]).
@@ -711,6 +723,8 @@ impl Voice {
             energy: 0.0,
             held_from: usize::MAX,
             dirty: false,
+            retune: false,
+            retuned_at: NEVER_RETUNED,
             bank: ResonatorBank::new(max_modes),
             slot_of_mode: vec![NO_SLOT; max_modes],
             mode_of_slot: vec![0; max_modes],
@@ -773,6 +787,8 @@ impl Voice {
         }
         self.parked_at[..self.bank.len()].fill(NOT_PARKED);
         self.parked = 0;
+        self.retune = false;
+        self.retuned_at = NEVER_RETUNED;
         self.bank.clear();
         self.contact_len = 0;
         self.contact_pos = 0;
@@ -1878,6 +1894,8 @@ pub struct Engine {
     live_stale: bool,
     /// A note-on left a strike pending since the last rendered sample.
     strikes_pending: bool,
+    /// Some voice has [`Voice::retune`] set.
+    retunes_pending: bool,
     /// The free voices' modes packed for the kernel, kept from span to span ([`render_span`]).
     resident: Resident,
     /// Mode coefficients recomputed by control-rate rebuilds since construction.
@@ -1944,6 +1962,7 @@ impl Engine {
             live_len: 0,
             live_stale: true,
             strikes_pending: false,
+            retunes_pending: false,
             resident: Resident::new(max_voices + 1 + STEAL_SPARES, max_modes),
             rebuilt_modes: 0,
             variation_rng: Noise::new(VARIATION_SEED),
@@ -2148,8 +2167,8 @@ impl Engine {
     }
 
     /// Pitch bend of MIDI `channel` (0..16), −1..=1 of [`Self::set_bend_range`] (0: none):
-    /// every sounding note on it moves there at the next control tick ([`CONTROL_INTERVAL`];
-    /// its modes keep their states, so the ring bends without a click) and later notes on it
+    /// every sounding note on it moves there from this sample ([`Self::retune_now`]; its
+    /// modes keep their states, so the ring bends without a click) and later notes on it
     /// start there, until it is set again ([`Self::reset`] clears it). Realtime-safe.
     pub fn set_pitch_bend(&mut self, channel: u8, amount: f32) {
         let Some(b) = self.bend.get_mut(usize::from(channel)) else { return };
@@ -2167,17 +2186,41 @@ impl Engine {
     /// Voice `v`'s pitch changed at this sample: its poles follow from this sample on, as a
     /// release's do (at the next control tick, a bend took effect up to 64 samples late, so
     /// the law damped a bent partial for a time that depended on the sample rate: a 10 ms
-    /// bend lasted 10.0–10.7 ms at 44.1–96 kHz, a black-box tester). A strike still pending
-    /// plans its poles with the new pitch itself.
+    /// bend lasted 10.0–10.7 ms at 44.1–96 kHz, a black-box tester). The rebuild waits for
+    /// the start of the next render call, still this sample, so every event of the sample
+    /// (a bend and a tuning, a strike) is in before it ([`Engine::retune_pending`]).
     fn retune_now(&mut self, v: usize) {
-        if self.voices[v].pending.is_some() {
-            self.voices[v].dirty = true;
-            return;
+        self.voices[v].retune = true;
+        self.retunes_pending = true;
+    }
+
+    /// Rebuilds the voices whose pitch changed ([`Self::retune_now`]), at most once every
+    /// [`RETUNE_MIN_GAP`] samples each (a denser stream of bends is caught up at the next
+    /// control tick), before a strike pending at this sample plans its drive. A rebuild here
+    /// leaves the voice dirty if it was for another reason (a damping change the control tick
+    /// has not taken in yet). Realtime-safe.
+    fn retune_pending(&mut self) {
+        self.retunes_pending = false;
+        for i in 0..self.live_len {
+            let v = self.live[i];
+            if !self.voices[v].retune {
+                continue;
+            }
+            let last = self.voices[v].retuned_at;
+            if last != NEVER_RETUNED && self.clock < last.saturating_add(RETUNE_MIN_GAP) {
+                // Too soon: the control tick rebuilds it (and clears the flag).
+                self.voices[v].dirty = true;
+                continue;
+            }
+            if self.voices[v].held_from != usize::MAX {
+                self.flush_resident();
+            }
+            let other = self.voices[v].dirty;
+            self.rebuild(v);
+            let voice = &mut self.voices[v];
+            voice.retuned_at = self.clock;
+            voice.dirty = other;
         }
-        if self.voices[v].held_from != usize::MAX {
-            self.flush_resident();
-        }
-        self.rebuild(v);
     }
 
     /// Semitones of a full pitch bend (0..=[`MAX_BEND_ST`]): a change moves the notes of bent
@@ -2348,7 +2391,11 @@ impl Engine {
         if voice.held_from != usize::MAX {
             self.flush_resident();
         }
+        // Dirty for another reason (a damping change the control tick has not taken in yet):
+        // still rebuilt there.
+        let other = self.voices[v].dirty;
         self.rebuild(v);
+        self.voices[v].dirty = other;
     }
 
     /// Whether the sustain pedal holds notes of `channel`: its own pedal, or the pedal of the
@@ -2694,6 +2741,7 @@ impl Engine {
         }
         self.rebuilt_modes += voice.bank.len() as u64;
         voice.dirty = false;
+        voice.retune = false;
     }
 
     /// A lasting contact at a control tick: the gains at the contact's position one interval
@@ -2849,7 +2897,8 @@ impl Engine {
     /// Audio in (issue 16): while `on`, the object is a resonator for the input of
     /// [`render_input`](Self::render_input), driven at a contact that starts at `position`
     /// (0..=1 along the strike path) and moves like a lasting contact while the input sounds
-    /// (it stops after [`CONTROL_INTERVAL`] samples of exact zeros) (speed, direction, path
+    /// (it stops [`CONTROL_INTERVAL`] samples after the high-passed input falls under
+    /// [`INPUT_TRAVEL_FLOOR`]) (speed, direction, path
     /// ends of the [`ContactParams`]; speed 0: it stays there). A new position restarts the
     /// contact there; the modes are those a lasting contact would ring on the current object.
     /// Off: the object rings out. Realtime-safe.
@@ -2992,6 +3041,9 @@ impl Engine {
             }
             self.update_input();
             self.update_live();
+            if self.retunes_pending {
+                self.retune_pending();
+            }
             // Pending strikes happen at this sample, after all events sent for it (only
             // active voices have them).
             if std::mem::take(&mut self.strikes_pending) {
@@ -3736,6 +3788,57 @@ mod tests {
         let settled = e.rebuilt_modes();
         run(&mut e, 94, r);
         assert_eq!(e.rebuilt_modes(), settled, "a settled glide rebuilds nothing");
+    }
+
+    /// A bend rebuilds its channel's voices once at its own sample, the events of one sample
+    /// together once (a bend and a tuning), and a bend every sample (a host's ramp) at most
+    /// once every RETUNE_MIN_GAP samples plus each control tick's catch-up; the notes end at
+    /// the last bend's pitch either way.
+    #[test]
+    fn bends_rebuild_at_their_sample_and_no_more_often_than_the_gap() {
+        let lambdas: Vec<f64> = (1..=200).map(|k| (2.0 * PI * (80.0 + 37.0 * k as f64)).powi(2)).collect();
+        let obj = ObjectModes::new(lambdas, &[vec![1.0; 200]]);
+        let make = || {
+            let mut e = Engine::new(vec![obj.clone()], 8, 48_000.0);
+            e.set_params(SoundParams {
+                damping: Damping::Rayleigh { alpha1: 1.0, alpha2: 1e-10 },
+                ..SoundParams::default()
+            });
+            e.reset();
+            let note = NoteId { voice_id: None, channel: 0, key: 60 };
+            e.note_on(note, Strike { velocity: 0.8, position: 0.0, lambda_factor: 1.0 });
+            let mut out = [0.0f32; 512];
+            e.render(&mut out);
+            e
+        };
+        let mut out = [0.0f32; 512];
+        // One bend and one tuning event at sample 17 of a block: one rebuild.
+        let mut e = make();
+        let modes = e.active_modes() as u64;
+        assert!(modes > 100, "{modes} modes");
+        let before = e.rebuilt_modes();
+        e.render(&mut out[..17]);
+        e.set_pitch_bend(0, 0.5);
+        e.set_note_tuning(NoteId { voice_id: None, channel: 0, key: 60 }, 0.25);
+        e.render(&mut out[17..]);
+        assert_eq!(e.rebuilt_modes() - before, modes, "one rebuild for the sample's events");
+        // A bend every sample for 512 samples: at most one rebuild per 16 samples and one
+        // per 64-sample tick; and the last bend is where the notes end.
+        let mut e = make();
+        let mut once = make();
+        let before = e.rebuilt_modes();
+        for (i, y) in out.iter_mut().enumerate() {
+            e.set_pitch_bend(0, i as f32 / 1024.0);
+            e.render(std::slice::from_mut(y));
+        }
+        let rebuilds = (e.rebuilt_modes() - before) / modes;
+        assert!((32..=40).contains(&rebuilds), "{rebuilds} rebuilds for 512 bends");
+        once.set_pitch_bend(0, 511.0 / 1024.0);
+        let (mut a, mut b) = ([0.0f32; 512], [0.0f32; 512]);
+        e.render(&mut a);
+        once.render(&mut b);
+        let pole = |e: &Engine| e.voices.iter().find(|v| v.active).map(|v| v.bank.pole(0)).unwrap();
+        assert_eq!(pole(&e), pole(&once), "the notes end at the last bend");
     }
 
     /// Support damping (issue 10 part 6): each mode's extra c is its own fixed draw of an

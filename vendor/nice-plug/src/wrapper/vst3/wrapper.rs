@@ -788,8 +788,11 @@ impl<P: Vst3Plugin> IEditControllerTrait for Wrapper<P> {
         // is left to the audio thread, which updates it when the change arrives there), so the
         // component's state holds it even if the host saves before its next process call:
         // pedalboard's `raw_state` right after setting a parameter saved the old value.
+        // (The result stays kResultOk there, as upstream's, for ids it does not store: the
+        // MIDI-CC proxies.)
         if self.inner.is_processing.load(Ordering::SeqCst) {
-            return self.inner.set_normalized_value_by_hash(id, value as f32, None);
+            let _ = self.inner.set_normalized_value_by_hash(id, value as f32, None);
+            return kResultOk;
         }
 
         let sample_rate = self
