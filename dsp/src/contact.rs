@@ -352,6 +352,8 @@ pub struct Surface<'a> {
     pub wrap: bool,
     /// Sample rate, Hz.
     pub fs: f64,
+    /// The micro noise's high-pass pole at `fs` ([`HighPass::pole`] of [`MICRO_HIGHPASS_HZ`]).
+    pub micro_highpass_r: f64,
 }
 
 impl Surface<'_> {
@@ -405,12 +407,40 @@ pub struct ContactState {
     direction: f64,
     /// The tool's rotation angle (a ball), rad.
     angle: f64,
-    /// The micro noise's last profile value and its high-passed force
-    /// ([`MICRO_HIGHPASS_HZ`]); `micro_primed` once the first value is read (the filter
+    /// The micro noise's high-pass ([`MICRO_HIGHPASS_HZ`]), from the first value read (it
     /// starts at rest there: the strike is the contact's onset, not a step of the profile).
-    micro_last: f64,
-    micro_hp: f64,
-    micro_primed: bool,
+    micro_hp: Option<HighPass>,
+}
+
+/// A one-pole high-pass (DC blocker), y[n] = x[n] − x[n−1] + r·y[n−1], flushed to exact zero
+/// under a floor: the lasting contact's micro force and the audio input go through it, so
+/// only their changes push the modes (see [`MICRO_HIGHPASS_HZ`]). Realtime-safe.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct HighPass {
+    last: f64,
+    y: f64,
+}
+
+impl HighPass {
+    /// Its pole r for a corner of `corner_hz` at `sample_rate`: 1 − 2π·f/fs, e^(−2π·f/fs)
+    /// within 4·10⁻⁶ for 20 Hz at 44.1 kHz.
+    pub fn pole(corner_hz: f64, sample_rate: f64) -> f64 {
+        1.0 - std::f64::consts::TAU * corner_hz / sample_rate
+    }
+
+    /// At rest on the value `x` (its first output is 0 if `x` comes again).
+    pub fn at_rest_on(x: f64) -> Self {
+        HighPass { last: x, y: 0.0 }
+    }
+
+    /// The next output for input `x` with pole `r`; an output under `floor` is exactly 0.
+    #[inline]
+    pub fn next(&mut self, x: f64, r: f64, floor: f64) -> f64 {
+        let y = x - self.last + r * self.y;
+        self.last = x;
+        self.y = if y.abs() < floor { 0.0 } else { y };
+        self.y
+    }
 }
 
 impl ContactState {
@@ -494,18 +524,12 @@ impl ContactState {
                 meso -= v * (new - old);
             }
         }
-        // Micro: the fractal profile read at the distance travelled.
-        // (high-passed: see MICRO_HIGHPASS_HZ; 1 − ω/fs is e^(−ω/fs) within 4·10⁻⁶ at 44.1 kHz).
+        // Micro: the fractal profile read at the distance travelled, high-passed (see
+        // MICRO_HIGHPASS_HZ; flushed under 1e-30, so a stopped tool's force ends in exact
+        // zeros, not denormals).
         let raw = surface.noise.at(self.micro_offset + self.odometer_m / MICRO_TEXEL_M);
-        if !self.micro_primed {
-            (self.micro_last, self.micro_primed) = (raw, true);
-        }
-        let r = 1.0 - std::f64::consts::TAU * MICRO_HIGHPASS_HZ / surface.fs;
-        let hp = raw - self.micro_last + r * self.micro_hp;
-        // (flushed under 1e-30: a stopped tool's force ends in exact zeros, not denormals)
-        self.micro_hp = if hp.abs() < 1e-30 { 0.0 } else { hp };
-        self.micro_last = raw;
-        let micro = MICRO_LEVEL / surface.fs * self.micro_hp;
+        let hp = self.micro_hp.get_or_insert(HighPass::at_rest_on(raw));
+        let micro = MICRO_LEVEL / surface.fs * hp.next(raw, surface.micro_highpass_r, 1e-30);
         let mut u = CONTACT_GAIN * force * (micro + meso / (2.0 * FASTEST_STRIKE_M_PER_S));
         if let Tool::Ball(r) = surface.tool {
             self.angle = (self.angle + dx / r) % std::f64::consts::TAU;
@@ -545,7 +569,16 @@ mod tests {
     use super::*;
 
     fn surface<'a>(texture: &'a Texture, noise: &'a FractalNoise, tool: Tool) -> Surface<'a> {
-        Surface { texture, scale: 1.0, tool, noise, path_m: PATH_LENGTH_M, wrap: false, fs: 48_000.0 }
+        Surface {
+            texture,
+            scale: 1.0,
+            tool,
+            noise,
+            path_m: PATH_LENGTH_M,
+            wrap: false,
+            fs: 48_000.0,
+            micro_highpass_r: HighPass::pole(MICRO_HIGHPASS_HZ, 48_000.0),
+        }
     }
 
     /// Power of `x` per octave band [f, 2f) by a periodogram (Hann window, averaged segments).

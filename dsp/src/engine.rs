@@ -6,7 +6,7 @@
 //! them. Events are applied at the exact sample the caller renders up to. So the output
 //! does not depend on how the host splits its buffers.
 
-use crate::contact::{self, ContactState, Excitation, FractalNoise, Surface, Texture, TextureKind, Tool};
+use crate::contact::{self, ContactState, Excitation, FractalNoise, HighPass, Surface, Texture, TextureKind, Tool};
 use crate::damping::Damping;
 use crate::exciter::{self, Mallet, MalletKind, Noise};
 use crate::residual::{ResidualClip, Residuals};
@@ -505,7 +505,7 @@ impl<'a> ContactEnv<'a> {
 
     /// The pole r of the input's high-pass ([`AUDIO_IN_HIGHPASS_HZ`]).
     fn input_highpass_r(&self) -> f64 {
-        1.0 - std::f64::consts::TAU * AUDIO_IN_HIGHPASS_HZ / self.fs
+        HighPass::pole(AUDIO_IN_HIGHPASS_HZ, self.fs)
     }
 
     fn surface(&self, excitation: Excitation) -> Surface<'a> {
@@ -531,6 +531,7 @@ impl<'a> ContactEnv<'a> {
             path_m: self.path_m,
             wrap: p.wrap,
             fs: self.fs,
+            micro_highpass_r: HighPass::pole(contact::MICRO_HIGHPASS_HZ, self.fs),
         }
     }
 }
@@ -698,10 +699,8 @@ struct Voice {
     /// (the contact travels while this is under [`CONTROL_INTERVAL`]: through a sound's own
     /// zero crossings, not through silence or a constant).
     input_silent_run: u32,
-    /// The audio input's last scaled sample and its high-passed value
-    /// ([`AUDIO_IN_HIGHPASS_HZ`]).
-    input_last: f64,
-    input_hp: f64,
+    /// The audio input's high-pass ([`AUDIO_IN_HIGHPASS_HZ`]).
+    input_hp: HighPass,
 }
 
 impl Voice {
@@ -757,8 +756,7 @@ impl Voice {
             trim_energy: f32::MAX,
             input: false,
             input_heard: false,
-            input_last: 0.0,
-            input_hp: 0.0,
+            input_hp: HighPass::default(),
             input_silent_run: u32::MAX,
         }
     }
@@ -803,8 +801,7 @@ impl Voice {
         self.speed = None;
         self.input_heard = false;
         self.input_silent_run = u32::MAX;
-        self.input_last = 0.0;
-        self.input_hp = 0.0;
+        self.input_hp = HighPass::default();
     }
 
     /// Extra decay rate from release and pressure, s⁻¹.
@@ -1349,10 +1346,7 @@ fn render_voice(voice: &mut Voice, buf: &mut [Vec<f32>; 3], lanes: &mut [f32], e
                 // they are what moves the contact: a DC offset under a sound (1e-6 added to a
                 // drum track moved the contact on through every gap between its hits, a
                 // black-box tester's finding) or a constant input does not.
-                let hp = f64::from(x) - voice.input_last + r * voice.input_hp;
-                voice.input_last = f64::from(x);
-                voice.input_hp = if hp.abs() < INPUT_TAIL_FLOOR { 0.0 } else { hp };
-                let x = voice.input_hp as f32;
+                let x = voice.input_hp.next(f64::from(x), r, INPUT_TAIL_FLOOR) as f32;
                 voice.input_silent_run =
                     if x.abs() >= travel_floor { 0 } else { voice.input_silent_run.saturating_add(1) };
                 if voice.input_silent_run < CONTROL_INTERVAL as u32 {
@@ -2197,8 +2191,8 @@ impl Engine {
     /// Rebuilds the voices whose pitch changed ([`Self::retune_now`]), at most once every
     /// [`RETUNE_MIN_GAP`] samples each (a denser stream of bends is caught up at the next
     /// control tick), before a strike pending at this sample plans its drive. A rebuild here
-    /// leaves the voice dirty if it was for another reason (a damping change the control tick
-    /// has not taken in yet). Realtime-safe.
+    /// leaves the voice dirty if it was for another reason ([`Self::rebuild_now`]).
+    /// Realtime-safe.
     fn retune_pending(&mut self) {
         self.retunes_pending = false;
         for i in 0..self.live_len {
@@ -2212,19 +2206,14 @@ impl Engine {
                 self.voices[v].dirty = true;
                 continue;
             }
-            if self.voices[v].held_from != usize::MAX {
-                self.flush_resident();
-            }
-            let other = self.voices[v].dirty;
-            self.rebuild(v);
-            let voice = &mut self.voices[v];
-            voice.retuned_at = self.clock;
-            voice.dirty = other;
+            self.rebuild_now(v);
+            self.voices[v].retuned_at = self.clock;
         }
     }
 
     /// Semitones of a full pitch bend (0..=[`MAX_BEND_ST`]): a change moves the notes of bent
-    /// channels at once (a black-box tester: it waited for the next bend message).
+    /// channels at the next control tick (a black-box tester: it waited for the next bend
+    /// message).
     /// Realtime-safe.
     pub fn set_bend_range(&mut self, semitones: f32) {
         let st = if semitones.is_finite() { f64::from(semitones.clamp(0.0, MAX_BEND_ST)) } else { 0.0 };
@@ -2388,11 +2377,17 @@ impl Engine {
             voice.dirty = true;
             return;
         }
-        if voice.held_from != usize::MAX {
+        self.rebuild_now(v);
+    }
+
+    /// Rebuilds voice `v` between control ticks (a release, a bend at its sample), its held
+    /// modes first brought back from the batches; a voice dirty for another reason (a damping
+    /// change the control tick has not taken into `params` yet) stays dirty, so the tick
+    /// still rebuilds it with the new values (a reviewer: cleared here, it kept the old ones).
+    fn rebuild_now(&mut self, v: usize) {
+        if self.voices[v].held_from != usize::MAX {
             self.flush_resident();
         }
-        // Dirty for another reason (a damping change the control tick has not taken in yet):
-        // still rebuilt there.
         let other = self.voices[v].dirty;
         self.rebuild(v);
         self.voices[v].dirty = other;
