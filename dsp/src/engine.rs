@@ -2103,7 +2103,9 @@ impl Engine {
 
     /// Samples until every sounding voice has fallen 60 dB from where it is now if nothing
     /// drives it any more: the slowest sounding mode's T60, at most `cap` (0 when silent). An
-    /// effect's tail for the host. Realtime-safe; one pass over the sounding modes.
+    /// effect's tail for the host. A mode a pitch bend keeps past Nyquist counts at the rate
+    /// it rings at there (it comes back when the bend does). Realtime-safe; one pass over the
+    /// sounding modes.
     pub fn tail_samples(&self, cap: u32) -> u32 {
         // The largest |pole|² (f32: two products and a max per mode).
         let mut slowest = 0.0f32;
@@ -2111,6 +2113,11 @@ impl Engine {
             for k in 0..v.bank.len() {
                 let (re, im) = v.bank.pole(k);
                 slowest = slowest.max(re * re + im * im);
+            }
+            if v.parked > 0 {
+                for k in (0..v.bank.len()).filter(|&k| v.parked_at[k] != NOT_PARKED) {
+                    slowest = slowest.max((-2.0 * v.parked_d[k] / self.sample_rate).exp() as f32);
+                }
             }
         }
         let slowest = f64::from(slowest);
@@ -3834,6 +3841,41 @@ mod tests {
         once.render(&mut b);
         let pole = |e: &Engine| e.voices.iter().find(|v| v.active).map(|v| v.bank.pole(0)).unwrap();
         assert_eq!(pole(&e), pole(&once), "the notes end at the last bend");
+    }
+
+    /// A note whose every mode a bend holds past Nyquist is silent but still rings there: its
+    /// tail is the T60 of the law's decay rate at the bent λ (computed here from the Rayleigh
+    /// law, d = (α₁ + α₂λ)/2, λ 16² times the bank's), not 0, so a host keeps calling an effect that
+    /// will ring again when the bend comes back.
+    #[test]
+    fn a_note_bent_past_nyquist_keeps_its_tail() {
+        let fs = 48_000.0;
+        let f0 = 5000.0;
+        let obj = ObjectModes::new(vec![(2.0 * PI * f0).powi(2)], &[vec![1.0]]);
+        let mut e = Engine::new(vec![obj], 2, fs);
+        let (a1, a2) = (1.0, 1e-10);
+        e.set_params(SoundParams { damping: Damping::Rayleigh { alpha1: a1, alpha2: a2 }, ..SoundParams::default() });
+        e.reset();
+        e.set_bend_range(48.0);
+        let note = NoteId { voice_id: None, channel: 0, key: 60 };
+        e.note_on(note, Strike { velocity: 0.8, position: 0.0, lambda_factor: 1.0 });
+        let mut out = [0.0f32; 256];
+        e.render(&mut out);
+        let ringing = e.tail_samples(u32::MAX);
+        assert!(ringing > 0, "the struck note rings");
+        // 16× the frequency: 80 kHz, over the 24 kHz Nyquist.
+        e.set_pitch_bend(0, 1.0);
+        out.fill(0.0);
+        e.render(&mut out);
+        let loud = out[64..].iter().fold(0.0f32, |m, x| m.max(x.abs()));
+        assert!(loud == 0.0, "the bent note is silent here: {loud}");
+        assert_eq!(e.active_voices(), 1, "and still sounding");
+        // The bent eigenvalue: λ ∝ f², 16² times the bank's.
+        let lambda = (2.0 * PI * f0).powi(2) * 256.0;
+        let d = 0.5 * (a1 + a2 * lambda);
+        let expected = (1e3f64).ln() / d * fs;
+        let tail = f64::from(e.tail_samples(u32::MAX));
+        assert!((tail - expected).abs() <= 0.01 * expected, "tail {tail} samples, the law's T60 {expected}");
     }
 
     /// Support damping (issue 10 part 6): each mode's extra c is its own fixed draw of an
