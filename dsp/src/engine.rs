@@ -843,9 +843,13 @@ impl Voice {
     }
 
     /// Rings parked slot `k`'s state on to `clock` at its rate past Nyquist (exactly: the
-    /// mode as it would ring at any sample rate over it).
+    /// mode as it would ring at any sample rate over it). A state parked at a strike is that
+    /// of its pulse's end, which may still be ahead of `clock`: it stays as it is.
     fn ring_parked(&mut self, k: usize, clock: u64, fs: f64) {
-        let dt = clock.saturating_sub(self.parked_at[k]) as f64 / fs;
+        if clock <= self.parked_at[k] {
+            return;
+        }
+        let dt = (clock - self.parked_at[k]) as f64 / fs;
         let r = (-self.parked_d[k] * dt).exp();
         let (sn, cs) = (self.parked_omega[k] * dt).sin_cos();
         let (re, im) = (self.parked_re[k], self.parked_im[k]);
@@ -1039,6 +1043,20 @@ fn pickup(d: f64, omega: f64) -> C64 {
     } else {
         C0
     }
+}
+
+/// The state z(T) at the end of the pulse (length `contact_s`) of a mode with decay `d` and
+/// angular frequency `omega`, struck from rest by the unit-area pulse of `shape`, in closed
+/// form: z(T) = ∫₀^T F(τ)·e^(s(T − τ)) dτ = A·a·(e^(sT) + e^(−βT)) / ((β + s)² + a²) with
+/// s = −d + iω (aT = π; see [`PulseShape`]). For a mode a pitch bend holds past Nyquist at its
+/// strike, which the sampled drive cannot render.
+fn parked_strike(shape: &PulseShape, contact_s: f64, d: f64, omega: f64) -> C64 {
+    let (a, beta) = (shape.a, shape.beta);
+    let (sn, cs) = (omega * contact_s).sin_cos();
+    let e = (-d * contact_s).exp();
+    let num = (shape.amp * a * (e * cs + (-beta * contact_s).exp()), shape.amp * a * e * sn);
+    let (br, bi) = (beta - d, omega);
+    cdiv(num, (br * br - bi * bi + a * a, 2.0 * br * bi))
 }
 
 /// The pulse drive of one mode (see [`PulseShape`]) as the mode is heard (times
@@ -2530,6 +2548,8 @@ impl Engine {
         let support = self.effective_support();
         let fs = self.sample_rate;
         let scale = self.voice_scale(v);
+        // The note's own scale, without its bend and tuning.
+        let unbent = self.lambda_scale(self.voices[v].lambda_factor);
         let jitter = if p.variation > 0.0 {
             let var = p.variation.clamp(0.0, 1.0);
             let r = &mut self.variation_rng;
@@ -2625,6 +2645,69 @@ impl Engine {
                 let g = self.gains[m] * plan.impulse_norm;
                 voice.gain_from[k] = g;
                 voice.gain_to[k] = g;
+            }
+        }
+        if !lasting && scale > unbent {
+            // Struck while a bend holds some of its modes past Nyquist: they are struck all the
+            // same, their state after the pulse kept aside (parked, as in `rebuild`), so they
+            // ring when the bend comes back down as a sample rate that holds them would play
+            // them (they had no slot and stayed silent).
+            let clock = self.clock;
+            for m in 0..n {
+                if self.poles[m].1 > 0.0 {
+                    continue;
+                }
+                // Only the modes the note rings unbent (no more slots than it has anyway).
+                let support = modes.support_of(m);
+                if mode_pole(obj.lambdas[m] * unbent, &damping, support, extra, fs).is_none() {
+                    continue;
+                }
+                let lambda = obj.lambdas[m] * scale;
+                let d = mode_decay(lambda, &damping, support, extra);
+                let omega = (lambda - d * d).sqrt();
+                if !(d.is_finite() && d >= 0.0 && omega >= PI * fs && d <= MAX_DECAY_PER_SAMPLE * fs) {
+                    continue;
+                }
+                let a = f64::from(self.gains[m]) * exciter::pulse_spectrum(omega / (2.0 * PI), contact, p.mallet.skew);
+                if !(a.abs() >= f64::from(threshold)) {
+                    continue;
+                }
+                let mut slot = voice.slot_of_mode[m];
+                if slot == NO_SLOT {
+                    match voice.bank.push(ModeCoeffs::default()) {
+                        Some(k) => {
+                            slot = k as u16;
+                            voice.slot_of_mode[m] = slot;
+                            voice.mode_of_slot[k] = m as u16;
+                        }
+                        None => continue,
+                    }
+                }
+                let k = usize::from(slot);
+                (voice.drive_gain[k], voice.corr_re[k], voice.corr_im[k]) = (0.0, 0.0, 0.0);
+                // The state at the end of the pulse (where the strike is complete), in closed
+                // form: z(T) = A·a·(e^(sT) + e^(−βT)) / ((β + s)² + a²), s = −d + iω, for the
+                // pulse A·e^(−βt)·sin(at) (see `PulseShape`), as heard (`pickup`).
+                let g = f64::from(self.gains[m]) * f64::from(level) * f64::from(1.0 - noise);
+                let z = parked_strike(&shape, contact, d, omega);
+                // Advanced from the pulse's end to the sample it ends in.
+                let lag = ((contact * fs).ceil() / fs - contact).max(0.0);
+                let (sn, cs) = (omega * lag).sin_cos();
+                let z = cmul(z, ((-d * lag).exp() * cs, (-d * lag).exp() * sn));
+                let (re, im) = cmul(pickup(d, omega), (g * z.0, g * z.1));
+                let end = clock + PULSE_PREROLL as u64 + (contact * fs).ceil() as u64;
+                if voice.parked_at[k] == NOT_PARKED {
+                    (voice.parked_re[k], voice.parked_im[k]) = (re, im);
+                    voice.parked += 1;
+                } else {
+                    // Struck again while away: the new ring adds to the old.
+                    voice.ring_parked(k, end, fs);
+                    voice.parked_re[k] += re;
+                    voice.parked_im[k] += im;
+                }
+                voice.parked_at[k] = end;
+                (voice.parked_d[k], voice.parked_omega[k]) = (d, omega);
+                voice.bank.set_coeffs(k, ModeCoeffs::default());
             }
         }
         if lasting {
