@@ -592,6 +592,9 @@ fn pitch_bend_and_note_tuning_move_the_modes_by_their_ratio() {
 /// the material file's Rayleigh decays at their frequency and 16 times it (computed without
 /// the engine) within 0.3 dB, and as loud as in the 96 kHz render within 0.1 dB. A voice all
 /// of whose partials are over Nyquist (key 96) is not ended while they would still ring.
+/// A note struck with the bend already up strikes those partials too (their state after the
+/// pulse in closed form): bent back, they stand to the fundamental as in the 96 kHz render
+/// within 0.1 dB.
 #[test]
 fn a_note_bent_past_nyquist_and_back_keeps_its_bright_partials() {
     use nice_plug::midi::{Channel, Key, VoiceID};
