@@ -615,7 +615,11 @@ fn a_note_bent_past_nyquist_and_back_keeps_its_bright_partials() {
     // Events between control ticks (17 samples after one at 48 kHz, 34 at 96): a bend takes
     // effect at its own sample.
     let (up, down) = ((15_360.0 + 17.0) / sr, (15_360.0 + 17.0 + 500.0) / sr);
-    let play_with = |set: &[(&str, f32)], rate: u32, (object, material, key): (&str, &str, u8), bend: &[(f64, f32)], seconds: f64| {
+    let play_with = |set: &[(&str, f32)],
+                     rate: u32,
+                     (object, material, key): (&str, &str, u8),
+                     bend: &[(f64, f32)],
+                     seconds: f64| {
         let at = |t: f64| (t * f64::from(rate)).round() as u64;
         let mut events = vec![TimedEvent {
             sample: 0,
