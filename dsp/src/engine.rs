@@ -2569,7 +2569,7 @@ impl Engine {
         // until the next control tick, and the strike's drive, computed for the new ones,
         // came out up to 5.6 dB quiet depending on where in the tick's interval it fell (a
         // reviewer's finding).
-        if self.voices[v].bank.len() > 0 {
+        if !self.voices[v].bank.is_empty() {
             self.rebuild_now(v);
         }
         let p = self.params;
