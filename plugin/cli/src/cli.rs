@@ -1037,7 +1037,11 @@ pub fn render_with_stats(opts: &RenderOptions) -> Result<(String, RenderStats), 
     let lib = host.plugin().library().clone();
     let p = host.plugin().struck_params();
     let obj = lib.banks.get(p.object.value() as usize).map_or("?", |b| b.name.as_str());
-    let mat = lib.materials.get(p.material.value() as usize).map_or("Custom", |m| m.name.as_str());
+    // A material file plays through the *Custom* knobs: named by its own name and file.
+    let mat = match resolve_material(&lib, &opts.sound.material, false) {
+        Ok(MaterialChoice::File(m)) => format!("{} ({})", m.name, opts.sound.material),
+        _ => lib.materials.get(p.material.value() as usize).map_or("Custom", |m| m.name.as_str()).to_string(),
+    };
     let mut notes = String::new();
     if pass.faded {
         notes += ", last 10 ms faded out";

@@ -485,6 +485,25 @@ fn render_never_replaces_an_input_or_a_file_on_failure() {
         assert_eq!(std::fs::read(file).unwrap(), before);
     }
     assert_eq!(std::fs::read(&mid).unwrap()[..4], *b"MThd");
+    // A render with the material file names it, not "Custom" (the knobs it plays through).
+    let named = dir.join("named.wav");
+    let o = struck(
+        &dir,
+        &[
+            "render",
+            "--material",
+            material.to_str().unwrap(),
+            "--notes",
+            "60:100",
+            "--seconds",
+            "0.2",
+            "--out",
+            named.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let said = String::from_utf8_lossy(&o.stdout).to_string() + &stderr(&o);
+    assert!(said.contains(&format!("Glass (Ren 2013) ({})", material.display())), "{said}");
 
     // Folders that do not exist or are not folders, and an output that is a folder.
     let e = error_line(&struck(&dir, &["render", "--out", dir.join("nowhere/x.wav").to_str().unwrap()]));
