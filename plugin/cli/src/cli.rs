@@ -365,7 +365,18 @@ pub fn resolve_material(lib: &Library, query: &str, say: bool) -> Result<Materia
             let _ = e;
             load_material(Path::new(query), say).map(|m| MaterialChoice::File(Box::new(m)))
         }
-        Err(e) => Err(e),
+        Err(e) => {
+            // A material in the user folder (a capture saved there), by its id or name.
+            let q = query.to_lowercase();
+            let user = struck::library::scan_user_materials(&struck::library::user_material_dir());
+            match user
+                .iter()
+                .find(|u| u.material.as_ref().is_ok_and(|m| m.id.to_lowercase() == q || m.name.to_lowercase() == q))
+            {
+                Some(u) => load_material(&u.path, say).map(|m| MaterialChoice::File(Box::new(m))),
+                None => Err(e),
+            }
+        }
     }
 }
 
@@ -1212,27 +1223,46 @@ pub fn print_objects(json: bool) -> Result<(), String> {
 /// Never.
 pub fn print_materials(json: bool) -> Result<(), String> {
     let lib = Library::factory();
+    // The user folder's materials (captures saved there): `--material` takes their id or name.
+    let dir = struck::library::user_material_dir();
+    let user = struck::library::scan_user_materials(&dir);
     if json {
-        let v: Vec<_> = lib
+        let mut v: Vec<_> = lib
             .materials
             .iter()
             .enumerate()
             .map(|(i, m)| serde_json::json!({"index": i, "id": m.id, "name": m.name, "provenance": m.provenance, "specific_modulus": m.specific_modulus, "damping": m.damping}))
             .collect();
+        v.extend(user.iter().map(|u| match &u.material {
+            Ok(m) => serde_json::json!({"user": true, "path": u.path, "id": m.id, "name": m.name, "provenance": m.provenance, "specific_modulus": m.specific_modulus, "damping": m.damping}),
+            Err(e) => serde_json::json!({"user": true, "path": u.path, "error": e}),
+        }));
         outln!("{}", serde_json::to_string_pretty(&v).map_err(|e| e.to_string())?);
     } else {
-        for (i, (m, d)) in lib.materials.iter().zip(&lib.dampings).enumerate() {
+        let row = |index: &str, id: &str, name: &str, d: &Damping| {
             let t60 = |f: f64| 6.91 / (0.5 * d.c((2.0 * std::f64::consts::PI * f).powi(2)));
-            outln!(
-                "{i:2}  {:28} {:30} T60 {:6.2} s @200 Hz, {:6.3} s @1 kHz, {:6.3} s @5 kHz",
-                m.id,
-                m.name,
+            format!(
+                "{index:>2}  {id:28} {name:30} T60 {:6.2} s @200 Hz, {:6.3} s @1 kHz, {:6.3} s @5 kHz",
                 t60(200.0),
                 t60(1000.0),
                 t60(5000.0)
-            );
+            )
+        };
+        for (i, (m, d)) in lib.materials.iter().zip(&lib.dampings).enumerate() {
+            outln!("{}", row(&i.to_string(), &m.id, &m.name, d));
         }
         outln!("{:2}  custom                       (the damping knobs)", lib.custom_material_index());
+        if !user.is_empty() {
+            outln!("user materials in {} (by id or name; played through the damping knobs):", dir.display());
+            for u in &user {
+                let file = u.path.file_name().map_or_else(String::new, |f| f.to_string_lossy().into_owned());
+                match u.material.as_ref().map(|m| (m, m.damping.to_damping())) {
+                    Ok((m, Ok(d))) => outln!("{}  ({file})", row("", &m.id, &m.name, &d)),
+                    Ok((_, Err(e))) => outln!("    {file}: {e}"),
+                    Err(e) => outln!("    {file}: {e}"),
+                }
+            }
+        }
     }
     Ok(())
 }

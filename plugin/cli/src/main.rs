@@ -23,6 +23,9 @@ enum Command {
         json: bool,
     },
     /// List the materials.
+    ///
+    /// The factory's, the damping knobs (`custom`) and the user folder's ($STRUCK_USER_DIR,
+    /// else ~/.local/share/struck/materials on Linux), which `--material` takes by id or name.
     Materials {
         /// Machine-readable output.
         #[arg(long)]

@@ -705,6 +705,59 @@ fn the_streamed_wav_equals_the_in_memory_render() {
     assert!(stderr(&o).contains("last 10 ms faded out"), "{}", stderr(&o));
 }
 
+/// A material saved in the user folder (a capture) is listed by `struck materials` and played
+/// by `--material` with its id or name, as its file would be (a black-box tester found
+/// captures nowhere but in the editor); one that does not load is listed with why.
+#[test]
+fn user_materials_are_listed_and_played_by_id() {
+    let dir = scratch("user-materials");
+    let user = dir.join("user");
+    std::fs::create_dir_all(&user).unwrap();
+    let mut m = presets::factory_material("steel-sterling-rayleigh").unwrap();
+    m.id = "my-steel".into();
+    m.name = "My steel".into();
+    let file = user.join("mine.json");
+    m.save(&file).unwrap();
+    std::fs::write(user.join("zz-broken.json"), "{ not a material").unwrap();
+    let o = struck(&dir, &["materials"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let list = String::from_utf8(o.stdout).unwrap();
+    assert!(
+        list.lines().any(|l| l.contains("my-steel") && l.contains("My steel") && l.contains("(mine.json)")),
+        "{list}"
+    );
+    assert!(list.lines().any(|l| l.contains("zz-broken.json:") && l.contains("not a valid")), "{list}");
+    let o = struck(&dir, &["materials", "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v.as_array().unwrap().iter().any(|e| e["id"] == "my-steel" && e["user"] == true), "{v}");
+    let render = |material: &str| {
+        let out = dir.join(format!("{}.wav", material.len()));
+        let o = struck(
+            &dir,
+            &[
+                "render",
+                "--material",
+                material,
+                "--notes",
+                "60:100",
+                "--seconds",
+                "0.3",
+                "--out",
+                out.to_str().unwrap(),
+            ],
+        );
+        assert_eq!(o.status.code(), Some(0), "{material}: {}", stderr(&o));
+        hound::WavReader::open(&out).unwrap().samples::<f32>().map(Result::unwrap).collect::<Vec<f32>>()
+    };
+    let by_file = render(file.to_str().unwrap());
+    assert_eq!(render("my-steel"), by_file);
+    assert_eq!(render("My Steel"), by_file);
+    assert!(by_file.iter().any(|x| x.abs() > 1e-3));
+    let e =
+        error_line(&struck(&dir, &["render", "--material", "nobody", "--out", dir.join("n.wav").to_str().unwrap()]));
+    assert!(e.contains("unknown material 'nobody'"), "{e}");
+}
+
 /// A recording of three strikes, made by the binary.
 fn strikes(dir: &Path) -> PathBuf {
     let rec = dir.join("rec.wav");

@@ -147,6 +147,37 @@ impl Library {
     }
 }
 
+/// One material file in the user folder ([`scan_user_materials`]).
+pub struct UserMaterial {
+    /// The file.
+    pub path: PathBuf,
+    /// The material, or why it does not load (one line).
+    pub material: Result<Material, String>,
+    /// The fields the file has that Struck does not read, in words (none: `None`).
+    pub unknown: Option<String>,
+}
+
+/// Lists `dir`'s `.json` materials, sorted by file name (the editor's user list and `struck
+/// materials`).
+pub fn scan_user_materials(dir: &Path) -> Vec<UserMaterial> {
+    let mut out: Vec<UserMaterial> = std::fs::read_dir(dir)
+        .map(|rd| {
+            rd.filter_map(Result::ok)
+                .map(|e| e.path())
+                .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")))
+                .map(|path| match Material::load_listing_unknown(&path) {
+                    Ok((m, unknown)) => {
+                        UserMaterial { material: Ok(m), unknown: presets::unknown_fields_note(&unknown), path }
+                    }
+                    Err(e) => UserMaterial { material: Err(e.to_string()), unknown: None, path },
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    out.sort_by(|a, b| a.path.cmp(&b.path));
+    out
+}
+
 /// The folder user materials are saved to and listed from: `$STRUCK_USER_DIR`, else
 /// `$XDG_DATA_HOME/struck/materials`, `~/.local/share/struck/materials` (Linux),
 /// `~/Library/Application Support/Struck/materials` (macOS), `%APPDATA%\Struck\materials`.

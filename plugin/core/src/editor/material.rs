@@ -4,17 +4,9 @@
 use super::logic::{self, F_MAX_HZ, F_MIN_HZ};
 use super::panel::{apply_damping, param_row, set_param, PanelCtx};
 use super::plot::{Axis, Plot};
+use crate::library::{scan_user_materials, UserMaterial};
 use egui::{self, Color32, Stroke};
-use presets::Material;
 use std::path::PathBuf;
-
-/// A material file in the user folder.
-pub(super) struct UserMaterial {
-    pub path: PathBuf,
-    pub material: Result<Material, String>,
-    /// The fields the file has that Struck does not read, in words (none: `None`).
-    pub unknown: Option<String>,
-}
 
 /// Material panel state.
 #[derive(Default)]
@@ -30,26 +22,6 @@ pub(super) struct MaterialPanel {
     pub texture_message: Option<String>,
     /// Read a .png texture along a spiral from its centre (else its middle row).
     pub texture_spiral: bool,
-}
-
-/// Lists `dir`'s `.json` materials, sorted by file name.
-pub(super) fn scan_user_materials(dir: &std::path::Path) -> Vec<UserMaterial> {
-    let mut out: Vec<UserMaterial> = std::fs::read_dir(dir)
-        .map(|rd| {
-            rd.filter_map(Result::ok)
-                .map(|e| e.path())
-                .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")))
-                .map(|path| match Material::load_listing_unknown(&path) {
-                    Ok((m, unknown)) => {
-                        UserMaterial { material: Ok(m), unknown: presets::unknown_fields_note(&unknown), path }
-                    }
-                    Err(e) => UserMaterial { material: Err(e.to_string()), unknown: None, path },
-                })
-                .collect()
-        })
-        .unwrap_or_default();
-    out.sort_by(|a, b| a.path.cmp(&b.path));
-    out
 }
 
 /// Height of the T60 plot, logical points.
