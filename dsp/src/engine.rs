@@ -825,6 +825,17 @@ impl Voice {
         (self.contact_len - self.contact_pos.min(self.contact_len)).max(self.noise_left)
     }
 
+    /// Mode `m`'s slot, pushed with `coeffs` if it has none yet; `None` when the bank is full.
+    fn slot_for(&mut self, m: usize, coeffs: ModeCoeffs) -> Option<usize> {
+        if self.slot_of_mode[m] != NO_SLOT {
+            return Some(usize::from(self.slot_of_mode[m]));
+        }
+        let k = self.bank.push(coeffs)?;
+        self.slot_of_mode[m] = k as u16;
+        self.mode_of_slot[k] = m as u16;
+        Some(k)
+    }
+
     /// Sets the note's pressure; true if its poles must follow (a struck note's damping).
     fn set_pressure(&mut self, pressure: f32) -> bool {
         let p = if pressure.is_finite() { pressure.clamp(0.0, 1.0) } else { 0.0 };
@@ -2651,18 +2662,7 @@ impl Engine {
             }
             let (d, omega) = self.poles[m];
             let ((pp, qq, corr), pole) = pulse_drive(&shape, d, omega);
-            let mut slot = voice.slot_of_mode[m];
-            if slot == NO_SLOT {
-                match voice.bank.push(pole) {
-                    Some(k) => {
-                        slot = k as u16;
-                        voice.slot_of_mode[m] = slot;
-                        voice.mode_of_slot[k] = m as u16;
-                    }
-                    None => continue,
-                }
-            }
-            let k = usize::from(slot);
+            let Some(k) = voice.slot_for(m, pole) else { continue };
             let g = f64::from(self.gains[m]) * f64::from(level) * f64::from(1.0 - noise);
             let f = |x: f64| (g * x) as f32;
             voice.bank.set_forcing(k, (f(pp.0), f(pp.1)), (f(qq.0), f(qq.1)), a * level * drive_scale);
@@ -2701,18 +2701,7 @@ impl Engine {
                 if !(a.abs() >= f64::from(threshold)) {
                     continue;
                 }
-                let mut slot = voice.slot_of_mode[m];
-                if slot == NO_SLOT {
-                    match voice.bank.push(ModeCoeffs::default()) {
-                        Some(k) => {
-                            slot = k as u16;
-                            voice.slot_of_mode[m] = slot;
-                            voice.mode_of_slot[k] = m as u16;
-                        }
-                        None => continue,
-                    }
-                }
-                let k = usize::from(slot);
+                let Some(k) = voice.slot_for(m, ModeCoeffs::default()) else { continue };
                 (voice.drive_gain[k], voice.corr_re[k], voice.corr_im[k]) = (0.0, 0.0, 0.0);
                 // The state at the end of the pulse (where the strike is complete), in closed
                 // form: z(T) = A·a·(e^(sT) + e^(−βT)) / ((β + s)² + a²), s = −d + iω, for the
