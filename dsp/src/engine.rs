@@ -87,9 +87,9 @@ const NOT_PARKED: u64 = u64::MAX;
 /// [`Voice::retuned_at`] of a voice not retuned yet.
 const NEVER_RETUNED: u64 = u64::MAX;
 /// Fewest samples between two rebuilds of a voice for its pitch at the events' samples
-/// ([`Engine::retune_now`]): a stream of bends or tuning events denser than this (one per
-/// sample, from a host's sample-accurate ramp) is caught up at the control tick, so its cost
-/// stays within 4 rebuilds a tick.
+/// ([`Engine::retune_now`]): a stream of bends, tunings or pressures denser than this (one
+/// per sample, from a host's sample-accurate ramp) is caught up when the gap has passed, so
+/// its cost stays within 4 or 5 rebuilds a control tick.
 pub const RETUNE_MIN_GAP: u64 = 16;
 /// Most voice-terminated notices buffered between two drains.
 pub const MAX_TERMINATED: usize = 256;
@@ -864,11 +864,8 @@ impl Voice {
             return;
         }
         let dt = (clock - self.parked_at[k]) as f64 / fs;
-        let r = (-self.parked_d[k] * dt).exp();
-        let (sn, cs) = (self.parked_omega[k] * dt).sin_cos();
-        let (re, im) = (self.parked_re[k], self.parked_im[k]);
-        self.parked_re[k] = r * (re * cs - im * sn);
-        self.parked_im[k] = r * (re * sn + im * cs);
+        let z = cmul((self.parked_re[k], self.parked_im[k]), rotation(self.parked_d[k], self.parked_omega[k], dt));
+        (self.parked_re[k], self.parked_im[k]) = z;
         self.parked_at[k] = clock;
     }
 
@@ -1057,6 +1054,14 @@ fn pickup(d: f64, omega: f64) -> C64 {
     } else {
         C0
     }
+}
+
+/// e^((−d + iω)·t): a free mode's state advanced by `t` seconds (wound back for t < 0).
+#[inline]
+fn rotation(d: f64, omega: f64, t: f64) -> C64 {
+    let (sn, cs) = (omega * t).sin_cos();
+    let r = (-d * t).exp();
+    (r * cs, r * sn)
 }
 
 /// The state z(T) at the end of the pulse (length `contact_s`) of a mode with decay `d` and
@@ -1922,6 +1927,9 @@ pub struct Engine {
     strikes_pending: bool,
     /// Some voice has [`Voice::retune`] set.
     retunes_pending: bool,
+    /// The clock at which a retune put off by [`RETUNE_MIN_GAP`] is due ([`NEVER_RETUNED`]:
+    /// none): the render stops there to rebuild it ([`Engine::retune_pending`]).
+    retune_due: u64,
     /// The free voices' modes packed for the kernel, kept from span to span ([`render_span`]).
     resident: Resident,
     /// Mode coefficients recomputed by control-rate rebuilds since construction.
@@ -1989,6 +1997,7 @@ impl Engine {
             live_stale: true,
             strikes_pending: false,
             retunes_pending: false,
+            retune_due: NEVER_RETUNED,
             resident: Resident::new(max_voices + 1 + STEAL_SPARES, max_modes),
             rebuilt_modes: 0,
             variation_rng: Noise::new(VARIATION_SEED),
@@ -2058,6 +2067,7 @@ impl Engine {
         }
         self.live_stale = true;
         self.clock = 0;
+        self.retune_due = NEVER_RETUNED;
         self.strikes = 0;
         self.last_push_capped = false;
         self.variation_rng = Noise::new(VARIATION_SEED);
@@ -2234,12 +2244,14 @@ impl Engine {
     }
 
     /// Rebuilds the voices whose pitch changed ([`Self::retune_now`]), at most once every
-    /// [`RETUNE_MIN_GAP`] samples each (a denser stream of bends is caught up at the next
-    /// control tick), before a strike pending at this sample plans its drive. A rebuild here
-    /// leaves the voice dirty if it was for another reason ([`Self::rebuild_now`]).
-    /// Realtime-safe.
+    /// [`RETUNE_MIN_GAP`] samples each (a denser stream, a host's per-sample ramp or MPE's
+    /// pressure and bend a few samples apart, is caught up when the gap has passed, or at the
+    /// control tick if that comes first), before a strike pending at this sample plans its
+    /// drive. A rebuild here leaves the voice dirty if it was for another reason
+    /// ([`Self::rebuild_now`]). Realtime-safe.
     fn retune_pending(&mut self) {
         self.retunes_pending = false;
+        self.retune_due = NEVER_RETUNED;
         for i in 0..self.live_len {
             let v = self.live[i];
             if !self.voices[v].retune {
@@ -2247,8 +2259,11 @@ impl Engine {
             }
             let last = self.voices[v].retuned_at;
             if last != NEVER_RETUNED && self.clock < last.saturating_add(RETUNE_MIN_GAP) {
-                // Too soon: the control tick rebuilds it (and clears the flag).
+                // Too soon: rebuilt when the gap has passed (at a control tick before that,
+                // which clears the flag). (Left to the tick, a bend a few samples after a
+                // pressure change waited up to 63 samples: a reviewer's finding.)
                 self.voices[v].dirty = true;
+                self.retune_due = self.retune_due.min(last + RETUNE_MIN_GAP);
                 continue;
             }
             self.rebuild_now(v);
@@ -2701,8 +2716,6 @@ impl Engine {
                 if !(a.abs() >= f64::from(threshold)) {
                     continue;
                 }
-                let Some(k) = voice.slot_for(m, ModeCoeffs::default()) else { continue };
-                (voice.drive_gain[k], voice.corr_re[k], voice.corr_im[k]) = (0.0, 0.0, 0.0);
                 // The state at the end of the pulse (where the strike is complete), in closed
                 // form: z(T) = A·a·(e^(sT) + e^(−βT)) / ((β + s)² + a²), s = −d + iω, for the
                 // pulse A·e^(−βt)·sin(at) (see `PulseShape`), as heard (`pickup`).
@@ -2710,19 +2723,31 @@ impl Engine {
                 let z = parked_strike(&shape, contact, d, omega);
                 // Advanced from the pulse's end to the sample it ends in.
                 let lag = ((contact * fs).ceil() / fs - contact).max(0.0);
-                let (sn, cs) = (omega * lag).sin_cos();
-                let z = cmul(z, ((-d * lag).exp() * cs, (-d * lag).exp() * sn));
+                let z = cmul(z, rotation(d, omega, lag));
                 let (re, im) = cmul(pickup(d, omega), (g * z.0, g * z.1));
-                let end = clock + PULSE_PREROLL as u64 + (contact * fs).ceil() as u64;
+                // (0/0 at an undamped resonance with the pulse: not parked.)
+                if !(re.is_finite() && im.is_finite()) {
+                    continue;
+                }
+                let Some(k) = voice.slot_for(m, ModeCoeffs::default()) else { continue };
+                (voice.drive_gain[k], voice.corr_re[k], voice.corr_im[k]) = (0.0, 0.0, 0.0);
+                let mut end = clock + PULSE_PREROLL as u64 + (contact * fs).ceil() as u64;
+                let (mut re, mut im) = (re, im);
                 if voice.parked_at[k] == NOT_PARKED {
-                    (voice.parked_re[k], voice.parked_im[k]) = (re, im);
                     voice.parked += 1;
                 } else {
-                    // Struck again while away: the new ring adds to the old.
-                    voice.ring_parked(k, end, fs);
-                    voice.parked_re[k] += re;
-                    voice.parked_im[k] += im;
+                    // Struck again while away: the new ring adds to the old, both at the later
+                    // of their two times (an earlier, longer pulse may end after this one).
+                    if voice.parked_at[k] > end {
+                        let z = cmul((re, im), rotation(d, omega, (voice.parked_at[k] - end) as f64 / fs));
+                        (re, im, end) = (z.0, z.1, voice.parked_at[k]);
+                    } else {
+                        voice.ring_parked(k, end, fs);
+                    }
+                    re += voice.parked_re[k];
+                    im += voice.parked_im[k];
                 }
+                (voice.parked_re[k], voice.parked_im[k]) = (re, im);
                 voice.parked_at[k] = end;
                 (voice.parked_d[k], voice.parked_omega[k]) = (d, omega);
                 voice.bank.set_coeffs(k, ModeCoeffs::default());
@@ -2818,9 +2843,16 @@ impl Engine {
                     (voice.parked_d[k], voice.parked_omega[k]) = (d, omega);
                 }
                 (None, true) => {
-                    // Back under Nyquist (its state, rung on, resumes) or gone (dropped).
+                    // Back under Nyquist (its state, rung on, resumes) or gone (dropped). A state
+                    // parked at a strike whose pulse has not ended yet is that of the pulse's
+                    // end: wound back to now (the rest of the pulse does not drive it here).
                     if pole.is_some() {
-                        voice.bank.set_state(k, voice.parked_re[k] as f32, voice.parked_im[k] as f32);
+                        let (mut re, mut im) = (voice.parked_re[k], voice.parked_im[k]);
+                        if voice.parked_at[k] > clock {
+                            let back = -((voice.parked_at[k] - clock) as f64 / fs);
+                            (re, im) = cmul((re, im), rotation(voice.parked_d[k], voice.parked_omega[k], back));
+                        }
+                        voice.bank.set_state(k, re as f32, im as f32);
                     }
                     voice.parked_at[k] = NOT_PARKED;
                     voice.parked -= 1;
@@ -3153,7 +3185,7 @@ impl Engine {
             }
             self.update_input();
             self.update_live();
-            if self.retunes_pending {
+            if self.retunes_pending || self.clock >= self.retune_due {
                 self.retune_pending();
             }
             // Pending strikes happen at this sample, after all events sent for it (only
@@ -3167,7 +3199,9 @@ impl Engine {
                     }
                 }
             }
-            let n = (CONTROL_INTERVAL - phase).min(out.len() - pos);
+            // Up to the next control tick, the end of the buffer, or a retune due.
+            let due = usize::try_from(self.retune_due.saturating_sub(self.clock)).unwrap_or(usize::MAX);
+            let n = (CONTROL_INTERVAL - phase).min(out.len() - pos).min(due.max(1));
             let chunk = &mut out[pos..pos + n];
             // Every voice adds into one lane accumulator, summed once (see
             // `ResonatorBank::process_lanes`).
@@ -4093,6 +4127,69 @@ mod tests {
         // 7.9e-6 of the peak (f32 rounding of states held in the batches at other phases);
         // 4.7e-2 when the pressure waited for the tick.
         assert!(diff <= 1e-4 * peak, "pressure 16 samples later in the grid: {diff} of {peak}");
+    }
+
+    /// `parked_strike`'s closed form against a numerical integral of its definition,
+    /// z(T) = ∫₀^T F(τ)·e^(s(T − τ)) dτ with F = A·e^(−βτ)·sin(πτ/T) (Simpson, 200,000 steps),
+    /// for modes over Nyquist (30 and 90 kHz at 48 kHz), a half-sine and a skewed pulse.
+    #[test]
+    fn the_parked_strike_is_the_pulses_integral() {
+        let fs = 48_000.0;
+        for (contact, skew) in [(2e-4, 0.0), (1e-4, 1.5), (5e-5, 0.7)] {
+            let shape = PulseShape::new(contact, skew, fs);
+            for (f, d) in [(30_000.0, 40.0), (90_000.0, 3000.0)] {
+                let omega = 2.0 * PI * f;
+                let z = parked_strike(&shape, contact, d, omega);
+                let n = 200_000;
+                let h = contact / n as f64;
+                let mut acc = C0;
+                for i in 0..=n {
+                    let t = i as f64 * h;
+                    let force = shape.amp * (-shape.beta * t).exp() * (PI * t / contact).sin();
+                    let k = rotation(d, omega, contact - t);
+                    let w = if i == 0 || i == n {
+                        1.0
+                    } else if i % 2 == 1 {
+                        4.0
+                    } else {
+                        2.0
+                    };
+                    acc = (acc.0 + w * force * k.0, acc.1 + w * force * k.1);
+                }
+                let num = (acc.0 * h / 3.0, acc.1 * h / 3.0);
+                let err = (z.0 - num.0).hypot(z.1 - num.1) / num.0.hypot(num.1);
+                assert!(err < 1e-6, "T {contact}, skew {skew}, {f} Hz: {z:?} against {num:?} ({err:e})");
+            }
+        }
+    }
+
+    /// A bend a few samples after another retune of the voice (a pressure change, as MPE sends
+    /// them together) waits only for the end of RETUNE_MIN_GAP, not for the control tick: the
+    /// output equals that of the same bend sent at the gap's end (it waited up to 63 samples,
+    /// a reviewer's finding).
+    #[test]
+    fn a_retune_put_off_by_the_gap_comes_when_the_gap_ends() {
+        let fs = 48_000.0;
+        let obj = ObjectModes::new(vec![(2.0 * PI * 440.0).powi(2), (2.0 * PI * 1234.0).powi(2)], &[vec![1.0, 0.7]]);
+        let note = NoteId { voice_id: None, channel: 0, key: 60 };
+        let run = |bend_at: usize| {
+            let mut e = Engine::new(vec![obj.clone()], 4, fs);
+            e.set_params(SoundParams { pressure_damping: 200.0, ..SoundParams::default() });
+            e.reset();
+            e.set_bend_range(12.0);
+            let mut out = vec![0.0f32; 2048];
+            e.note_on(note, Strike { velocity: 0.8, position: 0.3, lambda_factor: 1.0 });
+            e.render(&mut out[..128 + 17]);
+            e.set_pressure(note, 0.5);
+            e.render(&mut out[128 + 17..bend_at]);
+            e.set_pitch_bend(0, 1.0);
+            e.render(&mut out[bend_at..]);
+            out
+        };
+        // The pressure at 145 rebuilds the voice there; a bend at 150 is due at 161.
+        let (early, at_gap, at_tick) = (run(150), run(161), run(192));
+        assert_eq!(early, at_gap, "the put-off bend is rebuilt when the gap ends");
+        assert_ne!(early, at_tick);
     }
 
     /// A note whose every mode a bend holds past Nyquist is silent but still rings there: its

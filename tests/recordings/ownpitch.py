@@ -30,22 +30,28 @@ sys.path.insert(0, HERE)
 from validate import default_struck, load_manifest  # noqa: E402
 
 
+def last_line(text):
+    """The last line of a command's output, or "(nothing said)"."""
+    lines = text.strip().splitlines()
+    return lines[-1] if lines else "(nothing said)"
+
+
 def own_pitch(struck, clip, work):
     """Cents of the fitted pitch from the bank's own, or (None, why)."""
     name = os.path.splitext(os.path.basename(clip))[0]
     bank, mat = os.path.join(work, f"{name}.bank.json"), os.path.join(work, f"{name}.mat.json")
     r = subprocess.run([struck, "bank", "capture", clip, "--out", bank], capture_output=True, text=True)
     if r.returncode:
-        return None, "capture: " + r.stderr.strip().splitlines()[-1]
+        return None, "capture: " + last_line(r.stderr)
     r = subprocess.run([struck, "estimate", clip, "--object", bank, "--out", mat], capture_output=True, text=True)
     if r.returncode:
-        return None, "estimate: " + r.stderr.strip().splitlines()[-1]
+        return None, "estimate: " + last_line(r.stderr)
     with open(bank) as f:
         g0 = json.load(f)["reference"]["specific_modulus"]
     with open(mat) as f:
         g = json.load(f).get("specific_modulus")
     if g is None:
-        return None, "no pitch stored (" + (r.stderr.strip().splitlines() or ["?"])[-1][:120] + ")"
+        return None, "no pitch stored (" + last_line(r.stderr)[:120] + ")"
     return 600.0 * math.log2(g / g0), ""
 
 

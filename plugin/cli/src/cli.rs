@@ -1048,7 +1048,8 @@ pub fn render_with_stats(opts: &RenderOptions) -> Result<(String, RenderStats), 
     let lib = host.plugin().library().clone();
     let p = host.plugin().struck_params();
     let obj = lib.banks.get(p.object.value() as usize).map_or("?", |b| b.name.as_str());
-    // A material file plays through the *Custom* knobs: named by its own name and file.
+    // A material file plays through the *Custom* knobs: named by its own name and as given
+    // (its path, or a user material's id or name).
     let mat = match resolve_material(&lib, &opts.sound.material, false) {
         Ok(MaterialChoice::File(m)) => format!("{} ({})", m.name, opts.sound.material),
         _ => lib.materials.get(p.material.value() as usize).map_or("Custom", |m| m.name.as_str()).to_string(),
