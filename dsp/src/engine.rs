@@ -770,7 +770,7 @@ impl Voice {
         self.active
             && !self.input
             && !self.fading
-            && self.note.voice_id != Some(INPUT_VOICE_ID)
+            && !self.plays_input()
             && match (note.voice_id, self.note.voice_id) {
                 (Some(a), Some(b)) => a == b,
                 _ => true,
@@ -823,6 +823,12 @@ impl Voice {
             return usize::MAX;
         }
         (self.contact_len - self.contact_pos.min(self.contact_len)).max(self.noise_left)
+    }
+
+    /// Whether the voice plays the audio input's object (also once it rings out in a voice of
+    /// the pool): not a note, so no note event, bend or tuning reaches it.
+    fn plays_input(&self) -> bool {
+        self.note.voice_id == Some(INPUT_VOICE_ID)
     }
 
     /// Mode `m`'s slot, pushed with `coeffs` if it has none yet; `None` when the bank is full.
@@ -2205,7 +2211,7 @@ impl Engine {
     /// channel's pitch bend and its own tuning (λ ∝ f², so 2^(semitones/6)).
     fn voice_scale(&self, v: usize) -> f64 {
         let voice = &self.voices[v];
-        if voice.note.voice_id == Some(INPUT_VOICE_ID) {
+        if voice.plays_input() {
             // The audio input's object is not a note: no bend or tuning (it was bent by MIDI
             // channel 1's bend, but only from its next rebuild on: a reviewer's finding).
             return self.lambda_scale(voice.lambda_factor);
@@ -2225,7 +2231,7 @@ impl Engine {
             *b = x;
             for v in 0..self.voices.len() {
                 let voice = &self.voices[v];
-                if voice.active && voice.note.channel == channel && voice.note.voice_id != Some(INPUT_VOICE_ID) {
+                if voice.active && voice.note.channel == channel && !voice.plays_input() {
                     self.retune_now(v);
                 }
             }
@@ -2280,7 +2286,7 @@ impl Engine {
         if self.bend_range != st {
             self.bend_range = st;
             let bend = self.bend;
-            for v in self.voices.iter_mut().filter(|v| v.active && v.note.voice_id != Some(INPUT_VOICE_ID)) {
+            for v in self.voices.iter_mut().filter(|v| v.active && !v.plays_input()) {
                 if bend.get(usize::from(v.note.channel)).is_some_and(|&b| b != 0.0) {
                     v.dirty = true;
                 }
@@ -2533,15 +2539,10 @@ impl Engine {
         }
     }
 
-    /// Channel-wide pressure (MPE): every note on `channel` (not the audio input's object).
-    /// Realtime-safe.
+    /// Channel-wide pressure (MPE): every note on `channel`. Realtime-safe.
     pub fn set_channel_pressure(&mut self, channel: u8, pressure: f32) {
         for v in 0..self.voices.len() {
-            let voice = &mut self.voices[v];
-            if voice.active
-                && voice.note.channel == channel
-                && voice.note.voice_id != Some(INPUT_VOICE_ID)
-                && voice.set_pressure(pressure)
+            if self.voices[v].active && self.voices[v].note.channel == channel && self.voices[v].set_pressure(pressure)
             {
                 self.retune_now(v);
             }
@@ -4101,18 +4102,24 @@ mod tests {
         assert!((after - before).abs() < 0.01, "a MIDI bend moved the audio input's object: {before} → {after} Hz");
     }
 
+    /// Two modes (440 and 1234 Hz) at 48 kHz, pressure damping 200 s⁻¹, reset, bend range 12
+    /// semitones, a note (channel 0, key 60) struck at velocity 0.8 (for the pressure tests).
+    fn pressed_two_mode_note() -> (Engine, NoteId) {
+        let obj = ObjectModes::new(vec![(2.0 * PI * 440.0).powi(2), (2.0 * PI * 1234.0).powi(2)], &[vec![1.0, 0.7]]);
+        let mut e = Engine::new(vec![obj], 4, 48_000.0);
+        e.set_params(SoundParams { pressure_damping: 200.0, ..SoundParams::default() });
+        e.reset();
+        e.set_bend_range(12.0);
+        (e, NoteId { voice_id: None, channel: 0, key: 60 })
+    }
+
     /// Per-note pressure damps a struck note from its own sample: the same note and pressure
     /// 16 samples later in the control grid give the same output 16 samples later (it took
     /// effect at the next control tick: a reviewer's finding).
     #[test]
     fn pressure_damps_from_its_own_sample() {
-        let fs = 48_000.0;
-        let obj = ObjectModes::new(vec![(2.0 * PI * 440.0).powi(2), (2.0 * PI * 1234.0).powi(2)], &[vec![1.0, 0.7]]);
-        let note = NoteId { voice_id: None, channel: 0, key: 60 };
         let run = |shift: usize| {
-            let mut e = Engine::new(vec![obj.clone()], 4, fs);
-            e.set_params(SoundParams { pressure_damping: 200.0, ..SoundParams::default() });
-            e.reset();
+            let (mut e, note) = pressed_two_mode_note();
             let mut out = vec![0.0f32; 4096 + shift];
             e.render(&mut out[..shift]);
             e.note_on(note, Strike { velocity: 0.8, position: 0.3, lambda_factor: 1.0 });
@@ -4169,14 +4176,8 @@ mod tests {
     /// a reviewer's finding).
     #[test]
     fn a_retune_put_off_by_the_gap_comes_when_the_gap_ends() {
-        let fs = 48_000.0;
-        let obj = ObjectModes::new(vec![(2.0 * PI * 440.0).powi(2), (2.0 * PI * 1234.0).powi(2)], &[vec![1.0, 0.7]]);
-        let note = NoteId { voice_id: None, channel: 0, key: 60 };
         let run = |bend_at: usize| {
-            let mut e = Engine::new(vec![obj.clone()], 4, fs);
-            e.set_params(SoundParams { pressure_damping: 200.0, ..SoundParams::default() });
-            e.reset();
-            e.set_bend_range(12.0);
+            let (mut e, note) = pressed_two_mode_note();
             let mut out = vec![0.0f32; 2048];
             e.note_on(note, Strike { velocity: 0.8, position: 0.3, lambda_factor: 1.0 });
             e.render(&mut out[..128 + 17]);
