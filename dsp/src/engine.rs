@@ -2211,13 +2211,13 @@ impl Engine {
     /// channel's pitch bend and its own tuning (λ ∝ f², so 2^(semitones/6)).
     fn voice_scale(&self, v: usize) -> f64 {
         let voice = &self.voices[v];
-        if voice.plays_input() {
-            // The audio input's object is not a note: no bend or tuning (it was bent by MIDI
-            // channel 1's bend, but only from its next rebuild on: a reviewer's finding).
-            return self.lambda_scale(voice.lambda_factor);
-        }
         let bend = self.bend.get(usize::from(voice.note.channel)).copied().unwrap_or(0.0) * self.bend_range;
-        self.lambda_scale(voice.lambda_factor) * ((bend + voice.tuning) / 6.0).exp2()
+        // The audio input's object (its voice is on channel 0) follows MIDI channel 1's bend,
+        // MPE's master channel, from its construction on; it is no note, so no note's tuning
+        // reaches it (stop 54 had it ignore bends: channel 1's moved it from its next rebuild
+        // on only, and a rebuild from scratch dropped the bend; a reviewer's finding).
+        let tuning = if voice.plays_input() { 0.0 } else { voice.tuning };
+        self.lambda_scale(voice.lambda_factor) * ((bend + tuning) / 6.0).exp2()
     }
 
     /// Pitch bend of MIDI `channel` (0..16), −1..=1 of [`Self::set_bend_range`] (0: none):
@@ -2231,7 +2231,7 @@ impl Engine {
             *b = x;
             for v in 0..self.voices.len() {
                 let voice = &self.voices[v];
-                if voice.active && voice.note.channel == channel && !voice.plays_input() {
+                if voice.active && voice.note.channel == channel {
                     self.retune_now(v);
                 }
             }
@@ -2286,7 +2286,7 @@ impl Engine {
         if self.bend_range != st {
             self.bend_range = st;
             let bend = self.bend;
-            for v in self.voices.iter_mut().filter(|v| v.active && !v.plays_input()) {
+            for v in self.voices.iter_mut().filter(|v| v.active) {
                 if bend.get(usize::from(v.note.channel)).is_some_and(|&b| b != 0.0) {
                     v.dirty = true;
                 }
@@ -3143,6 +3143,12 @@ impl Engine {
         voice.contact = ContactState::start(voice.position, p.contact.direction, 1, &env.surface(Excitation::Scrape));
         voice.lasting = true;
         voice.energy = voice.bank.energy();
+        // Channel 1 bent (`voice_scale`): the poles move there at this sample; the modes and
+        // the level are those of the unbent object, so modes a bend up takes past Nyquist
+        // come back with the bend, as a note's do.
+        if self.bend[0] != 0.0 && self.bend_range != 0.0 {
+            self.retune_now(v);
+        }
     }
 
     /// The modes the audio input drives at `position` now: `(mode index in the bank,
@@ -4067,14 +4073,16 @@ mod tests {
         }
     }
 
-    /// The audio input's object is not a note: a pitch bend on MIDI channel 1 (its channel
-    /// index) leaves it where it is, before and after a rebuild (it was bent from its next
-    /// rebuild on, and unbent again when rebuilt from scratch; a reviewer's finding).
+    /// MIDI channel 1's pitch bend moves the audio input's object (the resonator's pitch, as
+    /// a played note's): bent before audio in starts (it is built bent), bent while it
+    /// rings, and kept through a rebuild for another reason and one from scratch (another
+    /// object and back). Stop 54 had it ignore bends (before: bent from its next rebuild on
+    /// only, unbent when rebuilt from scratch). Other channels' bends do not move it.
     #[test]
-    fn a_pitch_bend_does_not_move_the_audio_inputs_object() {
+    fn channel_ones_bend_moves_the_audio_inputs_object() {
         let fs = 48_000.0;
-        let obj = ObjectModes::new(vec![(2.0 * PI * 440.0).powi(2)], &[vec![1.0]]);
-        let mut e = Engine::new(vec![obj], 4, fs);
+        let obj = || ObjectModes::new(vec![(2.0 * PI * 440.0).powi(2)], &[vec![1.0]]);
+        let mut e = Engine::new(vec![obj(), obj()], 4, fs);
         let p = SoundParams {
             contact: ContactParams { speed_mps: 0.0, ..ContactParams::default() },
             ..SoundParams::default()
@@ -4082,6 +4090,7 @@ mod tests {
         e.set_params(p);
         e.reset();
         e.set_bend_range(12.0);
+        e.set_pitch_bend(0, 0.5);
         e.set_audio_input(true, 0.5);
         let input = vec![0.0f32; 256];
         let mut out = vec![0.0f32; 256];
@@ -4091,15 +4100,26 @@ mod tests {
             let (re, im) = e.voices[v].bank.pole(0);
             f64::from(im).atan2(f64::from(re)) * fs / (2.0 * PI)
         };
-        let before = hz(&e);
-        assert!((before - 440.0).abs() < 0.01, "{before} Hz");
+        let cents = |hz: f64, st: f64| 1200.0 * (hz / (440.0 * (st / 12.0).exp2())).log2();
+        let built = hz(&e);
+        assert!(cents(built, 6.0).abs() < 0.1, "built while bent half up: {built} Hz");
         e.set_pitch_bend(0, 1.0);
         e.render_input(&input, &mut out);
-        // A rebuild for another reason (the damping changed).
+        let bent = hz(&e);
+        assert!(cents(bent, 12.0).abs() < 0.1, "bent full up while it rings: {bent} Hz");
+        e.set_pitch_bend(3, -1.0);
         e.set_params(SoundParams { support_c: 1.0, ..p });
         e.render_input(&input, &mut out);
-        let after = hz(&e);
-        assert!((after - before).abs() < 0.01, "a MIDI bend moved the audio input's object: {before} → {after} Hz");
+        let rebuilt = hz(&e);
+        assert!(cents(rebuilt, 12.0).abs() < 0.1, "after a rebuild (and channel 4 bent): {rebuilt} Hz");
+        e.set_object(1);
+        e.render_input(&input, &mut out);
+        let fresh = hz(&e);
+        assert!(cents(fresh, 12.0).abs() < 0.1, "rebuilt from scratch on another object: {fresh} Hz");
+        e.set_pitch_bend(0, 0.0);
+        e.render_input(&input, &mut out);
+        let back = hz(&e);
+        assert!(cents(back, 0.0).abs() < 0.1, "bent back: {back} Hz");
     }
 
     /// Two modes (440 and 1234 Hz) at 48 kHz, pressure damping 200 s⁻¹, reset, bend range 12

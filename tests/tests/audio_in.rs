@@ -402,3 +402,47 @@ fn a_dc_offset_does_not_move_the_inputs_contact() {
         assert!(share < 0.01, "offset {offset:e} from sample {from}: {share:.3} of the RMS");
     }
 }
+
+/// *Struck Resonator* follows MIDI channel 1's pitch bend (stop 55): an impulse into the
+/// effect with a full bend up of 12 semitones sent before it rings the object's strongest
+/// partial an octave up, within a cent, and a bend on another channel leaves it (the input's
+/// object is on channel 1, MPE's master channel). Through `process()`.
+#[test]
+fn the_resonator_follows_channel_ones_pitch_bend() {
+    use nice_plug::prelude::NoteEvent;
+    let n = 48_000usize;
+    let mut x = vec![0.0f32; n];
+    x[300] = (f64::from(SR) / AUDIO_IN_RATE) as f32;
+    let ring = |channel: Option<u8>| {
+        let mut h = host_of::<Effect>(&[("pos", 0.3), ("speed", 0.0), ("bendrange", 12.0)], x.clone(), x.clone());
+        let events: Vec<TimedEvent> = channel
+            .map(|channel| TimedEvent { sample: 0, event: NoteEvent::MidiPitchBend { timing: 0, channel, value: 1.0 } })
+            .into_iter()
+            .collect();
+        h.render(&events, n, 512).0[0].clone()
+    };
+    // The strongest partial: the peak of an 8× zero-padded spectrum, parabola through its
+    // bin and neighbours (log magnitude); `near`: searched within 2 % of it.
+    let peak = |y: &[f32], near: Option<f64>| {
+        use rustfft::num_complex::Complex;
+        let m = 8 * y.len().next_power_of_two();
+        let mut spec: Vec<Complex<f64>> = y.iter().map(|&v| Complex::new(f64::from(v), 0.0)).collect();
+        spec.resize(m, Complex::new(0.0, 0.0));
+        rustfft::FftPlanner::new().plan_fft_forward(m).process(&mut spec);
+        let hz = |k: f64| k * f64::from(SR) / m as f64;
+        let (lo, hi) = near.map_or((1, m / 2 - 1), |f| {
+            ((f * 0.98 * m as f64 / f64::from(SR)) as usize, (f * 1.02 * m as f64 / f64::from(SR)) as usize)
+        });
+        let k = (lo..=hi).max_by(|&a, &b| spec[a].norm().total_cmp(&spec[b].norm())).expect("bins");
+        let (a, b, c) = (spec[k - 1].norm().ln(), spec[k].norm().ln(), spec[k + 1].norm().ln());
+        hz(k as f64 + 0.5 * (a - c) / (a - 2.0 * b + c))
+    };
+    let flat = ring(None);
+    let f0 = peak(&flat, None);
+    let up = peak(&ring(Some(0)), Some(2.0 * f0));
+    let cents = 1200.0 * (up / (2.0 * f0)).log2();
+    eprintln!("resonator: {f0:.2} Hz, bent {up:.2} Hz ({cents:+.3} cents from an octave)");
+    assert!(cents.abs() < 1.0, "bent {up} Hz against {f0} Hz unbent: {cents} cents from an octave");
+    let other = ring(Some(3));
+    assert_eq!(other, flat, "a bend on channel 4 moved the resonator");
+}
