@@ -4092,34 +4092,30 @@ mod tests {
         e.set_bend_range(12.0);
         e.set_pitch_bend(0, 0.5);
         e.set_audio_input(true, 0.5);
-        let input = vec![0.0f32; 256];
-        let mut out = vec![0.0f32; 256];
-        e.render_input(&input, &mut out);
-        let v = e.pool;
-        let hz = |e: &Engine| {
+        let (input, mut out, v) = (vec![0.0f32; 256], vec![0.0f32; 256], e.pool);
+        // Renders a block, then the input's mode: its frequency and its cents from 440 Hz
+        // bent by `st` semitones.
+        let mut after_a_block = |e: &mut Engine, st: f64| {
+            e.render_input(&input, &mut out);
             let (re, im) = e.voices[v].bank.pole(0);
-            f64::from(im).atan2(f64::from(re)) * fs / (2.0 * PI)
+            let hz = f64::from(im).atan2(f64::from(re)) * fs / (2.0 * PI);
+            (hz, 1200.0 * (hz / (440.0 * (st / 12.0).exp2())).log2())
         };
-        let cents = |hz: f64, st: f64| 1200.0 * (hz / (440.0 * (st / 12.0).exp2())).log2();
-        let built = hz(&e);
-        assert!(cents(built, 6.0).abs() < 0.1, "built while bent half up: {built} Hz");
+        let (built, cents) = after_a_block(&mut e, 6.0);
+        assert!(cents.abs() < 0.1, "built while bent half up: {built} Hz");
         e.set_pitch_bend(0, 1.0);
-        e.render_input(&input, &mut out);
-        let bent = hz(&e);
-        assert!(cents(bent, 12.0).abs() < 0.1, "bent full up while it rings: {bent} Hz");
+        let (bent, cents) = after_a_block(&mut e, 12.0);
+        assert!(cents.abs() < 0.1, "bent full up while it rings: {bent} Hz");
         e.set_pitch_bend(3, -1.0);
         e.set_params(SoundParams { support_c: 1.0, ..p });
-        e.render_input(&input, &mut out);
-        let rebuilt = hz(&e);
-        assert!(cents(rebuilt, 12.0).abs() < 0.1, "after a rebuild (and channel 4 bent): {rebuilt} Hz");
+        let (rebuilt, cents) = after_a_block(&mut e, 12.0);
+        assert!(cents.abs() < 0.1, "after a rebuild (and channel 4 bent): {rebuilt} Hz");
         e.set_object(1);
-        e.render_input(&input, &mut out);
-        let fresh = hz(&e);
-        assert!(cents(fresh, 12.0).abs() < 0.1, "rebuilt from scratch on another object: {fresh} Hz");
+        let (fresh, cents) = after_a_block(&mut e, 12.0);
+        assert!(cents.abs() < 0.1, "rebuilt from scratch on another object: {fresh} Hz");
         e.set_pitch_bend(0, 0.0);
-        e.render_input(&input, &mut out);
-        let back = hz(&e);
-        assert!(cents(back, 0.0).abs() < 0.1, "bent back: {back} Hz");
+        let (back, cents) = after_a_block(&mut e, 0.0);
+        assert!(cents.abs() < 0.1, "bent back: {back} Hz");
     }
 
     /// Two modes (440 and 1234 Hz) at 48 kHz, pressure damping 200 s⁻¹, reset, bend range 12
