@@ -628,30 +628,40 @@ fn num_complex_sum(v: &[(f64, f64)]) -> (f64, f64) {
 /// The late pass (stop 55; issue 10 part 4): a slow partial that the search leaves out at
 /// the onset, where broad, fast components fill its budget (a black-box tester's aluminium
 /// hit lost its longest-ringing partial that way), is found on the residual from 50 ms on
-/// with its decay and its amplitude at the onset. Twelve components at 250–600 s⁻¹ and 0.3
-/// over a partial of 0.004 at 3 s⁻¹; the feature budget capped at 8 so the search ends
-/// among the fast ones. Without the pass the partial is missing (checked here too).
+/// with its frequency, decay, amplitude and phase at the onset. Twelve components at
+/// 250–600 s⁻¹ and 0.3 over a partial of 0.004 at 441.3 Hz (not a whole number of cycles in
+/// 50 ms, so a wrong phase carried back shows) decaying at 3 or 12 s⁻¹; the feature budget
+/// capped at 8 so the search ends among the fast ones. Without the pass the partial is
+/// missing (checked here too).
 #[test]
 fn a_slow_partial_left_out_at_the_onset_is_found_late() {
     use estimator::features::extract_impact;
     use estimator::synth::{render, Rng};
     use estimator::ExtractOptions;
     let fs = 44_100.0;
-    let mut rng = Rng::new(55);
-    let mut modes: Vec<(f64, f64, f64)> =
-        (0..12).map(|k| (700.0 * 1.31f64.powi(k), rng.range(250.0, 600.0), 0.3)).collect();
-    let slow = (440.0, 3.0, 0.004);
-    modes.push(slow);
-    let x: Vec<f32> = render(&modes, fs, 44_100).iter().map(|&v| v as f32).collect();
-    let capped = ExtractOptions { max_features: 8, ..ExtractOptions::default() };
-    let find = |opts: &ExtractOptions| {
-        let fit = extract_impact(&x, fs, 0.0, opts, &AtomicBool::new(false)).unwrap();
-        fit.features.iter().chain(&fit.components).find(|m| (m.freq_hz / slow.0 - 1.0).abs() < 0.01).copied()
-    };
-    assert!(find(&ExtractOptions { late_pass: false, ..capped.clone() }).is_none(), "the search alone reaches it");
-    let m = find(&capped).expect("the late pass finds the slow partial");
-    eprintln!("late pass: {:.3} Hz d {:.4} a {:.5}", m.freq_hz, m.decay_per_s, m.amplitude);
-    assert!((m.freq_hz / slow.0 - 1.0).abs() < 1e-5, "f {}", m.freq_hz);
-    assert!((m.decay_per_s / slow.1 - 1.0).abs() < 0.01, "d {}", m.decay_per_s);
-    assert!((m.amplitude / slow.2 - 1.0).abs() < 0.01, "a {}", m.amplitude);
+    for d in [3.0, 12.0] {
+        let mut rng = Rng::new(55);
+        let mut modes: Vec<(f64, f64, f64)> =
+            (0..12).map(|k| (700.0 * 1.31f64.powi(k), rng.range(250.0, 600.0), 0.3)).collect();
+        let slow = (441.3, d, 0.004);
+        modes.push(slow);
+        let x: Vec<f32> = render(&modes, fs, 44_100).iter().map(|&v| v as f32).collect();
+        let capped = ExtractOptions { max_features: 8, ..ExtractOptions::default() };
+        let find = |opts: &ExtractOptions| {
+            let fit = extract_impact(&x, fs, 0.0, opts, &AtomicBool::new(false)).unwrap();
+            fit.features.iter().chain(&fit.components).find(|m| (m.freq_hz / slow.0 - 1.0).abs() < 0.01).copied()
+        };
+        assert!(find(&ExtractOptions { late_pass: false, ..capped.clone() }).is_none(), "the search alone reaches it");
+        let m = find(&capped).expect("the late pass finds the slow partial");
+        eprintln!(
+            "late pass, d {d}: {:.4} Hz d {:.4} a {:.5} phase {:.4}",
+            m.freq_hz, m.decay_per_s, m.amplitude, m.phase_rad
+        );
+        assert!((m.freq_hz / slow.0 - 1.0).abs() < 1e-5, "f {}", m.freq_hz);
+        assert!((m.decay_per_s / slow.1 - 1.0).abs() < 0.01, "d {}", m.decay_per_s);
+        assert!((m.amplitude / slow.2 - 1.0).abs() < 0.01, "a {}", m.amplitude);
+        // `render` plays a·e^(−dt)·sin(ωt): cos(ωt − π/2).
+        let phase_error = (m.phase_rad + std::f64::consts::FRAC_PI_2).sin().abs();
+        assert!(phase_error < 0.01, "phase {}", m.phase_rad);
+    }
 }
