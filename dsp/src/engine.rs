@@ -4076,7 +4076,7 @@ mod tests {
     /// MIDI channel 1's pitch bend moves the audio input's object (the resonator's pitch, as
     /// a played note's): bent before audio in starts (it is built bent), bent while it
     /// rings, and kept through a rebuild for another reason and one from scratch (another
-    /// object and back). Stop 54 had it ignore bends (before: bent from its next rebuild on
+    /// object), then bent back. Stop 54 had it ignore bends (before: bent from its next rebuild on
     /// only, unbent when rebuilt from scratch). Other channels' bends do not move it.
     #[test]
     fn channel_ones_bend_moves_the_audio_inputs_object() {
