@@ -1647,7 +1647,7 @@ impl<'a> Search<'a> {
     /// that beats explains the ring only as a pair), else each one that shrinks it. They
     /// may take the modes past `max_features`. Nothing refits them after: on the onset's
     /// levels the fast components the search did not reach pull them (a reviewer's test:
-    /// resplitting moved a 441.3 Hz partial at 12 and 18 s⁻¹ to 13.9 and 27.3 s⁻¹), and the
+    /// resplitting moved partials at 440 Hz, 12 s⁻¹ and 441.3 Hz, 18 s⁻¹ to 13.9 and 27.3 s⁻¹), and the
     /// search's own fits of what they missed stay as they were (the tester's clip: 278.18 Hz
     /// at 4.1 s⁻¹ and 279.81 Hz at 8.0 s⁻¹ join beside 274.47 Hz at 9.6 s⁻¹).
     /// `ExtractOptions::late_pass` turns it off. Test

@@ -413,34 +413,28 @@ fn the_resonator_follows_channel_ones_pitch_bend() {
     let n = 48_000usize;
     let mut x = vec![0.0f32; n];
     x[300] = (f64::from(SR) / AUDIO_IN_RATE) as f32;
+    let set = [("pos", 0.3), ("speed", 0.0), ("bendrange", 12.0)];
     let ring = |channel: Option<u8>| {
-        let mut h = host_of::<Effect>(&[("pos", 0.3), ("speed", 0.0), ("bendrange", 12.0)], x.clone(), x.clone());
+        let mut h = host_of::<Effect>(&set, x.clone(), x.clone());
         let events: Vec<TimedEvent> = channel
             .map(|channel| TimedEvent { sample: 0, event: NoteEvent::MidiPitchBend { timing: 0, channel, value: 1.0 } })
             .into_iter()
             .collect();
         h.render(&events, n, 512).0[0].clone()
     };
-    // The strongest partial: the peak of an 8× zero-padded spectrum, parabola through its
-    // bin and neighbours (log magnitude); `near`: searched within 2 % of it.
-    let peak = |y: &[f32], near: Option<f64>| {
-        use rustfft::num_complex::Complex;
-        let m = 8 * y.len().next_power_of_two();
-        let mut spec: Vec<Complex<f64>> = y.iter().map(|&v| Complex::new(f64::from(v), 0.0)).collect();
-        spec.resize(m, Complex::new(0.0, 0.0));
-        rustfft::FftPlanner::new().plan_fft_forward(m).process(&mut spec);
-        let hz = |k: f64| k * f64::from(SR) / m as f64;
-        let (lo, hi) = near.map_or((1, m / 2 - 1), |f| {
-            ((f * 0.98 * m as f64 / f64::from(SR)) as usize, (f * 1.02 * m as f64 / f64::from(SR)) as usize)
-        });
-        let k = (lo..=hi).max_by(|&a, &b| spec[a].norm().total_cmp(&spec[b].norm())).expect("bins");
-        let (a, b, c) = (spec[k - 1].norm().ln(), spec[k].norm().ln(), spec[k + 1].norm().ln());
-        hz(k as f64 + 0.5 * (a - c) / (a - 2.0 * b + c))
-    };
+    // The strongest of the input's modes under 10 kHz with no other within 30 Hz (so its
+    // octave is under Nyquist and demodulation sees it alone), measured in each render.
+    let modes = host_of::<Effect>(&set, Vec::new(), Vec::new()).plugin().engine().expect("engine").input_modes(0.3);
+    let alone = |f: f64| modes.iter().all(|&(_, g, ..)| g == f || (g - f).abs() > 30.0);
+    let &(_, f, ..) = modes
+        .iter()
+        .filter(|&&(_, f, ..)| f < 10_000.0 && alone(f))
+        .max_by(|a, b| a.3.abs().total_cmp(&b.3.abs()))
+        .expect("a mode");
     let flat = ring(None);
-    let f0 = peak(&flat, None);
-    let up = peak(&ring(Some(0)), Some(2.0 * f0));
-    let cents = 1200.0 * (up / (2.0 * f0)).log2();
+    let (f0, _) = struck_tests::measure_mode(&flat, f64::from(SR), f, 960, 9600, 4800);
+    let (up, _) = struck_tests::measure_mode(&ring(Some(0)), f64::from(SR), 2.0 * f, 960, 9600, 4800);
+    let cents = struck_tests::cents(up, 2.0 * f0);
     eprintln!("resonator: {f0:.2} Hz, bent {up:.2} Hz ({cents:+.3} cents from an octave)");
     assert!(cents.abs() < 1.0, "bent {up} Hz against {f0} Hz unbent: {cents} cents from an octave");
     let other = ring(Some(3));
