@@ -168,6 +168,58 @@ pub struct Bank {
     /// A coarse surface of the reference object for the editor's drawing (optional).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub surface: Option<DrawSurface>,
+    /// How the recording a captured bank was taken from was struck (`struck bank capture`),
+    /// when its gains are that recording's amplitudes: they carry that strike's force
+    /// spectrum, which the player divides out so that the same strike plays the recording's
+    /// balance (optional; absent for banks of mode shapes).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub recorded_strike: Option<RecordedStrike>,
+}
+
+/// The mallet names a [`RecordedStrike`] takes, softest first (the plugin's *Mallet* choices).
+pub const MALLET_NAMES: [&str; 6] = ["felt", "rubber", "wood", "plastic", "brass", "steel"];
+
+/// The strike that made a recording, as the plugin would play it: the mallet, its hardness
+/// and the note's velocity. A captured bank's gains are the recorded amplitudes aᵢ = |F(fᵢ)|·φᵢ,
+/// F the force pulse's spectrum; the player takes φᵢ = aᵢ / |F(fᵢ)| with F of this strike on
+/// the bank's reference material, so this strike at the recorded pitch sounds the recorded
+/// balance and any other mallet, hardness or velocity changes it as it would on the object.
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+pub struct RecordedStrike {
+    /// One of [`MALLET_NAMES`].
+    pub mallet: String,
+    /// *Mallet hardness*, 0..=1 (0.5: the mallet as made).
+    pub hardness: f64,
+    /// MIDI velocity, 1..=127.
+    pub velocity: u8,
+}
+
+impl RecordedStrike {
+    /// Checks the fields (names the field on error).
+    ///
+    /// # Errors
+    /// An unknown mallet, a hardness outside 0..=1, a velocity outside 1..=127.
+    pub fn validate(&self) -> Result<(), PresetError> {
+        if !MALLET_NAMES.contains(&self.mallet.as_str()) {
+            return Err(PresetError::invalid(
+                "recorded_strike.mallet",
+                format!("unknown mallet '{}' (known: {})", self.mallet, MALLET_NAMES.join(", ")),
+            ));
+        }
+        if !(self.hardness.is_finite() && (0.0..=1.0).contains(&self.hardness)) {
+            return Err(PresetError::invalid(
+                "recorded_strike.hardness",
+                format!("must be from 0 to 1, found {}", Shown(self.hardness)),
+            ));
+        }
+        if !(1..=127).contains(&self.velocity) {
+            return Err(PresetError::invalid(
+                "recorded_strike.velocity",
+                format!("must be a MIDI velocity from 1 to 127, found {}", self.velocity),
+            ));
+        }
+        Ok(())
+    }
 }
 
 impl Bank {
@@ -407,6 +459,9 @@ impl Bank {
 
         if let Some(surface) = &self.surface {
             surface.validate()?;
+        }
+        if let Some(strike) = &self.recorded_strike {
+            strike.validate()?;
         }
         if !self.mode_labels.is_empty() && self.mode_labels.len() != n_modes {
             return Err(PresetError::invalid(

@@ -28,7 +28,10 @@ pub mod output;
 pub mod residual;
 pub mod texture;
 
-pub use bank::{Bank, BankReference, DrawSurface, StrikePoint, MAX_BANK_MODES, MAX_BANK_POINTS, MAX_DRAW_TRIANGLES};
+pub use bank::{
+    Bank, BankReference, DrawSurface, RecordedStrike, StrikePoint, MALLET_NAMES, MAX_BANK_MODES, MAX_BANK_POINTS,
+    MAX_DRAW_TRIANGLES,
+};
 pub use damping::{DampingModel, DampingSpec, AUDIBLE_LAMBDA_MAX, AUDIBLE_LAMBDA_MIN, MAX_EXPONENT};
 pub use error::{PresetError, Shown};
 

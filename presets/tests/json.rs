@@ -233,6 +233,22 @@ fn invalid_banks_name_the_field() {
     check(&|b| b.reference.specific_modulus = 0.0, "reference.specific_modulus");
     check(&|b| b.reference.poisson = 0.7, "reference.poisson");
     check(&|b| b.reference.size_m = f64::NAN, "reference.size_m");
+    // A captured bank's recorded strike: a mallet the plugin has, hardness 0..=1, velocity 1..=127.
+    let strike = |mallet: &str, hardness: f64, velocity: u8| {
+        Some(presets::RecordedStrike { mallet: mallet.into(), hardness, velocity })
+    };
+    check(&|b| b.recorded_strike = strike("hammer", 0.5, 100), "recorded_strike.mallet");
+    check(&|b| b.recorded_strike = strike("Wood", 0.5, 100), "recorded_strike.mallet");
+    check(&|b| b.recorded_strike = strike("wood", 1.5, 100), "recorded_strike.hardness");
+    check(&|b| b.recorded_strike = strike("wood", f64::NAN, 100), "recorded_strike.hardness");
+    check(&|b| b.recorded_strike = strike("wood", 0.5, 0), "recorded_strike.velocity");
+    check(&|b| b.recorded_strike = strike("wood", 0.5, 128), "recorded_strike.velocity");
+    for name in presets::MALLET_NAMES {
+        let mut b = good.clone();
+        b.recorded_strike = strike(name, 1.0, 127);
+        b.validate().unwrap();
+        assert_eq!(Bank::from_json(&b.to_json()).unwrap(), b, "{name}");
+    }
     // Empty mode labels are allowed.
     let mut b = good.clone();
     b.mode_labels.clear();

@@ -221,6 +221,20 @@ pub enum BankCommand {
         /// The object's size in metres (what *Size* 1 means).
         #[arg(long, default_value_t = 0.3)]
         size: f64,
+        /// The mallet that struck the recording, as the plugin names them (felt, rubber, wood,
+        /// plastic, brass, steel), or `none`: the recorded amplitudes carry its spectrum, which
+        /// the player divides out, so this mallet at --recorded-hardness and
+        /// --recorded-velocity plays the recording's balance (`none`: the amplitudes are
+        /// played as mode shapes, and every mallet filters them again). Default: the plugin's
+        /// default mallet.
+        #[arg(long, default_value = "wood")]
+        recorded_mallet: String,
+        /// *Mallet hardness* (0 to 1) of the strike that made the recording.
+        #[arg(long, default_value_t = 0.5)]
+        recorded_hardness: f64,
+        /// MIDI velocity (1 to 127) of the strike that made the recording.
+        #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u8).range(1..=127))]
+        recorded_velocity: u8,
         /// Bank id (kebab-case; default from the output file name).
         #[arg(long)]
         id: Option<String>,
@@ -446,6 +460,9 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
             min_decay,
             material,
             size,
+            recorded_mallet,
+            recorded_hardness,
+            recorded_velocity,
             id,
             name,
             out,
@@ -466,6 +483,11 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
                 density: material.density,
                 poisson: material.poisson,
                 size_m: size,
+                recorded_strike: crate::capture::recorded_strike(
+                    &recorded_mallet,
+                    recorded_hardness,
+                    recorded_velocity,
+                )?,
                 id,
                 name,
                 out,
@@ -681,6 +703,7 @@ fn info(path: &Path, json: bool) -> Result<(), String> {
             "id": bank.id, "name": bank.name, "description": bank.description, "provenance": bank.provenance,
             "modes": bank.num_modes(), "strike_points": bank.num_points(), "reference": bank.reference,
             "lowest_hz": f.first(), "highest_hz": f.last(), "frequencies_hz": f,
+            "recorded_strike": bank.recorded_strike,
         });
         outln!("{}", serde_json::to_string_pretty(&v).map_err(|e| e.to_string())?);
     } else {
@@ -703,6 +726,14 @@ fn info(path: &Path, json: bool) -> Result<(), String> {
         );
         let first: Vec<String> = f.iter().take(8).map(|x| format!("{x:.1}")).collect();
         outln!("  lowest modes (Hz): {}", first.join(", "));
+        if let Some(s) = &bank.recorded_strike {
+            outln!(
+                "  recorded with: {} mallet, hardness {}, velocity {} (divided out when played)",
+                s.mallet,
+                s.hardness,
+                s.velocity
+            );
+        }
     }
     Ok(())
 }

@@ -414,12 +414,32 @@ pub struct BankCaptureArgs {
     pub poisson: f64,
     /// The object's size, m (what *Size* 1 means).
     pub size_m: f64,
+    /// The strike that made the recording, divided out when the bank is played (`None`:
+    /// the amplitudes are played as mode shapes).
+    pub recorded_strike: Option<presets::RecordedStrike>,
     /// Bank id and name.
     pub id: String,
     /// Display name.
     pub name: String,
     /// The bank JSON to write.
     pub out: PathBuf,
+}
+
+/// `--recorded-mallet`, `--recorded-hardness`, `--recorded-velocity` as the bank's
+/// `recorded_strike` (`none`: no strike divided out).
+///
+/// # Errors
+/// An unknown mallet or a hardness outside 0..=1 (one line).
+pub fn recorded_strike(mallet: &str, hardness: f64, velocity: u8) -> Result<Option<presets::RecordedStrike>, String> {
+    let mallet = mallet.trim().to_lowercase();
+    if mallet == "none" {
+        return Ok(None);
+    }
+    let strike = presets::RecordedStrike { mallet, hardness, velocity };
+    strike.validate().map_err(|e| {
+        format!("--recorded-mallet/--recorded-hardness/--recorded-velocity: {e} (or --recorded-mallet none)")
+    })?;
+    Ok(Some(strike))
 }
 
 /// Most modes `struck bank capture` keeps.
@@ -525,6 +545,7 @@ pub fn bank_from_recording(args: &BankCaptureArgs) -> Result<String, String> {
         gains: vec![kept.iter().map(|f| (f.amplitude / amax) as f32).collect()],
         mode_labels: kept.iter().map(|f| format!("{:.2} Hz", f.freq_hz)).collect(),
         surface: None,
+        recorded_strike: args.recorded_strike.clone(),
     };
     bank.save(&args.out).map_err(|e| e.to_string())?;
     let mut said = format!(
@@ -536,6 +557,12 @@ pub fn bank_from_recording(args: &BankCaptureArgs) -> Result<String, String> {
         kept[0].freq_hz,
         kept[kept.len() - 1].freq_hz
     );
+    if let Some(s) = &args.recorded_strike {
+        said.push_str(&format!(
+            "; played with a {} mallet at hardness {} and velocity {}, it sounds the recorded balance (that strike is divided out)",
+            s.mallet, s.hardness, s.velocity
+        ));
+    }
     if dropped.low_q + dropped.below > 0 {
         said.push_str(&format!(
             "; left out {} partial(s) with Q under {} and {} below the strongest-energy one ({:.1} Hz) more than {} dB under its energy",

@@ -1914,6 +1914,29 @@ fn small_mistakes_get_clear_words() {
         &["bank", "capture", rec.to_str().unwrap(), "--young", "200", "--out", captured.to_str().unwrap()],
     );
     assert!(stderr(&o).contains("--young 200 Pa is softer"), "{}", stderr(&o));
+    // The strike that made the recording: a mallet the plugin has, a hardness from 0 to 1
+    // (one line each, nothing written); `none` writes no strike, the default the plugin's.
+    let cap = ["bank", "capture", rec.to_str().unwrap(), "--out", captured.to_str().unwrap()];
+    let _ = std::fs::remove_file(&captured);
+    for (bad, says) in [
+        (["--recorded-mallet", "hammer"], "unknown mallet 'hammer'"),
+        (["--recorded-hardness", "2"], "recorded_strike.hardness"),
+        (["--recorded-velocity", "0"], "0 is not in 1..=127"),
+    ] {
+        let e = error_line(&struck(&dir, &[&cap[..], &bad[..]].concat()));
+        assert!(e.contains(says), "{e}");
+        assert!(!captured.exists());
+    }
+    let strike_of = |extra: &[&str]| {
+        let o = struck(&dir, &[&cap[..], extra].concat());
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        presets::Bank::load(&captured).unwrap().recorded_strike
+    };
+    let wood = strike_of(&[]).unwrap();
+    assert_eq!((wood.mallet.as_str(), wood.hardness, wood.velocity), ("wood", 0.5, 100));
+    let steel = strike_of(&["--recorded-mallet", "Steel", "--recorded-velocity", "127"]).unwrap();
+    assert_eq!((steel.mallet.as_str(), steel.velocity), ("steel", 127));
+    assert_eq!(strike_of(&["--recorded-mallet", "none"]), None);
     let fine = ["bank", "build", "--shape", "bar", "--dims", "0.3,0.02,0.01", "--resolution", "30", "--modes", "8"];
     let o = struck(&dir, &[&fine[..], &["--out", bank.to_str().unwrap()]].concat());
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));

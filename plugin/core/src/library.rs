@@ -22,6 +22,64 @@ pub struct Library {
     pub unknown_fields: Vec<(String, String)>,
 }
 
+/// Most lift [`recorded_strike_factors`] gives a mode, dB: the range `struck bank capture`
+/// keeps by default, so a partial the assumed strike all but missed is not raised out of
+/// proportion (over it the recording plays darker than recorded with that strike).
+pub const MAX_STRIKE_LIFT_DB: f64 = 40.0;
+
+/// The engine's object for `bank`: its eigenvalues and the gains it plays ([`played_gains`]).
+/// Allocates.
+pub fn engine_object(bank: &Bank) -> ObjectModes {
+    ObjectModes::new(bank.lambdas.clone(), &played_gains(bank))
+}
+
+/// The gains the engine plays for `bank`, `[point][mode]`: its own, or for a bank captured
+/// from a recording (`recorded_strike`), the recorded amplitudes times
+/// [`recorded_strike_factors`], so the strike that made the recording, played at the
+/// recorded pitch, sounds the recorded balance instead of that strike's spectrum twice.
+pub fn played_gains(bank: &Bank) -> Vec<Vec<f32>> {
+    match recorded_strike_factors(bank) {
+        Some(k) => bank
+            .gains
+            .iter()
+            .map(|row| row.iter().zip(&k).map(|(&g, &k)| (f64::from(g) * k) as f32).collect())
+            .collect(),
+        None => bank.gains.clone(),
+    }
+}
+
+/// Per mode of a bank captured from a recording, the factor that takes its recorded amplitude
+/// aᵢ = |F(fᵢ)|·φᵢ back to the mode's own gain φᵢ: 1/|F(fᵢ)|, F the unit-area force pulse of
+/// the bank's `recorded_strike` (that mallet on the bank's reference material, E = γ₀ρ, at
+/// that hardness and velocity, as the engine strikes; [`dsp::exciter::pulse_spectrum`]) at
+/// the mode's undamped frequency √λ/2π, lifting at most [`MAX_STRIKE_LIFT_DB`]; scaled so the
+/// largest played |gain| is 1. `None` for a bank without a recorded strike (mode shapes).
+pub fn recorded_strike_factors(bank: &Bank) -> Option<Vec<f64>> {
+    use dsp::exciter::{hardness_scale, pulse_spectrum, strike_speed, MalletKind};
+    let strike = bank.recorded_strike.as_ref()?;
+    let kind = MalletKind::ALL.into_iter().find(|k| k.name().eq_ignore_ascii_case(&strike.mallet))?;
+    let modulus = bank.reference.specific_modulus * bank.reference.density;
+    let mallet = kind.mallet().on_object(modulus);
+    let velocity = f32::from(strike.velocity.clamp(1, 127)) / 127.0;
+    let contact = mallet.contact_time_s(strike_speed(velocity), hardness_scale(strike.hardness as f32));
+    let floor = 10f64.powf(-MAX_STRIKE_LIFT_DB / 20.0);
+    let mut k: Vec<f64> = bank
+        .lambdas
+        .iter()
+        .map(|&l| 1.0 / pulse_spectrum(l.max(0.0).sqrt() / std::f64::consts::TAU, contact, mallet.skew).max(floor))
+        .collect();
+    let peak = bank
+        .gains
+        .iter()
+        .flat_map(|row| row.iter().zip(&k).map(|(&g, &k)| f64::from(g).abs() * k))
+        .fold(0.0f64, f64::max);
+    if !(peak.is_finite() && peak > 0.0) {
+        return None;
+    }
+    k.iter_mut().for_each(|v| *v /= peak);
+    Some(k)
+}
+
 /// The folder user banks are listed from: `$STRUCK_BANK_DIR`, else `banks` beside the user
 /// materials folder (Linux `~/.local/share/struck/banks`, macOS
 /// `~/Library/Application Support/Struck/banks`, Windows `%APPDATA%\Struck\banks`).
@@ -133,9 +191,9 @@ impl Library {
         self.materials.len()
     }
 
-    /// The engine's objects, one per bank. Allocates.
+    /// The engine's objects, one per bank ([`engine_object`]). Allocates.
     pub fn object_modes(&self) -> Vec<ObjectModes> {
-        self.banks.iter().map(|b| ObjectModes::new(b.lambdas.clone(), &b.gains)).collect()
+        self.banks.iter().map(engine_object).collect()
     }
 
     /// The specific-modulus ratio a material implies on a bank (1 when unknown).
@@ -204,6 +262,46 @@ pub fn user_material_dir() -> std::path::PathBuf {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every mallet name a bank's recorded strike takes is one the plugin plays, in the
+    /// *Mallet* parameter's order; a bank without a recorded strike plays its gains as they
+    /// are, and one with it plays φᵢ = aᵢ/|F(fᵢ)|: the mallet's force spectrum at a mode,
+    /// times its played gain, gives back the recorded amplitude (a 40 dB lift at most).
+    #[test]
+    fn a_recorded_strike_is_divided_out_of_the_played_gains() {
+        use dsp::exciter::{hardness_scale, pulse_spectrum, strike_speed, MalletKind};
+        let names: Vec<String> = MalletKind::ALL.iter().map(|k| k.name().to_lowercase()).collect();
+        assert_eq!(names, presets::MALLET_NAMES);
+        for b in presets::factory_banks() {
+            assert!(recorded_strike_factors(&b).is_none(), "{}", b.id);
+            assert_eq!(played_gains(&b), b.gains);
+        }
+        let mut bank = presets::factory_bank("bar").unwrap();
+        bank.gains.truncate(1);
+        bank.points.truncate(1);
+        bank.recorded_strike = Some(presets::RecordedStrike { mallet: "felt".into(), hardness: 0.2, velocity: 40 });
+        let played = played_gains(&bank);
+        let peak = played[0].iter().fold(0.0f32, |m, g| m.max(g.abs()));
+        assert!((peak - 1.0).abs() < 1e-6, "{peak}");
+        let mallet = MalletKind::Felt.mallet();
+        let t = mallet.contact_time_s(strike_speed(40.0 / 127.0), hardness_scale(0.2));
+        // Recorded amplitude over played gain: the spectrum, up to one common scale.
+        let ratio: Vec<f64> = (0..bank.num_modes())
+            .filter(|&m| bank.gains[0][m].abs() > 1e-3)
+            .map(|m| {
+                let f = bank.lambdas[m].sqrt() / std::f64::consts::TAU;
+                let heard = pulse_spectrum(f, t, mallet.skew).max(0.01);
+                f64::from(played[0][m]) * heard / f64::from(bank.gains[0][m])
+            })
+            .collect();
+        assert!(ratio.len() > 5);
+        for r in &ratio {
+            assert!((r / ratio[0] - 1.0).abs() < 1e-4, "{ratio:?}");
+        }
+        // The felt at hardness 0.2 and velocity 40 is soft: the top modes are lifted.
+        let top = bank.num_modes() - 1;
+        assert!(played[0][top].abs() / played[0][0].abs() > 10.0 * bank.gains[0][top].abs() / bank.gains[0][0].abs());
+    }
 
     #[test]
     fn user_banks_are_listed_and_broken_ones_reported() {

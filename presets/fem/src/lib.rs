@@ -1277,6 +1277,7 @@ pub(crate) fn fem_bank(
         gains: gains.iter().map(|r| r.iter().map(|&g| g as f32).collect()).collect(),
         mode_labels: modes.frequencies_hz().iter().map(|f| format!("{f:.1} Hz")).collect(),
         surface: parts.surface,
+        recorded_strike: None,
     }
 }
 

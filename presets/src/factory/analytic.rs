@@ -47,6 +47,7 @@ pub(crate) fn assemble(info: BankInfo, points: Vec<StrikePoint>, mut modes: Vec<
         gains,
         mode_labels: modes.into_iter().map(|m| m.label).collect(),
         surface: Some(info.surface),
+        recorded_strike: None,
     }
 }
 

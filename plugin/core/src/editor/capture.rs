@@ -698,7 +698,7 @@ impl CapturePanel {
             duration_s: imp.duration_s,
             features: imp.features.clone(),
             damping: fit.damping(),
-            object: dsp::ObjectModes::new(bank.lambdas.clone(), &bank.gains),
+            object: crate::library::engine_object(bank),
             params: dsp::engine::SoundParams {
                 hardness: p.hardness.value(),
                 noise: p.noise.value(),

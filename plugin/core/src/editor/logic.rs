@@ -115,10 +115,15 @@ pub struct ModeBar {
 
 /// The modes of `bank` at strike `position` with every λ scaled by `lambda_scale`: what the
 /// object view's bar chart shows (the mode shapes, before the mallet's spectrum and the
-/// quality threshold).
+/// quality threshold; for a bank captured from a recording, the recorded amplitudes with the
+/// recording's strike divided out, as the engine plays them:
+/// [`crate::library::recorded_strike_factors`]).
 pub fn mode_bars(bank: &Bank, position: f32, lambda_scale: f64) -> Vec<ModeBar> {
     let mut gains = vec![0.0f32; bank.num_modes()];
     bank.gains_at(position, &mut gains);
+    if let Some(k) = crate::library::recorded_strike_factors(bank) {
+        gains.iter_mut().zip(k).for_each(|(g, k)| *g = (f64::from(*g) * k) as f32);
+    }
     bank.lambdas
         .iter()
         .zip(gains)
