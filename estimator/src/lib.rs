@@ -10,8 +10,9 @@
 //! damping parameters in SI units as in `dsp::Damping`. Spectra in [`features`] are one-sided
 //! real FFTs, unnormalised, bin k at k·fs/M Hz.
 //!
-//! Memory: each file is streamed and kept only as mono `f32`, at most 15 minutes and
-//! 64 Mi samples (256 MiB; [`wav::MAX_SAMPLES`]); longer files are truncated with a warning.
+//! Memory: each file is streamed and kept only as mono `f32`, at most an hour and
+//! 192 Mi samples (768 MiB; [`wav::MAX_SAMPLES`]), one file at a time; longer files are
+//! truncated with a warning.
 //! Files are processed one at a time, so peak memory is one file plus per-impact work
 //! buffers (a few × the impact length in `f64`, impacts are at most
 //! `SegmentOptions::max_impact_s` = 6 s by default).

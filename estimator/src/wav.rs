@@ -4,7 +4,7 @@
 //!
 //! Memory bound: the file is streamed, only the mono result is kept, as `f32`, and it is cut
 //! at [`MAX_SECONDS`] or [`MAX_SAMPLES`] (whichever comes first), so one file never takes more
-//! than 4 × `MAX_SAMPLES` bytes = 256 MiB.
+//! than 4 × `MAX_SAMPLES` bytes = 768 MiB (files are read one at a time).
 
 use std::fs::File;
 use std::io::{self, BufRead as _, Read as _};
@@ -17,10 +17,13 @@ pub fn quantisation_step(bits: u16) -> f64 {
     2f64.powi(1 - i32::from(bits.clamp(1, 64)))
 }
 
-/// Longest recording read, in seconds (15 minutes). Longer files are truncated with a warning.
-pub const MAX_SECONDS: f64 = 900.0;
-/// Most mono samples kept per file (64 Mi samples, 256 MiB of `f32`; 5.8 min at 192 kHz).
-pub const MAX_SAMPLES: usize = 64 << 20;
+/// Longest recording read, in seconds (one hour: a session of taps recorded in one take; issue
+/// 10 names a 30-minute one, which the 15 minutes before stop 56 cut in half). Longer files are
+/// truncated with a warning.
+pub const MAX_SECONDS: f64 = 3600.0;
+/// Most mono samples kept per file (192 Mi samples, 768 MiB of `f32`: an hour at 48 kHz,
+/// 35 min at 96 kHz, 17.5 min at 192 kHz).
+pub const MAX_SAMPLES: usize = 192 << 20;
 /// Lowest supported sample rate, Hz.
 pub const MIN_RATE: u32 = 8_000;
 /// Highest supported sample rate, Hz.

@@ -125,6 +125,37 @@ fn noise_floor_steps_are_not_taps() {
     }
 }
 
+/// Issue 10's own case at its own length: a 31-minute session (8 kHz float) of digital
+/// silence with six taps, room noise starting 0.2 s before each. Every tap is found at its
+/// time, the last at 30 min 40 s, and nothing of it is cut (a black-box tester's 30-minute
+/// file lost its last three taps to the 15-minute limit before stop 56).
+#[test]
+fn a_thirty_minute_session_of_gated_taps_is_read_whole() {
+    let fs = 8_000.0;
+    let mut g = Gen(30);
+    let n = (31.0 * 60.0 * fs) as usize;
+    let mut x = vec![0.0; n];
+    let taps = [30.0, 600.0, 950.0, 1250.0, 1650.0, 1840.0];
+    for &t in &taps {
+        for &(f, d, a) in &[(523.0, 6.0, 0.2), (1410.0, 11.0, 0.1), (2750.0, 19.0, 0.05)] {
+            add_mode(&mut x, fs, t, f, d, a);
+        }
+        for v in &mut x[((t - 0.2) * fs) as usize..((t + 1.0) * fs) as usize] {
+            *v += 0.2 * 10f64.powf(-45.0 / 20.0) * g.normal();
+        }
+    }
+    let p = write("thirty-minutes", &x, fs as u32);
+    drop(x);
+    let r = features(&p).unwrap();
+    let _ = std::fs::remove_file(&p);
+    let onsets: Vec<f64> = r.impacts.iter().map(|i| i.onset_s).collect();
+    assert!(!r.warnings.iter().any(|w| w.contains("length limit")), "{:?}", r.warnings);
+    assert_eq!(onsets.len(), taps.len(), "{onsets:?} {:?}", r.skipped);
+    for (o, t) in onsets.iter().zip(taps) {
+        assert!((o - t).abs() < 0.003, "onset {o} vs tap {t}");
+    }
+}
+
 /// A crash cymbal as sample libraries have them (a black-box tester's 68 real clips: 7
 /// cymbals gave "no impacts found", each onset taken for a noise floor that starts): 10 ms
 /// of near silence, then 400 partials 250 Hz–14 kHz too dense to be tonal in 40 ms, each
