@@ -361,6 +361,12 @@ pub fn newton<F: FnMut(&[f64], &mut [f64], &mut [f64]) -> f64>(
         let mut ok = false;
         let mut fnew = fx;
         for _ in 0..50 {
+            // A step whose first-order decrease is under the objective's own round-off
+            // cannot show a decrease: stop halving (a polish started at an optimum spent
+            // 40 evaluations of 1,000 points here).
+            if step < full && -step * slope <= 1e-14 * fx.abs() {
+                break;
+            }
             for i in 0..n {
                 xn[i] = x[i] + step * p[i];
             }

@@ -510,6 +510,7 @@ pub fn fit_ren(
         params,
         sigma: rms,
         eta: None,
+        noise_scale: None,
         sigma_std: None,
         eta_std: None,
         log_likelihood: None,

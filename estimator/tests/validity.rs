@@ -127,7 +127,8 @@ fn falling_points_end_on_the_bound_and_say_so() {
 /// One clip's five partials (the real-clip case of issue 10): the EMG likelihood is largest
 /// as σ → 0, which used to run the optimiser into its iteration cap (2 × 100) and return the
 /// lower-bound curve as if converged. Now σ stops at its floor: the fit converges in few
-/// iterations and warns that it follows the least-damped points.
+/// iterations (its search and the polishes of the three relative noise scales, `NoiseScale`)
+/// and warns that it follows the least-damped points.
 #[test]
 fn emg_on_a_few_partials_converges_and_warns() {
     // Glockenspiel-like: partials at 1, 2.76, 5.4, 8.9, 13.3 × 880 Hz, T60 from 1.4 s down.
@@ -138,7 +139,7 @@ fn emg_on_a_few_partials_converges_and_warns() {
     let f = fit_damping(&pts, ModelKind::Rayleigh, Method::Emg).unwrap();
     eprintln!("{f:#?}");
     assert!(f.converged, "{f:?}");
-    assert!(f.iterations < 60, "iterations {}", f.iterations);
+    assert!(f.iterations < 100, "iterations {}", f.iterations);
     assert!(f.active_bounds.iter().any(|b| b.starts_with("sigma")), "{:?}", f.active_bounds);
     assert!(f.warnings.iter().any(|w| w.contains("least-damped")), "{:?}", f.warnings);
     // The curve lies under (or on) every point, as a lower-bound fit does.
@@ -146,7 +147,8 @@ fn emg_on_a_few_partials_converges_and_warns() {
 }
 
 /// A well-posed EMG set (2,000 points, Rayleigh + exponential + Gaussian) converges to an
-/// interior optimum in few Newton iterations, with no bound active and no warning.
+/// interior optimum in few Newton iterations (the search and three polishes), with no bound
+/// active and no warning; its noise is the thesis's, absolute, and so is the fit's.
 #[test]
 fn emg_on_a_rich_set_converges_inside() {
     let mut g = Gen(42);
@@ -160,7 +162,8 @@ fn emg_on_a_rich_set_converges_inside() {
         let f = fit_damping(&pts, model, Method::Emg).unwrap();
         eprintln!("{model:?}: its {} active {:?} params {:?}", f.iterations, f.active_bounds, f.params);
         assert!(f.converged, "{model:?}");
-        assert!(f.iterations <= 80, "{model:?}: {} iterations", f.iterations);
+        assert!(f.iterations <= 160, "{model:?}: {} iterations", f.iterations);
+        assert_eq!(f.noise_scale, Some(estimator::fit::NoiseScale::Absolute), "{model:?}");
         assert!(!f.active_bounds.iter().any(|b| b.starts_with("sigma") || b.starts_with("eta")), "{model:?}");
         if model != ModelKind::Power {
             // The law is in the model's family (the power law cannot follow c = α₁ + α₂λ).
@@ -227,6 +230,51 @@ fn weighted_emg_on_glass_sets() {
     assert!(worst <= 0.10, "EMG worst set {worst}");
     for &(seed, emg, lsq) in &rows {
         assert!(emg < lsq, "seed {seed}: EMG {emg} vs LSQ {lsq}");
+    }
+}
+
+/// Decays that scatter in proportion to their size (a black-box tester's sets, stop 56): a
+/// glass plate's 13 modes, 523 Hz–16.9 kHz, a Rayleigh law from 10.8 to 878 s⁻¹, 20 impacts,
+/// each decay 3 % off (Gaussian) plus support damping drawn from an exponential of mean 7 %
+/// of the mode's own, each point's extraction uncertainty 0.3 %. The thesis's EMG, one σ and
+/// η for every point, let the fast high modes set them, and the law at the slow low modes
+/// hardly mattered: α₁ came out 17–25 % low (the lowest mode 15–23 % under-damped, LSQ 5–6 %
+/// off everywhere). The fit now also runs the EMG with its noise relative to the law
+/// (`NoiseScale`), keeps it for its likelihood, and is within 4 % on average over the modes
+/// and 5 % at its worst mode (measured 0.3–3.1 % and 0.5–3.4 %), ahead of the weighted LSQ
+/// (5.2–6.7 %) on both on every set; on the thesis's
+/// absolute noise it keeps the absolute scale (`emg_on_a_rich_set_converges_inside`).
+#[test]
+fn emg_follows_decays_that_scatter_in_proportion() {
+    let freqs =
+        [523.0, 987.0, 1512.0, 2296.0, 3150.0, 4410.0, 5620.0, 7080.0, 8930.0, 10710.0, 12640.0, 14530.0, 16900.0];
+    let lam = |f: f64| (std::f64::consts::TAU * f).powi(2);
+    let law = |l: f64| 2.0 * (10.0 + 7.7e-8 * l);
+    for seed in 0..6u64 {
+        let mut g = Gen(700 + seed);
+        let (mut pts, mut sig) = (Vec::new(), Vec::new());
+        for _ in 0..20 {
+            for &f in &freqs {
+                let c = law(lam(f));
+                let v = c * (1.0 + 0.03 * g.normal()) - 0.07 * c * (1.0 - g.u()).ln();
+                pts.push((lam(f), v));
+                sig.push(0.003 * v);
+            }
+        }
+        // (mean over the modes, worst mode) of |c_fit/c_true − 1|.
+        let err = |m: Method| {
+            let f = estimator::fit_damping_weighted(&pts, Some(&sig), ModelKind::Rayleigh, m).unwrap();
+            let e: Vec<f64> = freqs.iter().map(|&fr| (f.c(lam(fr)) / law(lam(fr)) - 1.0).abs()).collect();
+            (e.iter().sum::<f64>() / e.len() as f64, e.iter().fold(0.0f64, |a, &b| a.max(b)), f)
+        };
+        let ((emg, emg_worst, f), (lsq, lsq_worst, _)) = (err(Method::Emg), err(Method::Lsq));
+        eprintln!(
+            "seed {seed}: EMG mean {emg:.4} worst {emg_worst:.4} ({:?}), LSQ mean {lsq:.4} worst {lsq_worst:.4}",
+            f.noise_scale
+        );
+        assert_eq!(f.noise_scale, Some(estimator::fit::NoiseScale::Relative), "seed {seed}");
+        assert!(emg < 0.04 && emg_worst < 0.05, "seed {seed}: EMG mean {emg}, worst mode {emg_worst}");
+        assert!(emg < lsq && emg_worst < lsq_worst, "seed {seed}: EMG {emg} / {emg_worst} vs LSQ {lsq} / {lsq_worst}");
     }
 }
 
