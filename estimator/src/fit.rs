@@ -1250,6 +1250,13 @@ fn fit_warnings(
             "the points scatter less than the extraction's measurement error, so the fit follows the least-damped points (as the lower-bound fit does); record more taps".to_string()
         } else if a.starts_with("eta") {
             "no extra (support) damping was detected above the law".to_string()
+        } else if model == ModelKind::Caughey
+            && a.starts_with("alpha3")
+            && !active.iter().any(|b| b.starts_with("alpha2"))
+        {
+            // The λ term is free: the damping rises; only its λ² term would be negative (a
+            // tester's Rayleigh recordings were told their damping "falls with frequency").
+            format!("the best Caughey law would take a negative λ² term: the damping rises less than in proportion to λ at the top of the range, or needs no λ² term (the rayleigh model describes it as well); the plugin's Custom knobs play every term >= 0, so it is fitted with none ({a})")
         } else if model == ModelKind::Caughey && (a.starts_with("alpha2") || a.starts_with("alpha3")) {
             format!("the recordings' damping falls with frequency over part of the range, which a Caughey law the plugin's Custom knobs can play (every term >= 0, {a}) cannot follow: it is fitted as flat there")
         } else if a.starts_with("exponent") && a.contains(">=") {
