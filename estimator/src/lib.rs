@@ -632,9 +632,13 @@ pub fn extract_features(
                 let after = at.saturating_sub(onset) as f64 / fs;
                 // Cut where the strike re-excited the object (`Segmentation::cuts`).
                 let what = if seg.cuts.contains(&at) {
+                    // (Said as what the report shows: the part after the cut is an impact of
+                    // its own at the strike's time; a tester read "not taken as an onset"
+                    // beside that impact as a contradiction.)
                     format!(
-                        "the impact is cut there, each part of {:.0} ms or more analysed alone (shorter ones are listed as skipped)",
-                        1e3 * opts.segment.min_impact_s
+                        "the impact is cut there, each part of {:.0} ms or more analysed alone as an impact of its own (the strike's part from {:.3} s; shorter ones are listed as skipped), its start mixed with the ring before it",
+                        1e3 * opts.segment.min_impact_s,
+                        at as f64 / fs
                     )
                 } else {
                     "analysed with it (the ring only fell there, as where a sound stops, so it is not cut: the two decays mix)".to_string()
@@ -648,7 +652,7 @@ pub fn extract_features(
                     )
                 } else {
                     format!(
-                        "{name}: a strike {:.0} ms after the onset at {:.3} s that was not taken as an onset (in antiphase to the ring, too soon after another, or much softer than the ring): {what}; leave more time between taps",
+                        "{name}: a strike {:.0} ms after the onset at {:.3} s, inside its ring (in antiphase to the ring, too soon after another, or much softer than the ring): {what}; leave more time between taps",
                         1e3 * after,
                         onset as f64 / fs
                     )
