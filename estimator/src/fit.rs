@@ -750,20 +750,34 @@ fn emg_nll_hess(kind: ModelKind, d: &Data, p: &[f64], g: &mut [f64], h: &mut [f6
         hi[k * np + k] = s1 * s1 * lss + s2 * ls;
         hi[k * np + k + 1] = s1 * eta * lse;
         hi[(k + 1) * np + k + 1] = eta * eta * lee + eta * le;
-        let w2 = w * (1.0 - w);
-        for a in 0..np {
-            g[a] += w * gi[a];
-            for b in a..np {
-                h[a * np + b] += w * hi[a * np + b] + w2 * gi[a] * gi[b];
-            }
+        add_mixture_point(g, h, &gi, &hi, w, np);
+    }
+    mean_negative(g, h, np, ll, d.x.len())
+}
+
+/// Adds one point's robust-EMG term to the sums: ∇Lᵢ = wᵢ∇ℓᵢ and the upper triangle of
+/// ∇²Lᵢ = wᵢ∇²ℓᵢ + wᵢ(1 − wᵢ)∇ℓᵢ∇ℓᵢᵀ, from ℓᵢ's gradient `gi` and Hessian `hi` (row-major,
+/// upper triangle) and the EMG component's responsibility `w`.
+#[inline]
+fn add_mixture_point(g: &mut [f64], h: &mut [f64], gi: &[f64], hi: &[f64], w: f64, np: usize) {
+    let w2 = w * (1.0 - w);
+    for a in 0..np {
+        g[a] += w * gi[a];
+        for b in a..np {
+            h[a * np + b] += w * hi[a * np + b] + w2 * gi[a] * gi[b];
         }
     }
+}
+
+/// The sums of `n` points' log-likelihood `ll`, gradient `g` and upper-triangle Hessian `h`
+/// made the mean negative log-likelihood and its derivatives (the Hessian filled in full).
+fn mean_negative(g: &mut [f64], h: &mut [f64], np: usize, ll: f64, n: usize) -> f64 {
     for a in 0..np {
         for b in 0..a {
             h[a * np + b] = h[b * np + a];
         }
     }
-    let n = d.x.len() as f64;
+    let n = n as f64;
     g.iter_mut().for_each(|v| *v = -*v / n);
     h.iter_mut().for_each(|v| *v = -*v / n);
     -ll / n
@@ -880,23 +894,9 @@ fn emg_nll_hess_relative(kind: ModelKind, d: &Data, p: &[f64], g: &mut [f64], h:
                 hi[a * np + b] = v;
             }
         }
-        let w2 = w * (1.0 - w);
-        for a in 0..np {
-            g[a] += w * gi[a];
-            for b in a..np {
-                h[a * np + b] += w * hi[a * np + b] + w2 * gi[a] * gi[b];
-            }
-        }
+        add_mixture_point(g, h, &gi, &hi, w, np);
     }
-    for a in 0..np {
-        for b in 0..a {
-            h[a * np + b] = h[b * np + a];
-        }
-    }
-    let n = d.x.len() as f64;
-    g.iter_mut().for_each(|v| *v = -*v / n);
-    h.iter_mut().for_each(|v| *v = -*v / n);
-    -ll / n
+    mean_negative(g, h, np, ll, d.x.len())
 }
 
 /// Mean half squared residual (normalised units) and its gradient.

@@ -260,6 +260,52 @@ fn bank_capture_args(wav: &std::path::Path, id: &str, out: PathBuf) -> struck_cl
     }
 }
 
+/// The six partials of the own-modes tests ((frequency, decay, amplitude): inharmonic,
+/// decays 2.5–20 1/s in no law's order), belonging to no bank of Struck's.
+const SIX_PARTIALS: [(f64, f64, f64); 6] = [
+    (233.0, 2.5, 1.0),
+    (611.0, 9.0, 0.7),
+    (1187.0, 4.0, 0.5),
+    (1733.0, 20.0, 0.6),
+    (2950.0, 7.5, 0.4),
+    (4410.0, 12.0, 0.3),
+];
+
+/// A material `struck estimate` captures from `wav` on the bank at `bank` (EMG Rayleigh, no
+/// residual) written to `material`, and `seconds` of key 60 at velocity 100 rendered with it
+/// on that bank at the recorded pitch (keys not tuning, γ/γ₀ from the material) with the
+/// extra `set`tings.
+fn play_captured(
+    wav: &std::path::Path,
+    bank: &std::path::Path,
+    material: &std::path::Path,
+    set: &[&str],
+    seconds: f64,
+) -> Vec<f32> {
+    let est = EstimateArgs {
+        files: vec![wav.to_path_buf()],
+        model: "rayleigh".into(),
+        method: "emg".into(),
+        object: Some(bank.display().to_string()),
+        channel: None,
+        out: material.to_path_buf(),
+        report: None,
+        no_residual: true,
+        min_decay_per_s: None,
+    };
+    estimate(&est).unwrap();
+    let base = ["keytune=off", "gamma=1", "size=1", "matpitch=on", "noise=0", "quality=120", "release=0"];
+    let opts = SoundOptions {
+        object: bank.display().to_string(),
+        material: material.display().to_string(),
+        sample_rate: 48_000,
+        set: base.iter().chain(set).map(|s| s.to_string()).collect(),
+        ..SoundOptions::default()
+    };
+    let mut h = struck_cli::cli::configured_host(&opts, 4096).unwrap();
+    struck_tests::render(&mut h, &[struck_tests::note(60, 100, None)], seconds, 512)
+}
+
 /// `struck bank capture` (the recording's own modes, Ren 2013 §6) and a material captured on
 /// that bank: six partials that belong to no bank of Struck's (a test's own, each with its
 /// own decay) become six modes at their frequencies (1 cent); the material estimated with
@@ -271,15 +317,7 @@ fn a_bank_captured_from_a_recording_plays_its_partials_with_their_decays() {
     use std::f64::consts::PI;
     let sr = 48_000u32;
     let fs = f64::from(sr);
-    // (frequency, decay, amplitude): inharmonic, decays 2.5–20 1/s in no law's order.
-    let truth = [
-        (233.0, 2.5, 1.0),
-        (611.0, 9.0, 0.7),
-        (1187.0, 4.0, 0.5),
-        (1733.0, 20.0, 0.6),
-        (2950.0, 7.5, 0.4),
-        (4410.0, 12.0, 0.3),
-    ];
+    let truth = SIX_PARTIALS;
     let wav = tmp("own-modes.wav");
     write_taps(&wav, sr, &truth);
     let bank_path = tmp("own-modes-bank.json");
@@ -296,34 +334,11 @@ fn a_bank_captured_from_a_recording_plays_its_partials_with_their_decays() {
         let cents = 600.0 * (l / want).log2();
         assert!(cents.abs() < 1.0, "{f} Hz: {cents:.2} cents");
     }
-    // A material of the same recording, on this bank.
+    // A material of the same recording, on this bank, played there at the recorded pitch.
     let material = tmp("own-modes-material.json");
-    let est = EstimateArgs {
-        files: vec![wav.clone()],
-        model: "rayleigh".into(),
-        method: "emg".into(),
-        object: Some(bank_path.display().to_string()),
-        channel: None,
-        out: material.clone(),
-        report: None,
-        no_residual: true,
-        min_decay_per_s: None,
-    };
-    estimate(&est).unwrap();
+    let x = play_captured(&wav, &bank_path, &material, &["hard=1"], 1.5);
     let m = presets::Material::load(&material).unwrap();
     assert_eq!(m.recorded_modes().map(|r| r.modes.len()), Some(truth.len()));
-    let opts = SoundOptions {
-        object: bank_path.display().to_string(),
-        material: material.display().to_string(),
-        sample_rate: sr,
-        set: ["keytune=off", "gamma=1", "size=1", "matpitch=on", "noise=0", "quality=120", "release=0", "hard=1"]
-            .iter()
-            .map(|s| s.to_string())
-            .collect(),
-        ..SoundOptions::default()
-    };
-    let mut h = struck_cli::cli::configured_host(&opts, 4096).unwrap();
-    let x = struck_tests::render(&mut h, &[struck_tests::note(60, 100, None)], 1.5, 512);
     for &(f, d, _) in &truth {
         let gap = ((1.5 / d).clamp(0.05, 0.3) * fs) as usize;
         let (got_f, got_d) = struck_tests::measure_mode(&x, fs, f, 2_400, 9_600, gap);
@@ -349,14 +364,7 @@ fn a_bank_captured_from_a_recording_plays_its_partials_with_their_decays() {
 fn a_captured_bank_played_with_the_recorded_strike_sounds_the_recorded_balance() {
     let sr = 48_000u32;
     let fs = f64::from(sr);
-    let truth = [
-        (233.0, 2.5, 1.0),
-        (611.0, 9.0, 0.7),
-        (1187.0, 4.0, 0.5),
-        (1733.0, 20.0, 0.6),
-        (2950.0, 7.5, 0.4),
-        (4410.0, 12.0, 0.3),
-    ];
+    let truth = SIX_PARTIALS;
     let wav = tmp("balance.wav");
     write_taps(&wav, sr, &truth);
     let recording: Vec<f32> = hound::WavReader::open(&wav).unwrap().samples::<f32>().map(Result::unwrap).collect();
@@ -372,33 +380,10 @@ fn a_captured_bank_played_with_the_recorded_strike_sounds_the_recorded_balance()
         args.recorded_strike = struck_cli::capture::recorded_strike(strike, 0.5, 100).unwrap();
         struck_cli::capture::bank_from_recording(&args).unwrap();
         // The recording's own decays on its own modes (support recorded mode by mode), so
-        // the render and the recording are compared at the same point of each decay.
+        // the render and the recording are compared at the same point of each decay; the
+        // plugin's defaults (Wood mallet, hardness 0.5).
         let material = tmp(&format!("balance-material-{strike}.json"));
-        let est = EstimateArgs {
-            files: vec![wav.clone()],
-            model: "rayleigh".into(),
-            method: "emg".into(),
-            object: Some(bank_path.display().to_string()),
-            channel: None,
-            out: material.clone(),
-            report: None,
-            no_residual: true,
-            min_decay_per_s: None,
-        };
-        estimate(&est).unwrap();
-        // The plugin's defaults (Wood mallet, hardness 0.5) at the recorded pitch.
-        let opts = SoundOptions {
-            object: bank_path.display().to_string(),
-            material: material.display().to_string(),
-            sample_rate: sr,
-            set: ["keytune=off", "gamma=1", "size=1", "matpitch=on", "noise=0", "quality=120", "release=0"]
-                .iter()
-                .map(|s| s.to_string())
-                .collect(),
-            ..SoundOptions::default()
-        };
-        let mut h = struck_cli::cli::configured_host(&opts, 4096).unwrap();
-        let x = struck_tests::render(&mut h, &[struck_tests::note(60, 100, None)], 0.3, 512);
+        let x = play_captured(&wav, &bank_path, &material, &[], 0.3);
         let played = levels(&x, 0);
         for p in [bank_path, material] {
             let _ = std::fs::remove_file(p);
