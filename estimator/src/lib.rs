@@ -652,7 +652,7 @@ pub fn extract_features(
                     )
                 } else {
                     format!(
-                        "{name}: a strike {:.0} ms after the onset at {:.3} s, inside its ring (in antiphase to the ring, too soon after another, or much softer than the ring): {what}; leave more time between taps",
+                        "{name}: a strike {:.0} ms after the onset at {:.3} s, inside its ring (not found as an onset of its own: in antiphase to the ring, too soon after another, or much softer than the ring): {what}; leave more time between taps",
                         1e3 * after,
                         onset as f64 / fs
                     )

@@ -127,7 +127,7 @@ fn falling_points_end_on_the_bound_and_say_so() {
 /// One clip's five partials (the real-clip case of issue 10): the EMG likelihood is largest
 /// as σ → 0, which used to run the optimiser into its iteration cap (2 × 100) and return the
 /// lower-bound curve as if converged. Now σ stops at its floor: the fit converges in few
-/// iterations (its search and the polishes of the three relative noise scales, `NoiseScale`)
+/// iterations (its search and the polishes of the two relative noise scales, `NoiseScale`)
 /// and warns that it follows the least-damped points.
 #[test]
 fn emg_on_a_few_partials_converges_and_warns() {
@@ -162,7 +162,7 @@ fn emg_on_a_rich_set_converges_inside() {
         let f = fit_damping(&pts, model, Method::Emg).unwrap();
         eprintln!("{model:?}: its {} active {:?} params {:?}", f.iterations, f.active_bounds, f.params);
         assert!(f.converged, "{model:?}");
-        assert!(f.iterations <= 160, "{model:?}: {} iterations", f.iterations);
+        assert!(f.iterations <= 200, "{model:?}: {} iterations", f.iterations);
         assert_eq!(f.noise_scale, Some(estimator::fit::NoiseScale::Absolute), "{model:?}");
         assert!(!f.active_bounds.iter().any(|b| b.starts_with("sigma") || b.starts_with("eta")), "{model:?}");
         if model != ModelKind::Power {
@@ -240,8 +240,8 @@ fn weighted_emg_on_glass_sets() {
 /// η for every point, let the fast high modes set them, and the law at the slow low modes
 /// hardly mattered: α₁ came out 17–25 % low (the lowest mode 15–23 % under-damped, LSQ 5–6 %
 /// off everywhere). The fit now also runs the EMG with its noise relative to the law
-/// (`NoiseScale`), keeps it for its likelihood, and is within 4 % on average over the modes
-/// and 5 % at its worst mode (measured 0.3–3.1 % and 0.5–3.4 %), ahead of the weighted LSQ
+/// (`NoiseScale`), keeps it for its likelihood, and is within 2 % on average over the modes
+/// and 3 % at its worst mode (measured 0.3–0.8 % and 0.5–1.3 %), ahead of the weighted LSQ
 /// (5.2–6.7 %) on both on every set; on the thesis's
 /// absolute noise it keeps the absolute scale (`emg_on_a_rich_set_converges_inside`).
 #[test]
@@ -273,7 +273,7 @@ fn emg_follows_decays_that_scatter_in_proportion() {
             f.noise_scale
         );
         assert_eq!(f.noise_scale, Some(estimator::fit::NoiseScale::Relative), "seed {seed}");
-        assert!(emg < 0.04 && emg_worst < 0.05, "seed {seed}: EMG mean {emg}, worst mode {emg_worst}");
+        assert!(emg < 0.02 && emg_worst < 0.03, "seed {seed}: EMG mean {emg}, worst mode {emg_worst}");
         assert!(emg < lsq && emg_worst < lsq_worst, "seed {seed}: EMG {emg} / {emg_worst} vs LSQ {lsq} / {lsq_worst}");
     }
 }
