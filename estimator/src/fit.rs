@@ -9,6 +9,7 @@
 
 use errorfunctions::RealErrorFunctions;
 use serde::{Deserialize, Serialize};
+use std::f64::consts::FRAC_1_SQRT_2;
 
 use crate::linalg::{invert, solve_small};
 use crate::optim::{newton, Constraints, OptResult};
@@ -692,96 +693,123 @@ fn model_hess(kind: ModelKind, a: &[f64], x: f64, lnx: f64, h: &mut [[f64; 3]; 3
 /// gives ∇ℓᵢ, ∇²ℓᵢ; then ∇Lᵢ = wᵢ∇ℓᵢ and ∇²Lᵢ = wᵢ∇²ℓᵢ + wᵢ(1 − wᵢ)∇ℓᵢ∇ℓᵢᵀ with wᵢ the EMG
 /// component's responsibility.
 fn emg_nll_hess(kind: ModelKind, d: &Data, p: &[f64], g: &mut [f64], h: &mut [f64]) -> f64 {
-    if d.scale != NoiseScale::Absolute {
-        return emg_nll_hess_relative(kind, d, p, g, h);
+    // (Sized per model so the per-point loops unroll: most of a fit's time is spent here.)
+    match (d.scale != NoiseScale::Absolute, kind.n_params()) {
+        (false, 2) => emg_nll_hess_absolute::<2, 4>(kind, d, p, g, h),
+        (false, _) => emg_nll_hess_absolute::<3, 5>(kind, d, p, g, h),
+        (true, 2) => emg_nll_hess_relative::<2, 4>(kind, d, p, g, h),
+        (true, _) => emg_nll_hess_relative::<3, 5>(kind, d, p, g, h),
     }
-    let k = kind.n_params();
-    let np = k + 2;
+}
+
+/// [`emg_nll_hess`] for the absolute noise scale, `K` curve parameters, `NP` = `K` + 2.
+fn emg_nll_hess_absolute<const K: usize, const NP: usize>(
+    kind: ModelKind,
+    d: &Data,
+    p: &[f64],
+    g: &mut [f64],
+    h: &mut [f64],
+) -> f64 {
+    debug_assert!(K == kind.n_params() && NP == K + 2);
+    let k = K;
     let (sigma0, eta) = (p[k].exp(), p[k + 1].exp());
-    let sq2 = std::f64::consts::SQRT_2;
     let mut mg = [0.0; 4];
     let mut mh = [[0.0; 3]; 3];
-    let mut gi = [0.0; 5];
-    let mut hi = [0.0; 25];
-    g.iter_mut().for_each(|v| *v = 0.0);
-    h.iter_mut().for_each(|v| *v = 0.0);
+    let mut gi = [0.0; NP];
+    let mut hi = [[0.0; NP]; NP];
+    let mut acc = Sums::<NP>::new();
     let mut ll = 0.0;
     let ln1e = (1.0 - OUTLIER_WEIGHT).ln();
     let out_density = d.outlier_density;
     let ln_eta_half = eta.ln() - std::f64::consts::LN_2;
+    let inv_eta = 1.0 / eta;
     for i in 0..d.x.len() {
         // Heteroscedastic: the point's spread is Sᵢ = √(σ² + mᵢ²) (mᵢ its own uncertainty),
         // with S' = dSᵢ/d ln σ = σ²/Sᵢ and S'' = 2σ²/Sᵢ − σ⁴/Sᵢ³ (both σ when mᵢ = 0).
+        // (Reciprocals once: a fit spends most of its time in this loop.)
         let sigma = (sigma0 * sigma0 + d.m[i] * d.m[i]).sqrt();
-        let s1 = sigma0 * sigma0 / sigma;
-        let s2 = 2.0 * s1 - s1 * s1 / sigma;
-        let sq2s = sq2 * sigma;
+        let inv_sigma = 1.0 / sigma;
+        let s1 = sigma0 * sigma0 * inv_sigma;
+        let s2 = 2.0 * s1 - s1 * s1 * inv_sigma;
         let base = ln_eta_half + 0.5 * eta * eta * sigma * sigma;
-        let s_mu = 1.0 / sq2s;
-        let s_eta = sigma / sq2;
+        let s_mu = FRAC_1_SQRT_2 * inv_sigma;
+        let s_mu_sig = s_mu * inv_sigma;
+        let s_eta = sigma * FRAC_1_SQRT_2;
         let mu = model_eval(kind, &p[..k], d.x[i], d.lnx[i], &mut mg);
         let r = mu - d.c[i];
-        let s = (r + eta * sigma * sigma) / sq2s;
+        let s = (r + eta * sigma * sigma) * s_mu;
         let (lm, w, t) = emg_mix(ln1e + base + eta * r, s, out_density);
         ll += lm;
         let tp = -t * (2.0 * s + t);
-        let s_sig = -r / (sq2s * sigma) + eta / sq2;
+        let s_sig = -r * s_mu_sig + eta * FRAC_1_SQRT_2;
         let l_mu = eta + t * s_mu;
         let l_mumu = tp * s_mu * s_mu;
-        let l_musig = tp * s_mu * s_sig - t / (sq2s * sigma);
+        let l_musig = tp * s_mu * s_sig - t * s_mu_sig;
         let l_mueta = 1.0 + tp * s_mu * s_eta;
         let ls = eta * eta * sigma + t * s_sig;
-        let le = 1.0 / eta + r + eta * sigma * sigma + t * s_eta;
-        let lss = eta * eta + tp * s_sig * s_sig + t * sq2 * r / (sigma * sigma * sigma);
-        let lse = 2.0 * eta * sigma + tp * s_sig * s_eta + t / sq2;
-        let lee = -1.0 / (eta * eta) + sigma * sigma + tp * s_eta * s_eta;
+        let le = inv_eta + r + eta * sigma * sigma + t * s_eta;
+        let lss = eta * eta + tp * s_sig * s_sig + 2.0 * t * r * s_mu_sig * inv_sigma;
+        let lse = 2.0 * eta * sigma + tp * s_sig * s_eta + t * FRAC_1_SQRT_2;
+        let lee = -inv_eta * inv_eta + sigma * sigma + tp * s_eta * s_eta;
         if kind == ModelKind::Power || kind == ModelKind::Hybrid {
             model_hess(kind, &p[..k], d.x[i], d.lnx[i], &mut mh);
         }
-        for a in 0..k {
+        for a in 0..K {
             gi[a] = l_mu * mg[a];
-            for b in a..k {
-                hi[a * np + b] = l_mumu * mg[a] * mg[b] + l_mu * mh[a.min(2)][b.min(2)];
+            for b in a..K {
+                hi[a][b] = l_mumu * mg[a] * mg[b] + l_mu * mh[a.min(2)][b.min(2)];
             }
-            hi[a * np + k] = l_musig * s1 * mg[a];
-            hi[a * np + k + 1] = l_mueta * eta * mg[a];
+            hi[a][k] = l_musig * s1 * mg[a];
+            hi[a][k + 1] = l_mueta * eta * mg[a];
         }
         gi[k] = ls * s1;
         gi[k + 1] = le * eta;
-        hi[k * np + k] = s1 * s1 * lss + s2 * ls;
-        hi[k * np + k + 1] = s1 * eta * lse;
-        hi[(k + 1) * np + k + 1] = eta * eta * lee + eta * le;
-        add_mixture_point(g, h, &gi, &hi, w, np);
+        hi[k][k] = s1 * s1 * lss + s2 * ls;
+        hi[k][k + 1] = s1 * eta * lse;
+        hi[k + 1][k + 1] = eta * eta * lee + eta * le;
+        acc.add_point(&gi, &hi, w);
     }
-    mean_negative(g, h, np, ll, d.x.len())
+    acc.mean_negative(g, h, ll, d.x.len())
 }
 
-/// Adds one point's robust-EMG term to the sums: ∇Lᵢ = wᵢ∇ℓᵢ and the upper triangle of
-/// ∇²Lᵢ = wᵢ∇²ℓᵢ + wᵢ(1 − wᵢ)∇ℓᵢ∇ℓᵢᵀ, from ℓᵢ's gradient `gi` and Hessian `hi` (row-major,
-/// upper triangle) and the EMG component's responsibility `w`.
-#[inline]
-fn add_mixture_point(g: &mut [f64], h: &mut [f64], gi: &[f64], hi: &[f64], w: f64, np: usize) {
-    let w2 = w * (1.0 - w);
-    for a in 0..np {
-        g[a] += w * gi[a];
-        for b in a..np {
-            h[a * np + b] += w * hi[a * np + b] + w2 * gi[a] * gi[b];
-        }
-    }
+/// The robust EMG's sums over points for `NP` parameters: the log-likelihood's gradient and
+/// the upper triangle of its Hessian.
+struct Sums<const NP: usize> {
+    g: [f64; NP],
+    h: [[f64; NP]; NP],
 }
 
-/// The sums of `n` points' log-likelihood `ll`, gradient `g` and upper-triangle Hessian `h`
-/// made the mean negative log-likelihood and its derivatives (the Hessian filled in full).
-fn mean_negative(g: &mut [f64], h: &mut [f64], np: usize, ll: f64, n: usize) -> f64 {
-    for a in 0..np {
-        for b in 0..a {
-            h[a * np + b] = h[b * np + a];
+impl<const NP: usize> Sums<NP> {
+    fn new() -> Self {
+        Sums { g: [0.0; NP], h: [[0.0; NP]; NP] }
+    }
+
+    /// Adds one point's term: ∇Lᵢ = wᵢ∇ℓᵢ and the upper triangle of ∇²Lᵢ = wᵢ∇²ℓᵢ +
+    /// wᵢ(1 − wᵢ)∇ℓᵢ∇ℓᵢᵀ, from ℓᵢ's gradient `gi` and Hessian `hi` (upper triangle) and the
+    /// EMG component's responsibility `w`.
+    #[inline]
+    fn add_point(&mut self, gi: &[f64; NP], hi: &[[f64; NP]; NP], w: f64) {
+        let w2 = w * (1.0 - w);
+        for a in 0..NP {
+            self.g[a] += w * gi[a];
+            for b in a..NP {
+                self.h[a][b] += w * hi[a][b] + w2 * gi[a] * gi[b];
+            }
         }
     }
-    let n = n as f64;
-    g.iter_mut().for_each(|v| *v = -*v / n);
-    h.iter_mut().for_each(|v| *v = -*v / n);
-    -ll / n
+
+    /// The sums of `n` points with log-likelihood `ll` made the mean negative log-likelihood,
+    /// its gradient `g` and its Hessian `h` (row-major, filled in full).
+    fn mean_negative(&self, g: &mut [f64], h: &mut [f64], ll: f64, n: usize) -> f64 {
+        let n = n as f64;
+        for a in 0..NP {
+            g[a] = -self.g[a] / n;
+            for b in 0..NP {
+                h[a * NP + b] = -self.h[a.min(b)][a.max(b)] / n;
+            }
+        }
+        -ll / n
+    }
 }
 
 /// Smallest law value μ the relative EMG divides by (normalised units: the median c is 1).
@@ -796,22 +824,26 @@ const RELATIVE_MU_MIN: f64 = 1e-9;
 /// ∇ℓ = Σᵤ ℓᵤ ∂u/∂θ and ∇²ℓ = Σᵤᵥ ℓᵤᵥ (∂u/∂θ)(∂v/∂θ)ᵀ + Σᵤ ℓᵤ ∂²u/∂θ², from
 /// S_μ = σ²μ/S, S_ψ = σ²μ²/S (ψ = ln σ), S_μμ = (σ² − S_μ²)/S, S_μψ = 2S_μ − S_μS_ψ/S,
 /// S_ψψ = 2S_ψ − S_ψ²/S; E_μ = −E/μ, E_φ = E (φ = ln η), E_μμ = 2E/μ², E_μφ = −E/μ, E_φφ = E.
-fn emg_nll_hess_relative(kind: ModelKind, d: &Data, p: &[f64], g: &mut [f64], h: &mut [f64]) -> f64 {
-    let k = kind.n_params();
-    let np = k + 2;
+fn emg_nll_hess_relative<const K: usize, const NP: usize>(
+    kind: ModelKind,
+    d: &Data,
+    p: &[f64],
+    g: &mut [f64],
+    h: &mut [f64],
+) -> f64 {
+    debug_assert!(K == kind.n_params() && NP == K + 2);
+    let k = K;
     let (sigma0, eta0) = (p[k].exp(), p[k + 1].exp());
     let q2 = sigma0 * sigma0;
     let (spread_rel, excess_rel) = (d.scale.spread_relative(), d.scale.excess_relative());
-    let sq2 = std::f64::consts::SQRT_2;
     let mut mg = [0.0; 4];
     let mut mh = [[0.0; 3]; 3];
     // ∂u/∂θ for u = μ, S, E, and ℓ's gradient and Hessian for one point.
-    let mut ju = [[0.0; 5]; 3];
-    let mut lj = [[0.0; 5]; 3];
-    let mut gi = [0.0; 5];
-    let mut hi = [0.0; 25];
-    g.iter_mut().for_each(|v| *v = 0.0);
-    h.iter_mut().for_each(|v| *v = 0.0);
+    let mut ju = [[0.0; NP]; 3];
+    let mut lj = [[0.0; NP]; 3];
+    let mut gi = [0.0; NP];
+    let mut hi = [[0.0; NP]; NP];
+    let mut acc = Sums::<NP>::new();
     let mut ll = 0.0;
     let ln1e = (1.0 - OUTLIER_WEIGHT).ln();
     let out_density = d.outlier_density;
@@ -822,42 +854,50 @@ fn emg_nll_hess_relative(kind: ModelKind, d: &Data, p: &[f64], g: &mut [f64], h:
         let mu = mu_raw.max(RELATIVE_MU_MIN);
         // σ's and η's scale at this point (1 where absolute: the thesis's S and E).
         let (ms, me) = (if spread_rel { mu } else { 1.0 }, if excess_rel { mu } else { 1.0 });
+        // (Reciprocals once: a fit spends most of its time in this loop.)
         let sigma = (q2 * ms * ms + d.m[i] * d.m[i]).sqrt();
-        let eta = eta0 / me;
-        let s_p = q2 * ms * ms / sigma;
-        let s_pp = 2.0 * s_p - s_p * s_p / sigma;
+        let inv_sigma = 1.0 / sigma;
+        let inv_me = 1.0 / me;
+        let eta = eta0 * inv_me;
+        let inv_eta = me / eta0;
+        let s_p = q2 * ms * ms * inv_sigma;
+        let s_pp = 2.0 * s_p - s_p * s_p * inv_sigma;
         let (s_m, s_mm, s_mp) = if spread_rel && !held {
-            let s_m = q2 * mu / sigma;
-            (s_m, (q2 - s_m * s_m) / sigma, 2.0 * s_m - s_m * s_p / sigma)
+            let s_m = q2 * mu * inv_sigma;
+            (s_m, (q2 - s_m * s_m) * inv_sigma, 2.0 * s_m - s_m * s_p * inv_sigma)
         } else {
             (0.0, 0.0, 0.0)
         };
-        let (e_m, e_mm, e_mf) =
-            if excess_rel && !held { (-eta / mu, 2.0 * eta / (mu * mu), -eta / mu) } else { (0.0, 0.0, 0.0) };
+        let (e_m, e_mm, e_mf) = if excess_rel && !held {
+            let e_m = -eta * inv_me;
+            (e_m, -2.0 * e_m * inv_me, e_m)
+        } else {
+            (0.0, 0.0, 0.0)
+        };
         // ℓ's partials in (μ, S, E), as in `emg_nll_hess`.
-        let sq2s = sq2 * sigma;
+        let s_mu = FRAC_1_SQRT_2 * inv_sigma;
         let r = mu_raw - d.c[i];
-        let s = (r + eta * sigma * sigma) / sq2s;
+        let s = (r + eta * sigma * sigma) * s_mu;
         let base = (0.5 * eta).ln() + 0.5 * eta * eta * sigma * sigma;
         let (lm, w, t) = emg_mix(ln1e + base + eta * r, s, out_density);
         ll += lm;
         let tp = -t * (2.0 * s + t);
-        let s_mu = 1.0 / sq2s;
-        let s_sig = -r / (sq2s * sigma) + eta / sq2;
-        let s_eta = sigma / sq2;
-        let l_u = [eta + t * s_mu, eta * eta * sigma + t * s_sig, 1.0 / eta + r + eta * sigma * sigma + t * s_eta];
-        let l_ms = tp * s_mu * s_sig - t / (sq2s * sigma);
+        let s_mu_sig = s_mu * inv_sigma;
+        let s_sig = -r * s_mu_sig + eta * FRAC_1_SQRT_2;
+        let s_eta = sigma * FRAC_1_SQRT_2;
+        let l_u = [eta + t * s_mu, eta * eta * sigma + t * s_sig, inv_eta + r + eta * sigma * sigma + t * s_eta];
+        let l_ms = tp * s_mu * s_sig - t * s_mu_sig;
         let l_me = 1.0 + tp * s_mu * s_eta;
-        let l_se = 2.0 * eta * sigma + tp * s_sig * s_eta + t / sq2;
+        let l_se = 2.0 * eta * sigma + tp * s_sig * s_eta + t * FRAC_1_SQRT_2;
         let l_uu = [
             [tp * s_mu * s_mu, l_ms, l_me],
-            [l_ms, eta * eta + tp * s_sig * s_sig + t * sq2 * r / (sigma * sigma * sigma), l_se],
-            [l_me, l_se, -1.0 / (eta * eta) + sigma * sigma + tp * s_eta * s_eta],
+            [l_ms, eta * eta + tp * s_sig * s_sig + 2.0 * t * r * s_mu_sig * inv_sigma, l_se],
+            [l_me, l_se, -inv_eta * inv_eta + sigma * sigma + tp * s_eta * s_eta],
         ];
         if kind == ModelKind::Power || kind == ModelKind::Hybrid {
             model_hess(kind, &p[..k], d.x[i], d.lnx[i], &mut mh);
         }
-        for a in 0..k {
+        for a in 0..K {
             ju[0][a] = mg[a];
             ju[1][a] = s_m * mg[a];
             ju[2][a] = e_m * mg[a];
@@ -870,13 +910,13 @@ fn emg_nll_hess_relative(kind: ModelKind, d: &Data, p: &[f64], g: &mut [f64], h:
         ju[2][k + 1] = eta;
         // (ℓ_uu ∂u/∂θ)ᵤ_b, so the quadratic form costs 3 products per entry.
         for u in 0..3 {
-            for b in 0..np {
+            for b in 0..NP {
                 lj[u][b] = l_uu[u][0] * ju[0][b] + l_uu[u][1] * ju[1][b] + l_uu[u][2] * ju[2][b];
             }
         }
-        for a in 0..np {
+        for a in 0..NP {
             gi[a] = l_u[0] * ju[0][a] + l_u[1] * ju[1][a] + l_u[2] * ju[2][a];
-            for b in a..np {
+            for b in a..NP {
                 let mut v = ju[0][a] * lj[0][b] + ju[1][a] * lj[1][b] + ju[2][a] * lj[2][b];
                 // Σᵤ ℓᵤ ∂²u/∂θₐ∂θ_b.
                 v += match (a < k, b < k) {
@@ -892,12 +932,12 @@ fn emg_nll_hess_relative(kind: ModelKind, d: &Data, p: &[f64], g: &mut [f64], h:
                     _ if a == k + 1 && b == k + 1 => l_u[2] * eta,
                     _ => 0.0,
                 };
-                hi[a * np + b] = v;
+                hi[a][b] = v;
             }
         }
-        add_mixture_point(g, h, &gi, &hi, w, np);
+        acc.add_point(&gi, &hi, w);
     }
-    mean_negative(g, h, np, ll, d.x.len())
+    acc.mean_negative(g, h, ll, d.x.len())
 }
 
 /// Mean half squared residual (normalised units) and its gradient.
@@ -1520,6 +1560,39 @@ fn settled(r: &ConstrainedFit) -> bool {
     r.opt.converged && r.active.is_empty()
 }
 
+/// A start for another run where the optimum `x` has σ on its floor: `x` with σ lifted to a
+/// tenth of the points' median uncertainty, as [`emg_starts`] starts σ, where the likelihood
+/// still rises with σ² there; or, `from_residuals`, to a tenth of the median residual from
+/// `x`'s law whatever the slope (a second basin away from the floor, as the relative scales
+/// have on the project's glass sets). σ → 0 is a stationary edge of the likelihood in ln σ
+/// (its slope there is σ² times the slope in σ²), so a run that starts on the floor stays
+/// there.
+fn lifted_start(model: ModelKind, d: &Data, x: &[f64], from_residuals: bool) -> Option<Vec<f64>> {
+    let k = model.n_params();
+    let bounds = noise_bounds_of(d);
+    let spread = if from_residuals {
+        let mut mg = [0.0; 4];
+        let r: Vec<f64> =
+            (0..d.x.len()).map(|i| (d.c[i] - model_eval(model, &x[..k], d.x[i], d.lnx[i], &mut mg)).abs()).collect();
+        median(&r)
+    } else {
+        median(&d.m)
+    };
+    let ln_sigma_start = (0.1 * spread).ln().max(bounds.ln_sigma_min);
+    if x[k] > bounds.ln_sigma_min + 1e-9 || ln_sigma_start <= x[k] + 1e-6 {
+        return None;
+    }
+    let (mut g, mut h) = (vec![0.0; k + 2], vec![0.0; (k + 2) * (k + 2)]);
+    emg_nll_hess(model, d, x, &mut g, &mut h);
+    // ∂(−log L)/∂ ln σ = 2σ² ∂(−log L)/∂σ²: negative where a larger σ fits better.
+    if g[k] >= 0.0 && !from_residuals {
+        return None;
+    }
+    let mut s = x.to_vec();
+    s[k] = ln_sigma_start;
+    Some(s)
+}
+
 /// The bounds of the EMG's noise parameters for `d`: σ at least [`SIGMA_FLOOR`] of the median
 /// c ([`SIGMA_FLOOR_HETERO`] when the points carry their own uncertainties), η at most
 /// [`ETA_MAX`] per median c.
@@ -1592,29 +1665,11 @@ fn emg_runs(model: ModelKind, d: &Data, warm: bool) -> (Vec<ConstrainedFit>, usi
             }
         }
         let mut fits = run(&starts);
-        // σ → 0 is a stationary edge of the likelihood in ln σ (its slope there is σ² times
-        // the slope in σ²), so a polish that starts on the floor stays there. Where all the
-        // points' likelihood still rises with σ² on the floor, the optimum is inside: polish
-        // again from a tenth of the median uncertainty (as [`emg_starts`] starts σ).
-        let k = model.n_params();
-        let ln_sigma_start = (0.1 * median(&d.m)).ln().max(bounds.ln_sigma_min);
-        let (mut g, mut h) = (vec![0.0; k + 2], vec![0.0; (k + 2) * (k + 2)]);
-        let lifted: Vec<Vec<f64>> = fits
-            .iter()
-            .filter(|r| {
-                r.opt.converged && r.opt.x[k] <= bounds.ln_sigma_min + 1e-9 && ln_sigma_start > r.opt.x[k] + 1e-6
-            })
-            .filter(|r| {
-                emg_nll_hess(model, d, &r.opt.x, &mut g, &mut h);
-                // ∂(−log L)/∂σ² = g / (2σ²): negative where a larger σ fits better.
-                g[k] / (2.0 * (2.0 * r.opt.x[k]).exp()) < 0.0
-            })
-            .map(|r| {
-                let mut s = r.opt.x.clone();
-                s[k] = ln_sigma_start;
-                s
-            })
-            .collect();
+        // σ → 0 is a stationary edge of the likelihood in ln σ, so a polish that starts on
+        // the floor stays there: polish again from a lifted σ where the likelihood still
+        // rises with it ([`lifted_start`]).
+        let lifted: Vec<Vec<f64>> =
+            fits.iter().filter(|r| r.opt.converged).filter_map(|r| lifted_start(model, d, &r.opt.x, false)).collect();
         if !lifted.is_empty() {
             fits.extend(run(&lifted));
         }
@@ -1719,27 +1774,37 @@ enum ScaleChoice {
 /// all points; `its` counts the Newton iterations. The scale is chosen on every k-th point in
 /// order of λ (at most [`SCALE_SUBSAMPLE_POINTS`]): the absolute EMG searched there, the
 /// relative scales polished from its optimum (in normalised units the median c is 1, so σ and
-/// η carry over as they are; searched afresh where the polish does not converge), the best
-/// kept if its log-likelihood there exceeds the absolute one's by [`RELATIVE_NOISE_MARGIN`].
-/// Then it alone is fitted on all points, from its subsample optimum: the EMG's speed targets
-/// (2 ms for 1,000 points) leave no room for the absolute search there too. (A reviewer found
-/// the subsample's choice can be worse on all points than the absolute fit — two homoscedastic
-/// glass sets 72 log-likelihood units under it; a check by polishing the absolute optimum on
-/// all points doubled the weighted 1,000-point fit's time and was not kept.)
+/// η carry over as they are; searched afresh where the polish does not converge); each
+/// optimum with σ on its floor polished again from a σ lifted off it ([`lifted_start`]: on
+/// the project's homoscedastic glass sets the relative-spread scale's better basin lies
+/// there, and the choice missed it on 7 of 12); the best relative one kept if its
+/// log-likelihood there exceeds the absolute one's by [`RELATIVE_NOISE_MARGIN`]. Then it
+/// alone is fitted on all points, from its subsample optimum (the EMG's speed targets, 2 ms
+/// for 1,000 points, leave no room for the absolute search there too), and checked there
+/// against the absolute likelihood at its subsample optimum (a bound on the absolute
+/// optimum's).
 fn other_noise_scale(model: ModelKind, d: &Data, its: &mut usize) -> ScaleChoice {
     let n = d.x.len();
     let stride = n.div_ceil(SCALE_SUBSAMPLE_POINTS).max(1);
     let sub = d.subsample(stride);
     let ns = sub.x.len() as f64;
-    let Ok((sub_abs, sub_its)) = emg_search(model, &sub, false) else {
+    let Ok((mut sub_abs, sub_its)) = emg_search(model, &sub, false) else {
         return ScaleChoice::Absolute(None);
     };
     *its += sub_its;
     if !(sub_abs.opt.converged && sub_abs.opt.f.is_finite()) {
         return ScaleChoice::Absolute(None);
     }
-    let mut best: Option<(NoiseScale, Vec<f64>)> = None;
-    let mut best_f = sub_abs.opt.f - RELATIVE_NOISE_MARGIN / ns;
+    if let Some(start) = lifted_start(model, &sub, &sub_abs.opt.x, true) {
+        let l = emg_from(model, &sub, &start, EMG_GTOL);
+        *its += l.opt.iterations;
+        if l.opt.converged && l.opt.f < sub_abs.opt.f {
+            sub_abs = l;
+        }
+    }
+    // Each scale's optimum on the subsample (relative ones polished from the absolute one).
+    let mut cands: Vec<(NoiseScale, Vec<f64>, f64)> =
+        vec![(NoiseScale::Absolute, sub_abs.opt.x.clone(), sub_abs.opt.f)];
     for scale in [NoiseScale::RelativeSpread, NoiseScale::Relative] {
         let sub_s = sub.with_scale(scale);
         // (To choose a scale the likelihood is needed to a few digits, not the optimum.)
@@ -1750,12 +1815,27 @@ fn other_noise_scale(model: ModelKind, d: &Data, its: &mut usize) -> ScaleChoice
             *its += n_its;
             r = fresh;
         }
-        if r.opt.converged && r.opt.f.is_finite() && r.opt.f < best_f {
-            best_f = r.opt.f;
-            best = Some((scale, r.opt.x));
+        // The absolute optimum's σ on its floor holds the polish there too.
+        if let Some(start) = r.opt.converged.then(|| lifted_start(model, &sub_s, &r.opt.x, true)).flatten() {
+            let l = emg_from(model, &sub_s, &start, CHOICE_GTOL);
+            *its += l.opt.iterations;
+            if l.opt.converged && l.opt.f < r.opt.f {
+                r = l;
+            }
+        }
+        if r.opt.converged && r.opt.f.is_finite() {
+            cands.push((scale, r.opt.x, r.opt.f));
         }
     }
     let whole = stride == 1;
+    let mut best: Option<(NoiseScale, Vec<f64>)> = None;
+    let mut best_f = cands[0].2 - RELATIVE_NOISE_MARGIN / ns;
+    for (scale, x, f) in cands.into_iter().skip(1) {
+        if f < best_f {
+            best_f = f;
+            best = Some((scale, x));
+        }
+    }
     let Some((scale, start)) = best else {
         return ScaleChoice::Absolute(whole.then_some(sub_abs));
     };
@@ -1768,6 +1848,17 @@ fn other_noise_scale(model: ModelKind, d: &Data, its: &mut usize) -> ScaleChoice
         };
         *its += n_its;
         r = fresh;
+    }
+    if !whole {
+        // Checked on every point: the absolute likelihood at its subsample optimum is no
+        // higher than at its optimum there, so a relative optimum that does not beat even it
+        // by the margin was the subsample's mistake.
+        let np = model.n_params() + 2;
+        let (mut g, mut h) = (vec![0.0; np], vec![0.0; np * np]);
+        let f_abs = emg_nll_hess(model, d, &sub_abs.opt.x, &mut g, &mut h);
+        if r.opt.f > f_abs - RELATIVE_NOISE_MARGIN / n as f64 {
+            return ScaleChoice::Absolute(None);
+        }
     }
     ScaleChoice::Relative(ds, r)
 }

@@ -175,10 +175,11 @@ fn emg_on_a_rich_set_converges_inside() {
 
 /// The same glass sets, Rayleigh: damping-curve error at the object's modes (mean of
 /// |c_fit/c_true − 1|). The fast high modes extracted too low are what the outlier component
-/// and the constraints are for. EMG is below LSQ on every set and within 10 % on average
-/// (measured 6.4 %; LSQ 155 %, LB 28 %). The sets with α₁ = 0.5 s⁻¹, where the support
-/// damping (mean 3 s⁻¹) is several times the material's c at the low modes, are the hardest
-/// (EMG up to 30 %): per-point uncertainties (issue 10 part 3) are the next step there.
+/// and the constraints are for. EMG is below LSQ on every set, within 4 % on average and
+/// within the issue's 10 % on every set (measured 2.3 % and 7.9 %; LSQ 155 %, LB 28 %). The
+/// relative-spread noise scale explains these sets best (2 % jitter in proportion to c); until
+/// stop 57 its better basin, away from σ's floor, was missed on 7 of 12 sets (6.3 % mean, set 7
+/// 31 %).
 #[test]
 fn emg_ahead_of_lsq_on_glass_sets() {
     let mut rows = Vec::new();
@@ -194,8 +195,9 @@ fn emg_ahead_of_lsq_on_glass_sets() {
     }
     let mean = |i: usize| rows.iter().map(|r| [r.1, r.2, r.3][i]).sum::<f64>() / rows.len() as f64;
     eprintln!("glass sets curve error: EMG {:.3} LSQ {:.3} LB {:.3}; per set {rows:.3?}", mean(0), mean(1), mean(2));
-    assert!(mean(0) <= 0.10, "EMG mean curve error {}", mean(0));
+    assert!(mean(0) <= 0.04, "EMG mean curve error {}", mean(0));
     for &(seed, emg, lsq, _) in &rows {
+        assert!(emg <= 0.10, "seed {seed}: EMG {emg}");
         assert!(emg < 0.5 * lsq, "seed {seed}: EMG {emg} vs LSQ {lsq}");
     }
 }
