@@ -1759,6 +1759,10 @@ const EMG_GTOL: f64 = 1e-10;
 /// Gradient tolerance of the runs that only choose the noise scale ([`other_noise_scale`]).
 const CHOICE_GTOL: f64 = 1e-6;
 
+/// Two relative noise scales whose log-likelihoods on the subsample are this close are both
+/// fitted on all points ([`other_noise_scale`]).
+const RUNNER_UP_MARGIN: f64 = 4.0;
+
 /// Most points the EMG's noise scale is chosen on ([`other_noise_scale`]).
 pub const SCALE_SUBSAMPLE_POINTS: usize = 96;
 
@@ -1780,9 +1784,11 @@ enum ScaleChoice {
 /// there, and the choice missed it on 7 of 12); the best relative one kept if its
 /// log-likelihood there exceeds the absolute one's by [`RELATIVE_NOISE_MARGIN`]. Then it
 /// alone is fitted on all points, from its subsample optimum (the EMG's speed targets, 2 ms
-/// for 1,000 points, leave no room for the absolute search there too), and checked there
-/// against the absolute likelihood at its subsample optimum (a bound on the absolute
-/// optimum's).
+/// for 1,000 points, leave no room for the absolute search there too) — with the other
+/// relative scale where the subsample puts them within [`RUNNER_UP_MARGIN`] (a tester's glass
+/// set: 10 log-likelihood units apart on all points, 2.4 % against 0.34 % curve error) — and
+/// checked there against the absolute likelihood at its subsample optimum (a bound on the
+/// absolute optimum's).
 fn other_noise_scale(model: ModelKind, d: &Data, its: &mut usize) -> ScaleChoice {
     let n = d.x.len();
     let stride = n.div_ceil(SCALE_SUBSAMPLE_POINTS).max(1);
@@ -1828,27 +1834,37 @@ fn other_noise_scale(model: ModelKind, d: &Data, its: &mut usize) -> ScaleChoice
         }
     }
     let whole = stride == 1;
-    let mut best: Option<(NoiseScale, Vec<f64>)> = None;
-    let mut best_f = cands[0].2 - RELATIVE_NOISE_MARGIN / ns;
-    for (scale, x, f) in cands.into_iter().skip(1) {
-        if f < best_f {
-            best_f = f;
-            best = Some((scale, x));
+    // The relative scales that beat the absolute one by the margin, best first.
+    let abs_f = cands[0].2;
+    let mut rel: Vec<(NoiseScale, Vec<f64>, f64)> =
+        cands.into_iter().skip(1).filter(|c| c.2 < abs_f - RELATIVE_NOISE_MARGIN / ns).collect();
+    rel.sort_by(|a, b| a.2.total_cmp(&b.2));
+    if rel.is_empty() {
+        return ScaleChoice::Absolute(whole.then_some(sub_abs));
+    }
+    // Both fitted on all points where the subsample hardly tells them apart.
+    let close = RUNNER_UP_MARGIN / ns;
+    let best_sub = rel[0].2;
+    let mut fitted: Option<(Data, ConstrainedFit)> = None;
+    for (scale, start, f_sub) in rel {
+        if fitted.is_some() && (whole || f_sub > best_sub + close) {
+            break;
+        }
+        let ds = d.with_scale(scale);
+        let mut r = emg_from(model, &ds, &start, EMG_GTOL);
+        *its += r.opt.iterations;
+        if !(r.opt.converged && r.opt.f.is_finite()) {
+            let Ok((fresh, n_its)) = fit_emg_optimum(model, &ds) else { continue };
+            *its += n_its;
+            r = fresh;
+        }
+        if fitted.as_ref().is_none_or(|(_, b)| r.opt.f < b.opt.f) {
+            fitted = Some((ds, r));
         }
     }
-    let Some((scale, start)) = best else {
+    let Some((ds, r)) = fitted else {
         return ScaleChoice::Absolute(whole.then_some(sub_abs));
     };
-    let ds = d.with_scale(scale);
-    let mut r = emg_from(model, &ds, &start, EMG_GTOL);
-    *its += r.opt.iterations;
-    if !(r.opt.converged && r.opt.f.is_finite()) {
-        let Ok((fresh, n_its)) = fit_emg_optimum(model, &ds) else {
-            return ScaleChoice::Absolute(whole.then_some(sub_abs));
-        };
-        *its += n_its;
-        r = fresh;
-    }
     if !whole {
         // Checked on every point: the absolute likelihood at its subsample optimum is no
         // higher than at its optimum there, so a relative optimum that does not beat even it
