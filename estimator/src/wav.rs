@@ -34,8 +34,10 @@ pub const MAX_RATE: u32 = 192_000;
 pub struct Recording {
     /// Where it came from.
     pub path: PathBuf,
-    /// Mono samples, full scale ±1.
+    /// Mono samples, full scale ±1: the whole file, or the window of [`load_wav_window`].
     pub samples: Vec<f32>,
+    /// The file's frame that `samples` starts at (0 unless read through a window).
+    pub start_frame: usize,
     /// Sample rate in Hz.
     pub sample_rate: u32,
     /// Channels in the file.
@@ -50,7 +52,8 @@ pub struct Recording {
     /// code for integers). One such sample is a normalised file's peak; two or more in one
     /// impact are its peaks cut off (`segment::clear_of_clipping`). Also the samples at a
     /// level a channel in use is held flat at below full scale (a limiter; `HeldPeak`).
-    /// Ascending and apart. Empty when the float samples are not scaled to ±1 (wrong units).
+    /// Ascending and apart; frames of the file (a window's too). Empty when the float samples
+    /// are not scaled to ±1 (wrong units).
     pub clipped: Vec<(usize, usize)>,
 }
 
@@ -493,7 +496,23 @@ const CANCEL_DB: f64 = 40.0;
 /// no samples or only zeros (or channels that cancel out in the mono mix). Clipping, DC
 /// offset, very low level, samples far beyond full scale and truncation only add warnings.
 pub fn load_wav(path: &Path, channel: Option<usize>) -> Result<Recording, EstimateError> {
-    read_wav(path, channel, true)
+    read_wav(path, channel, true, None)
+}
+
+/// As [`load_wav`], keeping only the frames in `window(sample_rate)` (clipped to the file;
+/// empty past its end): the file is read through as by [`load_wav`], with the same errors,
+/// warnings and DC offset (measured on the whole file, bit for bit), so a few seconds of an
+/// hour-long session take a few seconds' memory (the editor's A/B clips, a capture's
+/// residual). [`Recording::start_frame`] is the window's first frame.
+///
+/// # Errors
+/// As [`load_wav`].
+pub fn load_wav_window(
+    path: &Path,
+    channel: Option<usize>,
+    window: impl Fn(u32) -> std::ops::Range<usize>,
+) -> Result<Recording, EstimateError> {
+    read_wav(path, channel, true, Some(&window))
 }
 
 /// As [`load_wav`], for playing rather than analysing: the samples exactly as in the file (no
@@ -503,19 +522,125 @@ pub fn load_wav(path: &Path, channel: Option<usize>) -> Result<Recording, Estima
 /// # Errors
 /// As [`load_wav`], except [`EstimateError::Silent`].
 pub fn load_wav_exact(path: &Path, channel: Option<usize>) -> Result<Recording, EstimateError> {
-    read_wav(path, channel, false)
+    read_wav(path, channel, false, None)
 }
 
 /// Peak above which float samples are taken to be in the wrong units (e.g. integer counts
 /// written as floats): 4× (12 dB) over full scale, far beyond any float overshoot.
 const WRONG_UNITS_PEAK: f64 = 4.0;
 
-fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recording, EstimateError> {
+/// Running measures of the mono mix over every frame read, so that a windowed read keeps
+/// only its window yet measures the file as a whole read does: its peak and the mean of its
+/// recorded part (without the constant padding at either end), as the same sums in the same
+/// order.
+struct MonoStats {
+    /// Frames seen.
+    n: usize,
+    /// The first value, and the first frame that differs from it.
+    head: f32,
+    first_diff: Option<usize>,
+    /// Sums of the values from frame 0 and from `first_diff`.
+    sum: f64,
+    sum_from_diff: f64,
+    /// The constant run the values end in so far: its value, first frame, and both sums
+    /// before it.
+    run_value: f32,
+    run_start: usize,
+    sums_before_run: (f64, f64),
+    /// Largest magnitude.
+    peak: f64,
+}
+
+impl MonoStats {
+    fn new() -> Self {
+        MonoStats {
+            n: 0,
+            head: 0.0,
+            first_diff: None,
+            sum: 0.0,
+            sum_from_diff: 0.0,
+            run_value: 0.0,
+            run_start: 0,
+            sums_before_run: (0.0, 0.0),
+            peak: 0.0,
+        }
+    }
+
+    fn push(&mut self, v: f32) {
+        let i = self.n;
+        if i == 0 {
+            self.head = v;
+            self.run_value = v;
+        } else {
+            if self.first_diff.is_none() && v != self.head {
+                self.first_diff = Some(i);
+            }
+            if v != self.run_value {
+                self.run_value = v;
+                self.run_start = i;
+                self.sums_before_run = (self.sum, self.sum_from_diff);
+            }
+        }
+        let x = f64::from(v);
+        self.sum += x;
+        if self.first_diff.is_some() {
+            self.sum_from_diff += x;
+        }
+        self.peak = self.peak.max(x.abs());
+        self.n += 1;
+    }
+
+    /// Every value scaled by `k`, a power of two (exact).
+    fn rescale(&mut self, k: f64) {
+        let f = |v: f32| (f64::from(v) * k) as f32;
+        self.head = f(self.head);
+        self.run_value = f(self.run_value);
+        self.sum *= k;
+        self.sum_from_diff *= k;
+        self.sums_before_run = (self.sums_before_run.0 * k, self.sums_before_run.1 * k);
+        self.peak *= k;
+    }
+
+    /// The mean of the recorded part: digital silence (a constant: exact zeros, or an
+    /// offset) that an editor padded the take with before or after it is no part of the
+    /// recording, so neither of its offset: measured on the recorded part only, a padded
+    /// take reads as the take itself (a woodblock padded with 1 s of zeros kept its ring 79
+    /// dB under its peak off centre, which gave 1226 Hz at 84 s⁻¹ instead of 40). (Runs of at
+    /// least `run` frames: a ring that starts or ends on a zero sample is all recording. A
+    /// recorded part under 1/20 of `rate` frames is a click, not a take with an offset: its
+    /// own mean is its shape, a one-sided pulse, so the whole file's is taken.)
+    fn recorded_mean(&self, run: usize, rate: usize) -> f64 {
+        let len = self.n;
+        let first = self.first_diff.filter(|&i| i >= run).unwrap_or(0);
+        // The last frame that differs from the last value, plus one (all of them when none does).
+        let last = if self.run_start == 0 { len } else { self.run_start };
+        let last = if len - last >= run { last } else { len };
+        let recorded = first..last.max(first);
+        if recorded.len() * 20 < rate {
+            return self.sum / len.max(1) as f64;
+        }
+        let sum = match (first > 0, last < len) {
+            (false, false) => self.sum,
+            (false, true) => self.sums_before_run.0,
+            (true, false) => self.sum_from_diff,
+            (true, true) => self.sums_before_run.1,
+        };
+        sum / recorded.len() as f64
+    }
+}
+
+fn read_wav(
+    path: &Path,
+    channel: Option<usize>,
+    analysis: bool,
+    window: Option<&dyn Fn(u32) -> std::ops::Range<usize>>,
+) -> Result<Recording, EstimateError> {
     let WavData { format, mut reader, len, declared, rf64_unsized } = open_wav(path)?;
     let spec = format;
     if !(MIN_RATE..=MAX_RATE).contains(&spec.sample_rate) {
         return Err(EstimateError::SampleRate { path: path.to_path_buf(), sample_rate: spec.sample_rate });
     }
+    let keep = window.map_or(0..usize::MAX, |w| w(spec.sample_rate));
     let channels = usize::from(spec.channels);
     if let Some(ch) = channel {
         if ch >= channels {
@@ -543,7 +668,9 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
     }
     let frames = total_frames.unwrap_or(max_frames).min(max_frames);
     // A pipe's length is unknown: grow as it is read.
-    let mut mono = Vec::with_capacity(if total_frames.is_some() { frames } else { frames.min(1 << 20) });
+    let kept = frames.min(keep.end).saturating_sub(keep.start);
+    let mut mono = Vec::with_capacity(if total_frames.is_some() { kept } else { kept.min(1 << 20) });
+    let mut stats = MonoStats::new();
     let (mut clipped, mut seen, mut peak_any) = (0usize, 0usize, 0.0f64);
     let mut clip_runs: Vec<(usize, usize)> = Vec::new();
     // An integer format's largest magnitude (its positive full-scale code; −1 is over it).
@@ -597,6 +724,7 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
             for v in &mut mono {
                 *v = (f64::from(*v) * k) as f32;
             }
+            stats.rescale(k);
             peak_any *= k;
             peaks.iter_mut().flatten().for_each(|p| p.rescale(k));
             clipped = 0;
@@ -650,13 +778,15 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
                 seen += 1;
                 peak_any = peak_any.max(v.abs());
                 match channel {
-                    Some(c) if c == ch => mono.push(v as f32),
+                    Some(c) if c == ch => acc = v,
                     Some(_) => {}
                     None => acc += v,
                 }
             }
-            if channel.is_none() {
-                mono.push((acc / channels as f64) as f32);
+            let m = if channel.is_none() { (acc / channels as f64) as f32 } else { acc as f32 };
+            stats.push(m);
+            if keep.contains(&(done + f)) {
+                mono.push(m);
             }
         }
         done += got;
@@ -676,19 +806,19 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
         ));
     }
     let cut_short = declared.is_some_and(|d| len.is_some_and(|len| d > len)) || short_read.is_some();
-    if cut_short && !mono.is_empty() {
+    if cut_short && stats.n > 0 {
         warnings.push(format!(
             "{}: the data ends early ({} of {} bytes); {} samples were read, the file may be truncated",
             path.display(),
             done * frame_bytes,
             declared.or(len).unwrap_or(0),
-            mono.len()
+            stats.n
         ));
     }
-    if mono.is_empty() {
+    if stats.n == 0 {
         return Err(EstimateError::Silent { path: path.to_path_buf(), why: Silence::NoSamples });
     }
-    let peak = mono.iter().fold(0.0f64, |m, &v| m.max(f64::from(v).abs()));
+    let peak = stats.peak;
     if analysis {
         // Channels that cancel: one the other inverted, exactly or not to the last bit (an
         // integer −32768 has no +32768; a dither or a gain of 0.999 on one side). The mix's
@@ -704,23 +834,7 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
             return Err(EstimateError::Silent { path: path.to_path_buf(), why });
         }
     }
-    // The recorded part: digital silence (a constant: exact zeros, or an offset) that an
-    // editor padded the take with before or after it is no part of the recording, so neither
-    // of its offset: measured on the recorded part only, a padded take reads as the take
-    // itself (a woodblock padded with 1 s of zeros kept its ring 79 dB under its peak off
-    // centre, which gave 1226 Hz at 84 s⁻¹ instead of 40). (Runs of at least a millisecond:
-    // a ring that starts or ends on a zero sample is all recording.)
-    let run = (spec.sample_rate as usize / 1000).max(1);
-    let (head, tail) = (mono.first().copied().unwrap_or(0.0), mono.last().copied().unwrap_or(0.0));
-    let first = mono.iter().position(|&v| v != head).filter(|&i| i >= run).unwrap_or(0);
-    let last = mono.iter().rposition(|&v| v != tail).map_or(mono.len(), |i| i + 1);
-    let last = if mono.len() - last >= run { last } else { mono.len() };
-    let recorded = first..last.max(first);
-    // A recorded part under 50 ms is a click, not a take with an offset: its own mean is its
-    // shape (a one-sided pulse), so the file's is taken, as before (review).
-    let recorded = if recorded.len() * 20 < spec.sample_rate as usize { 0..mono.len() } else { recorded };
-    let n = recorded.len().max(1) as f64;
-    let mean = mono[recorded.clone()].iter().map(|&v| f64::from(v)).sum::<f64>() / n;
+    let mean = stats.recorded_mean((spec.sample_rate as usize / 1000).max(1), spec.sample_rate as usize);
     let clip_fraction = clipped as f64 / seen.max(1) as f64;
     let wrong_units = spec.float && peak_any > WRONG_UNITS_PEAK;
     if wrong_units {
@@ -819,6 +933,7 @@ fn read_wav(path: &Path, channel: Option<usize>, analysis: bool) -> Result<Recor
     Ok(Recording {
         path: path.to_path_buf(),
         samples: mono,
+        start_frame: keep.start.min(stats.n),
         sample_rate: spec.sample_rate,
         channels: spec.channels,
         bits_per_sample: spec.valid_bits,
@@ -974,6 +1089,61 @@ mod tests {
         // The offset was taken out (0.003 plus the ring's own mean).
         let mean = plain.samples.iter().map(|&v| f64::from(v)).sum::<f64>() / take.len() as f64;
         assert!(mean.abs() < 1e-6, "{mean}");
+    }
+
+    /// A window of a file reads as the same frames of the whole file, bit for bit, with its
+    /// warnings and clipped stretches: a padded take with an offset (measured on the whole
+    /// take, 0.02 here, and taken out of the window), a quiet start that reads as
+    /// right-justified samples until a loud stretch rescales it, stereo mixed and one channel
+    /// picked; clipped to the file, empty past its end.
+    #[test]
+    fn a_window_reads_the_same_frames_as_the_whole_file() {
+        let take: Vec<f64> =
+            tone(48_000).iter().enumerate().map(|(i, v)| v * (-(i as f64) / 9_000.0).exp() + 0.02).collect();
+        let mut padded = vec![0.0; 14_400];
+        padded.extend(&take);
+        padded.extend(vec![0.0; 9_600]);
+        let pcm = |x: &[f64]| x.iter().flat_map(|v| ((v * 32_767.0).round() as i16).to_le_bytes()).collect::<Vec<u8>>();
+        let quiet: Vec<f64> = (0..96_000).map(|i| 0.01 * (0.37 * i as f64).sin() * (0.011 * i as f64).cos()).collect();
+        let rescaled: Vec<f64> = quiet.iter().chain(&tone(48_000)).copied().collect();
+        let stereo: Vec<f64> = take.iter().zip(tone(48_000)).flat_map(|(a, b)| [*a, 0.7 * b]).collect();
+        let cases = [
+            ("window-padded", wav_bytes(&fmt_body(1, 1, 48_000, 16, None), &pcm(&padded), None), None),
+            ("window-rescaled", wav_bytes(&fmt_body(1, 1, 48_000, 16, Some(12)), &pcm(&rescaled), None), None),
+            ("window-stereo", wav_bytes(&fmt_body(1, 2, 48_000, 16, None), &pcm(&stereo), None), None),
+            ("window-stereo-right", wav_bytes(&fmt_body(1, 2, 48_000, 16, None), &pcm(&stereo), None), Some(1)),
+        ];
+        for (name, bytes, channel) in cases {
+            let p = scratch(name, &bytes);
+            let whole = load_wav(&p, channel).unwrap();
+            let n = whole.samples.len();
+            if name == "window-padded" {
+                // The offset of the take alone came out (an independent check of the mean).
+                assert!(whole.warnings.iter().any(|w| w.contains("DC offset 0.020")), "{:?}", whole.warnings);
+                let mid = f64::from(whole.samples[14_400 + 40_000]);
+                assert!((mid - (take[40_000] - 0.02)).abs() < 2e-4, "{mid}");
+            }
+            if name == "window-rescaled" {
+                // Read at full scale after the rescale (its mean is under 1e-5).
+                let worst =
+                    whole.samples.iter().zip(&rescaled).map(|(a, b)| (f64::from(*a) - b).abs()).fold(0.0, f64::max);
+                assert!(worst < 1e-4, "{worst}");
+            }
+            for (a, b) in [(0, n), (0, 100), (1_000, 30_000), (n - 10, n + 500), (n + 5, n + 10), (700, 700)] {
+                let w = load_wav_window(&p, channel, |rate| {
+                    assert_eq!(rate, 48_000);
+                    a..b
+                })
+                .unwrap();
+                let (lo, hi) = (a.min(n), b.min(n));
+                let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<u32>>();
+                assert_eq!(bits(&w.samples), bits(&whole.samples[lo..hi]), "{name} {a}..{b}");
+                assert_eq!(w.start_frame, lo, "{name}");
+                assert_eq!(w.warnings, whole.warnings, "{name}");
+                assert_eq!(w.clipped, whole.clipped, "{name}");
+            }
+            let _ = std::fs::remove_file(p);
+        }
     }
 
     /// A lone click in digital silence (a 2 ms one-sided pulse in 0.5 s of zeros) keeps its

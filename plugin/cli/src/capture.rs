@@ -264,20 +264,17 @@ fn capture_residual(
         .iter()
         .find(|f| f.display().to_string() == imp.file)
         .map_or_else(|| PathBuf::from(&imp.file), Clone::clone);
-    let rec = match estimator::load_wav(&path, channel) {
-        Ok(r) => r,
-        Err(e) => {
-            warn(&format!("no residual kept: {e}"));
-            return None;
-        }
-    };
     struck::residual_layer::capture_residual(
         report,
-        &rec.samples,
-        rec.sample_rate,
+        &path,
+        channel,
         &report.damping(),
         report.support_c().unwrap_or(0.0),
     )
+    .unwrap_or_else(|e| {
+        warn(&format!("no residual kept: {e}"));
+        None
+    })
 }
 
 /// What `struck residual` was asked.
@@ -347,13 +344,14 @@ pub fn residual(args: &ResidualArgs) -> Result<String, String> {
         .impacts
         .get(args.impact - 1)
         .ok_or_else(|| format!("--impact {}: the recording has {n} analysed impact(s)", args.impact))?;
-    let rec = estimator::load_wav(&args.file, args.channel).map_err(|e| e.to_string())?;
+    // (Only the impact's stretch is read: an impact in an hour-long session costs its seconds.)
+    let (x, r, rec) =
+        estimator::residual::read_impact_residual(&args.file, args.channel, imp, &law, support, args.seconds)
+            .map_err(|e| e.to_string())?;
     let fs = f64::from(rec.sample_rate);
-    let (x, r) = estimator::residual::impact_residual(&rec.samples, fs, imp, &law, support, args.seconds);
     let len = x.len();
     let energy = |v: &[f64]| v.iter().map(|s| s * s).sum::<f64>();
-    let start = ((imp.onset_s * fs).round() as usize).min(rec.samples.len());
-    let recorded = energy(&rec.samples[start..start + len].iter().map(|&v| f64::from(v)).collect::<Vec<_>>());
+    let recorded = energy(&rec.samples[..len].iter().map(|&v| f64::from(v)).collect::<Vec<_>>());
     let share = energy(&x) / recorded.max(f64::MIN_POSITIVE);
     let spec = hound::WavSpec {
         channels: 1,

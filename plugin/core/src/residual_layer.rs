@@ -82,24 +82,24 @@ pub fn wanted_key(
 /// The residual of `report`'s first impact as a captured material keeps it: the first
 /// [`presets::residual::SECONDS`] of the impact minus the modes the material (`law`, mean
 /// support damping `support_c`) represents ([`estimator::residual::impact_residual`], Ren
-/// §6.1), as a quantised log-power spectrogram with the impact's features. `samples` is the
-/// recording the report was made from (mono, at `sample_rate`). `None` without impacts.
+/// §6.1), as a quantised log-power spectrogram with the impact's features. `path` is the
+/// recording the report was made from (`channel` as the estimate read it); only the impact's
+/// stretch of it is read ([`estimator::residual::read_impact_residual`]). `None` without
+/// impacts.
+///
+/// # Errors
+/// The recording cannot be read.
 pub fn capture_residual(
     report: &estimator::EstimateReport,
-    samples: &[f32],
-    sample_rate: u32,
+    path: &std::path::Path,
+    channel: Option<usize>,
     law: &dsp::Damping,
     support_c: f64,
-) -> Option<ResidualSpectrogram> {
-    let imp = report.impacts.first()?;
-    let (x, _) = estimator::residual::impact_residual(
-        samples,
-        f64::from(sample_rate),
-        imp,
-        law,
-        support_c,
-        presets::residual::SECONDS,
-    );
+) -> Result<Option<ResidualSpectrogram>, estimator::EstimateError> {
+    let Some(imp) = report.impacts.first() else { return Ok(None) };
+    let (x, _, rec) =
+        estimator::residual::read_impact_residual(path, channel, imp, law, support_c, presets::residual::SECONDS)?;
+    let sample_rate = rec.sample_rate;
     let spec = estimator::residual::power_spectrogram(&x);
     let modes = imp
         .features
@@ -110,14 +110,14 @@ pub fn capture_residual(
             amplitude: f.amplitude,
         })
         .collect();
-    Some(ResidualSpectrogram::from_power(
+    Ok(Some(ResidualSpectrogram::from_power(
         &spec.power,
         spec.frames,
         sample_rate,
         estimator::residual::FRAME as u32,
         estimator::residual::HOP as u32,
         modes,
-    ))
+    )))
 }
 
 /// Starts the worker thread if it is not running: it transfers whenever the wanted key

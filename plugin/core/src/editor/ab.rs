@@ -60,15 +60,17 @@ impl Side {
 /// # Errors
 /// The WAV reader's reason, or an onset past the end of the file.
 pub fn recording_clip(file: &Path, onset_s: f64, duration_s: f64, rate: f32) -> Result<Vec<f32>, String> {
-    let rec = estimator::load_wav(file, None).map_err(|e| e.to_string())?;
-    let sr = f64::from(rec.sample_rate);
-    let start = ((onset_s - PRE_ROLL_S).max(0.0) * sr) as usize;
-    if start >= rec.samples.len() {
+    // Only the clip's frames are kept (an impact in an hour-long session costs its seconds).
+    let rec = estimator::wav::load_wav_window(file, None, |rate| {
+        let sr = f64::from(rate);
+        let start = ((onset_s - PRE_ROLL_S).max(0.0) * sr) as usize;
+        start..start + ((duration_s.clamp(0.01, MAX_CLIP_SECONDS) + PRE_ROLL_S) * sr) as usize
+    })
+    .map_err(|e| e.to_string())?;
+    if rec.samples.is_empty() {
         return Err(format!("{}: the impact at {onset_s:.3} s lies past the end of the file", file.display()));
     }
-    let len = ((duration_s.clamp(0.01, MAX_CLIP_SECONDS) + PRE_ROLL_S) * sr) as usize;
-    let seg = &rec.samples[start..(start + len).min(rec.samples.len())];
-    let mut out = resample(seg, rec.sample_rate, rate.round() as u32)?;
+    let mut out = resample(&rec.samples, rec.sample_rate, rate.round() as u32)?;
     fade_out(&mut out, (0.005 * f64::from(rate)) as usize);
     Ok(out)
 }
@@ -139,8 +141,6 @@ pub fn object_clip(modes: &ObjectModes, params: SoundParams, strike: Strike, rat
 /// The recording cannot be read.
 pub fn residual_clip(req: &AbRequest) -> Result<Vec<f32>, String> {
     use estimator::transfer::{transfer, Mode, Source};
-    let rec = estimator::load_wav(&req.file, None).map_err(|e| e.to_string())?;
-    let fs = f64::from(rec.sample_rate);
     let imp = estimator::ImpactFeatures {
         file: req.file.display().to_string(),
         onset_s: req.onset_s,
@@ -154,8 +154,11 @@ pub fn residual_clip(req: &AbRequest) -> Result<Vec<f32>, String> {
         repaired_clicks: 0,
         search_stopped: false,
     };
-    let (x, _) =
-        estimator::residual::impact_residual(&rec.samples, fs, &imp, &req.damping, 0.0, presets::residual::SECONDS);
+    // (Only the impact's stretch of the file is read.)
+    let (x, _, rec) =
+        estimator::residual::read_impact_residual(&req.file, None, &imp, &req.damping, 0.0, presets::residual::SECONDS)
+            .map_err(|e| e.to_string())?;
+    let fs = f64::from(rec.sample_rate);
     let spec = estimator::residual::power_spectrogram(&x);
     let mode = |f: &Feature, d: f64| Mode { freq_hz: f.freq_hz, decay_per_s: d, amplitude: f.amplitude.abs() };
     let source: Vec<Mode> = req.features.iter().map(|f| mode(f, f.decay_per_s)).collect();

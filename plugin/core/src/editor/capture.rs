@@ -264,14 +264,14 @@ pub(super) fn capture_residual(
     fit: &estimator::FitResult,
 ) -> Result<Option<presets::residual::ResidualSpectrogram>, String> {
     let Some(imp) = rec.report.impacts.first() else { return Ok(None) };
-    let wav = estimator::load_wav(Path::new(&imp.file), None).map_err(|e| format!("no residual kept: {e}"))?;
-    Ok(crate::residual_layer::capture_residual(
+    crate::residual_layer::capture_residual(
         &rec.report,
-        &wav.samples,
-        wav.sample_rate,
+        Path::new(&imp.file),
+        None,
         &fit.damping(),
         rec.report.support_for(fit).unwrap_or(0.0),
-    ))
+    )
+    .map_err(|e| format!("no residual kept: {e}"))
 }
 
 impl CapturePanel {
