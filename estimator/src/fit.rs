@@ -696,9 +696,10 @@ fn emg_nll_hess(kind: ModelKind, d: &Data, p: &[f64], g: &mut [f64], h: &mut [f6
     // (Sized per model so the per-point loops unroll: most of a fit's time is spent here.)
     match (d.scale != NoiseScale::Absolute, kind.n_params()) {
         (false, 2) => emg_nll_hess_absolute::<2, 4>(kind, d, p, g, h),
-        (false, _) => emg_nll_hess_absolute::<3, 5>(kind, d, p, g, h),
+        (false, 3) => emg_nll_hess_absolute::<3, 5>(kind, d, p, g, h),
         (true, 2) => emg_nll_hess_relative::<2, 4>(kind, d, p, g, h),
-        (true, _) => emg_nll_hess_relative::<3, 5>(kind, d, p, g, h),
+        (true, 3) => emg_nll_hess_relative::<3, 5>(kind, d, p, g, h),
+        (_, n) => unreachable!("{n} curve parameters: every family has 2 or 3 (FitParams)"),
     }
 }
 
@@ -1570,6 +1571,9 @@ fn settled(r: &ConstrainedFit) -> bool {
 fn lifted_start(model: ModelKind, d: &Data, x: &[f64], from_residuals: bool) -> Option<Vec<f64>> {
     let k = model.n_params();
     let bounds = noise_bounds_of(d);
+    if x[k] > bounds.ln_sigma_min + 1e-9 {
+        return None;
+    }
     let spread = if from_residuals {
         let mut mg = [0.0; 4];
         let r: Vec<f64> =
@@ -1579,14 +1583,16 @@ fn lifted_start(model: ModelKind, d: &Data, x: &[f64], from_residuals: bool) -> 
         median(&d.m)
     };
     let ln_sigma_start = (0.1 * spread).ln().max(bounds.ln_sigma_min);
-    if x[k] > bounds.ln_sigma_min + 1e-9 || ln_sigma_start <= x[k] + 1e-6 {
+    if ln_sigma_start <= x[k] + 1e-6 {
         return None;
     }
-    let (mut g, mut h) = (vec![0.0; k + 2], vec![0.0; (k + 2) * (k + 2)]);
-    emg_nll_hess(model, d, x, &mut g, &mut h);
-    // ∂(−log L)/∂ ln σ = 2σ² ∂(−log L)/∂σ²: negative where a larger σ fits better.
-    if g[k] >= 0.0 && !from_residuals {
-        return None;
+    if !from_residuals {
+        let (mut g, mut h) = (vec![0.0; k + 2], vec![0.0; (k + 2) * (k + 2)]);
+        emg_nll_hess(model, d, x, &mut g, &mut h);
+        // ∂(−log L)/∂ ln σ = 2σ² ∂(−log L)/∂σ²: negative where a larger σ fits better.
+        if g[k].is_nan() || g[k] >= 0.0 {
+            return None;
+        }
     }
     let mut s = x.to_vec();
     s[k] = ln_sigma_start;
@@ -1704,6 +1710,15 @@ fn fit_emg(model: ModelKind, d: &Data) -> Result<FitResult, EstimateError> {
             its += abs_its;
             (None, absolute)
         }
+        ScaleChoice::Doubtful(ds, r) => {
+            let (absolute, abs_its) = fit_emg_optimum(model, d)?;
+            its += abs_its;
+            if r.opt.f < absolute.opt.f - RELATIVE_NOISE_MARGIN / nf {
+                (Some(ds), r)
+            } else {
+                (None, absolute)
+            }
+        }
     };
     let d = d_chosen.as_ref().unwrap_or(d);
     let scale = d.scale;
@@ -1772,6 +1787,10 @@ enum ScaleChoice {
     Relative(Data, ConstrainedFit),
     /// The thesis's absolute scale, with its optimum where that search ran on every point.
     Absolute(Option<ConstrainedFit>),
+    /// A relative scale whose optimum on all points does not beat the absolute likelihood at
+    /// the subsample's absolute optimum: kept only if it beats the absolute search on all
+    /// points by [`RELATIVE_NOISE_MARGIN`].
+    Doubtful(Data, ConstrainedFit),
 }
 
 /// A relative noise scale ([`NoiseScale`]) where it explains `d` better, with its optimum on
@@ -1786,9 +1805,11 @@ enum ScaleChoice {
 /// alone is fitted on all points, from its subsample optimum (the EMG's speed targets, 2 ms
 /// for 1,000 points, leave no room for the absolute search there too) — with the other
 /// relative scale where the subsample puts them within [`RUNNER_UP_MARGIN`] (a tester's glass
-/// set: 10 log-likelihood units apart on all points, 2.4 % against 0.34 % curve error) — and
-/// checked there against the absolute likelihood at its subsample optimum (a bound on the
-/// absolute optimum's).
+/// set: 10 log-likelihood units apart on all points, 2.4 % against 0.34 % curve error; also
+/// the next where the best one's fit on all points fails) — and checked there against the
+/// absolute likelihood at its subsample optimum, an upper bound of the absolute optimum's
+/// (one that does not beat it by the margin is [`ScaleChoice::Doubtful`]: the absolute fit
+/// is searched on all points too and the two compared).
 fn other_noise_scale(model: ModelKind, d: &Data, its: &mut usize) -> ScaleChoice {
     let n = d.x.len();
     let stride = n.div_ceil(SCALE_SUBSAMPLE_POINTS).max(1);
@@ -1865,18 +1886,24 @@ fn other_noise_scale(model: ModelKind, d: &Data, its: &mut usize) -> ScaleChoice
     let Some((ds, r)) = fitted else {
         return ScaleChoice::Absolute(whole.then_some(sub_abs));
     };
-    if !whole {
-        // Checked on every point: the absolute likelihood at its subsample optimum is no
-        // higher than at its optimum there, so a relative optimum that does not beat even it
-        // by the margin was the subsample's mistake.
+    // Checked on every point: the absolute likelihood at its subsample optimum is no higher
+    // than at its optimum there, so a relative optimum that does not beat even it by the
+    // margin may be the subsample's mistake (where the subsample is every point, that is the
+    // absolute fit itself).
+    let f_abs = if whole {
+        sub_abs.opt.f
+    } else {
         let np = model.n_params() + 2;
         let (mut g, mut h) = (vec![0.0; np], vec![0.0; np * np]);
-        let f_abs = emg_nll_hess(model, d, &sub_abs.opt.x, &mut g, &mut h);
-        if r.opt.f > f_abs - RELATIVE_NOISE_MARGIN / n as f64 {
-            return ScaleChoice::Absolute(None);
-        }
+        emg_nll_hess(model, d, &sub_abs.opt.x, &mut g, &mut h)
+    };
+    if r.opt.f < f_abs - RELATIVE_NOISE_MARGIN / n as f64 {
+        ScaleChoice::Relative(ds, r)
+    } else if whole {
+        ScaleChoice::Absolute(Some(sub_abs))
+    } else {
+        ScaleChoice::Doubtful(ds, r)
     }
-    ScaleChoice::Relative(ds, r)
 }
 
 /// The median of `v` (the upper one of an even count).

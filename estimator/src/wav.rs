@@ -1146,6 +1146,64 @@ mod tests {
         }
     }
 
+    /// The running mean of the recorded part equals the mean over the whole buffer as it was
+    /// computed before windows (written out again here as the reference), bit for bit: padding
+    /// before, after, both or neither, runs under and over the minimum, a constant file, a
+    /// rescale of everything read so far partway through.
+    #[test]
+    fn the_running_mean_is_the_whole_buffers_mean() {
+        fn reference(mono: &[f32], run: usize, rate: usize) -> f64 {
+            let (head, tail) = (mono[0], mono[mono.len() - 1]);
+            let first = mono.iter().position(|&v| v != head).filter(|&i| i >= run).unwrap_or(0);
+            let last = mono.iter().rposition(|&v| v != tail).map_or(mono.len(), |i| i + 1);
+            let last = if mono.len() - last >= run { last } else { mono.len() };
+            let recorded = first..last.max(first);
+            let recorded = if recorded.len() * 20 < rate { 0..mono.len() } else { recorded };
+            let n = recorded.len().max(1) as f64;
+            mono[recorded].iter().map(|&v| f64::from(v)).sum::<f64>() / n
+        }
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for case in 0..2_000 {
+            let r = next();
+            let mut pad = |bits: u64| if r >> bits & 1 == 1 { (next() % 40) as usize } else { 0 };
+            let (before, after) = (pad(0), pad(1));
+            let body = if case % 97 == 0 { 0 } else { 1 + (next() % 200) as usize };
+            let (head, tail) = ((next() % 3) as f32 * 0.25 - 0.25, (next() % 3) as f32 * 0.25 - 0.25);
+            let mut mono: Vec<f32> = vec![head; before];
+            mono.extend((0..body).map(|_| ((next() % 2001) as f32 - 1000.0) / 1024.0 + 0.01));
+            mono.extend(vec![tail; after]);
+            if mono.is_empty() {
+                continue;
+            }
+            let (run, rate) = (1 + (next() % 12) as usize, 20 + (next() % 3000) as usize);
+            // A rescale by a power of two after `cut` values (as a quiet start read as
+            // right-justified samples is rescaled once a loud stretch shows).
+            let cut = (next() as usize) % (mono.len() + 1);
+            let k = 1.0 / 16.0;
+            let mut stats = MonoStats::new();
+            for &v in &mono[..cut] {
+                stats.push(v);
+            }
+            stats.rescale(k);
+            for v in &mut mono[..cut] {
+                *v = (f64::from(*v) * k) as f32;
+            }
+            for &v in &mono[cut..] {
+                stats.push(v);
+            }
+            let (got, want) = (stats.recorded_mean(run, rate), reference(&mono, run, rate));
+            assert_eq!(got.to_bits(), want.to_bits(), "case {case}: {got} vs {want} ({before}, {body}, {after})");
+            let peak = mono.iter().fold(0.0f64, |m, &v| m.max(f64::from(v).abs()));
+            assert_eq!(stats.peak, peak, "case {case}");
+        }
+    }
+
     /// A lone click in digital silence (a 2 ms one-sided pulse in 0.5 s of zeros) keeps its
     /// shape and gets no DC warning: under 50 ms is no take, its mean is the file's.
     #[test]

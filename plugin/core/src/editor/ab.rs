@@ -61,10 +61,10 @@ impl Side {
 /// The WAV reader's reason, or an onset past the end of the file.
 pub fn recording_clip(file: &Path, onset_s: f64, duration_s: f64, rate: f32) -> Result<Vec<f32>, String> {
     // Only the clip's frames are kept (an impact in an hour-long session costs its seconds).
-    let rec = estimator::wav::load_wav_window(file, None, |rate| {
-        let sr = f64::from(rate);
+    let rec = estimator::wav::load_wav_window(file, None, |file_rate| {
+        let sr = f64::from(file_rate);
         let start = ((onset_s - PRE_ROLL_S).max(0.0) * sr) as usize;
-        start..start + ((duration_s.clamp(0.01, MAX_CLIP_SECONDS) + PRE_ROLL_S) * sr) as usize
+        start..start.saturating_add(((duration_s.clamp(0.01, MAX_CLIP_SECONDS) + PRE_ROLL_S) * sr) as usize)
     })
     .map_err(|e| e.to_string())?;
     if rec.samples.is_empty() {
