@@ -111,6 +111,15 @@ pub enum NoiseScale {
 }
 
 impl NoiseScale {
+    /// How the scale reads in a sentence ("the EMG's noise …"), for the CLI and the editor.
+    pub fn describe(self) -> &'static str {
+        match self {
+            NoiseScale::Absolute => "the same at every mode (the thesis's)",
+            NoiseScale::RelativeSpread => "its spread in proportion to the law",
+            NoiseScale::Relative => "its spread and excess in proportion to the law",
+        }
+    }
+
     /// Whether σ scales with the law.
     fn spread_relative(self) -> bool {
         matches!(self, NoiseScale::RelativeSpread | NoiseScale::Relative)

@@ -236,8 +236,9 @@ pub fn estimate(args: &EstimateArgs) -> Result<String, String> {
     let held = material.recorded_modes().map_or_else(String::new, |r| {
         format!("; support as recorded on {} mode by mode ({} modes matched)", r.object, r.modes.len())
     });
+    let noise = report.chosen.noise_scale.map_or_else(String::new, |s| format!("; the EMG's noise {}", s.describe()));
     Ok(format!(
-        "wrote {}: {} {:?} params {:?} from {} features in {} impacts{ren}{ren_fit}{kept}{held}",
+        "wrote {}: {} {:?} params {:?} from {} features in {} impacts{noise}{ren}{ren_fit}{kept}{held}",
         args.out.display(),
         report.model,
         report.method,

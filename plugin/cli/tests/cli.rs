@@ -777,6 +777,8 @@ fn residual_writes_what_the_material_does_not_represent() {
     let (rec_s, m) = (rec.to_str().unwrap(), dir.join("m.json"));
     let o = struck(&dir, &["estimate", rec_s, "--out", m.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // The summary says how the EMG's noise scaled (the report's `noise_scale`).
+    assert!(stderr(&o).contains("; the EMG's noise "), "{}", stderr(&o));
     let out = dir.join("res.wav");
     let args =
         ["residual", rec_s, "--material", m.to_str().unwrap(), "--out", out.to_str().unwrap(), "--seconds", "0.8"];

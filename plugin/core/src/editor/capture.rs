@@ -531,6 +531,7 @@ impl CapturePanel {
             ui.label("fit");
             ui.label("parameters ± standard error (SI)");
             ui.label("σ");
+            ui.label("noise");
             ui.label("BIC");
             ui.end_row();
             for f in &r.fits {
@@ -550,6 +551,7 @@ impl CapturePanel {
                     .collect();
                 ui.label(ps.join(", "));
                 ui.label(format!("{:.3}", f.sigma));
+                ui.label(f.noise_scale.map_or("–", |s| s.describe()));
                 ui.label(f.bic.map_or("–".into(), |b| format!("{b:.1}")));
                 ui.end_row();
             }
