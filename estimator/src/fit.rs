@@ -1719,15 +1719,18 @@ fn fit_emg(model: ModelKind, d: &Data) -> Result<FitResult, EstimateError> {
             its += abs_its;
             (None, absolute)
         }
-        ScaleChoice::Doubtful(ds, r) => {
-            let (absolute, abs_its) = fit_emg_optimum(model, d)?;
-            its += abs_its;
-            if r.opt.f < absolute.opt.f - RELATIVE_NOISE_MARGIN / nf {
-                (Some(ds), r)
-            } else {
-                (None, absolute)
+        // (Where the absolute search fails, the relative fit stands.)
+        ScaleChoice::Doubtful(ds, r) => match fit_emg_optimum(model, d) {
+            Ok((absolute, abs_its)) => {
+                its += abs_its;
+                if r.opt.f < absolute.opt.f - RELATIVE_NOISE_MARGIN / nf {
+                    (Some(ds), r)
+                } else {
+                    (None, absolute)
+                }
             }
-        }
+            Err(_) => (Some(ds), r),
+        },
     };
     let d = d_chosen.as_ref().unwrap_or(d);
     let scale = d.scale;
