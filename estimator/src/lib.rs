@@ -934,6 +934,13 @@ fn ren_fit_of(
 ) -> Result<(FitResult, ren_fit::RenFitSummary), EstimateError> {
     let points: Vec<(f64, f64)> = impacts.iter().flat_map(|i| i.features.iter().map(|f| (f.lambda(), f.c()))).collect();
     let used = &impacts[..impacts.len().min(ren_fit::MAX_IMPACTS)];
+    // Each impact's stretch of its file: from its onset, its duration up to the sound image's.
+    let stretch = |imp: &ImpactFeatures, fs: f64| {
+        let start = (imp.onset_s * fs).round().max(0.0) as usize;
+        start..start.saturating_add((psycho::IMAGE_SECONDS.min(imp.duration_s) * fs) as usize)
+    };
+    // Each file read once, keeping only the frames from its first used impact's start to its
+    // last one's end (a few seconds of a long session, not all of it: `wav::load_wav_window`).
     let mut recordings: Vec<(String, Recording)> = Vec::new();
     for imp in used {
         if recordings.iter().all(|r| r.0 != imp.file) {
@@ -942,7 +949,12 @@ fn ren_fit_of(
                 .find(|p| p.display().to_string() == imp.file)
                 .cloned()
                 .unwrap_or_else(|| PathBuf::from(&imp.file));
-            recordings.push((imp.file.clone(), wav::load_wav(&path, opts.channel)?));
+            let window = |rate: u32| {
+                let spans = used.iter().filter(|i| i.file == imp.file).map(|i| stretch(i, f64::from(rate)));
+                let (start, end) = spans.fold((usize::MAX, 0), |(a, b), s| (a.min(s.start), b.max(s.end)));
+                start..end
+            };
+            recordings.push((imp.file.clone(), wav::load_wav_window(&path, opts.channel, window)?));
         }
     }
     let segments: Vec<ren_fit::Segment> = used
@@ -952,12 +964,10 @@ fn ren_fit_of(
                 return ren_fit::Segment { samples: Vec::new(), sample_rate: 48_000.0 };
             };
             let fs = f64::from(r.sample_rate);
-            let start = ((imp.onset_s * fs).round().max(0.0) as usize).min(r.samples.len());
-            let len = ((psycho::IMAGE_SECONDS.min(imp.duration_s) * fs) as usize).min(r.samples.len() - start);
-            ren_fit::Segment {
-                samples: r.samples[start..start + len].iter().map(|&v| f64::from(v)).collect(),
-                sample_rate: fs,
-            }
+            let span = stretch(imp, fs);
+            let start = span.start.saturating_sub(r.start_frame).min(r.samples.len());
+            let end = span.end.saturating_sub(r.start_frame).min(r.samples.len()).max(start);
+            ren_fit::Segment { samples: r.samples[start..end].iter().map(|&v| f64::from(v)).collect(), sample_rate: fs }
         })
         .collect();
     let starts: Vec<FitResult> =
