@@ -289,7 +289,7 @@ const CLICK_ISOLATION: usize = 8;
 /// amplitude A at ω rad/sample moves the measure by at most (1 − cos ω)·A, and a sum of
 /// partials or noise spreads it over every sample; an attack is not one sample alone.
 /// Only the mode search's copy of the impact is repaired: the recording, and the residual
-/// taken from it ([`crate::residual::impact_residual`]), keep the spike.
+/// taken from it ([`crate::residual::read_impact_residual`]), keep the spike.
 pub fn repair_clicks(r: &mut [f64], noise_var: f64) -> Vec<usize> {
     let n = r.len();
     if n < 2 * CLICK_ISOLATION + 3 {

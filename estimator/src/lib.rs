@@ -935,10 +935,7 @@ fn ren_fit_of(
     let points: Vec<(f64, f64)> = impacts.iter().flat_map(|i| i.features.iter().map(|f| (f.lambda(), f.c()))).collect();
     let used = &impacts[..impacts.len().min(ren_fit::MAX_IMPACTS)];
     // Each impact's stretch of its file: from its onset, its duration up to the sound image's.
-    let stretch = |imp: &ImpactFeatures, fs: f64| {
-        let start = (imp.onset_s * fs).round().max(0.0) as usize;
-        start..start.saturating_add((psycho::IMAGE_SECONDS.min(imp.duration_s) * fs) as usize)
-    };
+    let stretch = |imp: &ImpactFeatures, fs: f64| residual::impact_stretch(imp, fs, psycho::IMAGE_SECONDS);
     // Each file read once, keeping only the frames from its first used impact's start to its
     // last one's end (a few seconds of a long session, not all of it: `wav::load_wav_window`).
     let mut recordings: Vec<(String, Recording)> = Vec::new();

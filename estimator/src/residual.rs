@@ -277,35 +277,21 @@ pub fn residual_sound(x: &[f64], features: &[Feature], ratios: &[f64], fs: f64, 
     x.iter().zip(&rep).map(|(a, b)| a - b).collect()
 }
 
-/// The residual of one impact of a recording by a material (law `law`, mean support damping
-/// `support_c`): the impact's first `seconds` from `samples` (mono, at `fs`), its features
-/// matched against themselves with the material's decays (Ren's R(φᵢ, Φ̃), [`crate::ren`]),
-/// their amplitudes and phases fitted over the first half second, and the represented sound
-/// taken out ([`residual_sound`]). Returns the residual and the impact's R(Φ, Φ̃).
-pub fn impact_residual(
-    samples: &[f32],
-    fs: f64,
-    imp: &crate::ImpactFeatures,
-    law: &dsp::Damping,
-    support_c: f64,
-    seconds: f64,
-) -> (Vec<f64>, f64) {
-    let r = impact_stretch(imp, fs, seconds);
-    let (start, end) = (r.start.min(samples.len()), r.end.min(samples.len()));
-    stretch_residual(&samples[start..end], fs, imp, law, support_c)
-}
-
-/// The frames of its file [`impact_residual`] takes of the impact `imp` at `fs` Hz: from its
-/// onset, its analysed duration but at most `seconds` (not clipped to the file).
+/// The frames of its file [`read_impact_residual`] takes of the impact `imp` at `fs` Hz: from
+/// its onset, its analysed duration but at most `seconds` (not clipped to the file).
 pub fn impact_stretch(imp: &crate::ImpactFeatures, fs: f64, seconds: f64) -> std::ops::Range<usize> {
     let start = (imp.onset_s * fs).round() as usize;
     start..start.saturating_add((imp.duration_s.min(seconds).max(0.0) * fs) as usize)
 }
 
-/// [`impact_residual`] of the impact `imp` read from the WAV file at `path` (`channel` as in
-/// [`crate::load_wav`]): only its stretch ([`impact_stretch`]) is kept in memory
-/// ([`crate::wav::load_wav_window`]), so an impact in an hour-long session costs its own
-/// seconds. Also returns the stretch as read.
+/// The residual of one impact of a recording by a material (law `law`, mean support damping
+/// `support_c`): the impact's first `seconds` read from the WAV file at `path` (`channel` as
+/// in [`crate::load_wav`]; only that stretch, [`impact_stretch`], is kept in memory by
+/// [`crate::wav::load_wav_window`], so an impact in an hour-long session costs its own
+/// seconds), its features matched against themselves with the material's decays (Ren's
+/// R(φᵢ, Φ̃), [`crate::ren`]), their amplitudes and phases fitted over the first half second,
+/// and the represented sound taken out ([`residual_sound`]). Returns the residual, the
+/// impact's R(Φ, Φ̃) and the stretch as read.
 ///
 /// # Errors
 /// The file cannot be read ([`crate::load_wav`]'s errors).
@@ -317,22 +303,11 @@ pub fn read_impact_residual(
     support_c: f64,
     seconds: f64,
 ) -> Result<(Vec<f64>, f64, crate::Recording), crate::EstimateError> {
-    let rec = crate::wav::load_wav_window(path, channel, |rate| impact_stretch(imp, f64::from(rate), seconds))?;
-    let (x, r) = stretch_residual(&rec.samples, f64::from(rec.sample_rate), imp, law, support_c);
-    Ok((x, r, rec))
-}
-
-/// [`impact_residual`] on the impact's stretch `segment` (from its onset).
-fn stretch_residual(
-    segment: &[f32],
-    fs: f64,
-    imp: &crate::ImpactFeatures,
-    law: &dsp::Damping,
-    support_c: f64,
-) -> (Vec<f64>, f64) {
     use crate::ren::{match_ratios, Point};
-    let len = segment.len();
-    let segment: Vec<f64> = segment.iter().map(|&v| f64::from(v)).collect();
+    let rec = crate::wav::load_wav_window(path, channel, |rate| impact_stretch(imp, f64::from(rate), seconds))?;
+    let fs = f64::from(rec.sample_rate);
+    let len = rec.samples.len();
+    let segment: Vec<f64> = rec.samples.iter().map(|&v| f64::from(v)).collect();
     let reference: Vec<Point> =
         imp.features.iter().map(|f| Point::new(f.freq_hz, f.decay_per_s, f.amplitude)).collect();
     let estimated: Vec<Point> = imp
@@ -342,7 +317,7 @@ fn stretch_residual(
         .collect();
     let m = match_ratios(&reference, &estimated);
     let fit_len = len.min((0.5 * fs) as usize);
-    (residual_sound(&segment, &imp.features, &m.per_reference, fs, fit_len), m.reference)
+    Ok((residual_sound(&segment, &imp.features, &m.per_reference, fs, fit_len), m.reference, rec))
 }
 
 /// A signal of `len` samples whose power spectrogram approximates `target`: Griffin–Lim

@@ -81,7 +81,7 @@ pub fn wanted_key(
 
 /// The residual of `report`'s first impact as a captured material keeps it: the first
 /// [`presets::residual::SECONDS`] of the impact minus the modes the material (`law`, mean
-/// support damping `support_c`) represents ([`estimator::residual::impact_residual`], Ren
+/// support damping `support_c`) represents ([`estimator::residual::read_impact_residual`], Ren
 /// §6.1), as a quantised log-power spectrogram with the impact's features. `path` is the
 /// recording the report was made from (`channel` as the estimate read it); only the impact's
 /// stretch of it is read ([`estimator::residual::read_impact_residual`]). `None` without

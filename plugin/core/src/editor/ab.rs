@@ -133,7 +133,7 @@ pub fn object_clip(modes: &ObjectModes, params: SoundParams, strike: Strike, rat
 
 /// The impact's residual as the instrument plays it, at `req.rate`: the recording minus
 /// the modes the fitted law represents over its first [`presets::residual::SECONDS`]
-/// ([`estimator::residual::impact_residual`]), its power spectrogram transferred from the
+/// ([`estimator::residual::read_impact_residual`]), its power spectrogram transferred from the
 /// recorded modes onto the same modes with the fitted decays (c(λ)/2) and reconstructed by
 /// Griffin–Lim ([`estimator::transfer`]).
 ///
