@@ -198,8 +198,10 @@ def object_check(struck, clip, obj, ref, cache, tmp):
     # The pitch fit (issue 10 part 5's target: the object's lowest mode within a semitone of
     # the recording's lowest strong partial): the object's lowest mode at the fitted gamma
     # against the lowest of the reference's 5 strongest partials (subspace.py, not Struck's
-    # own features), against the lowest partial the match itself used and, for tuned bars,
-    # against the sample's nominal pitch.
+    # own features), against the recording's lowest strong partial as subspace.py defines it
+    # (the lowest of all its partials within 20 dB of the strongest at the window start; within
+    # 30 dB, for information), against the lowest partial the match itself used and, for tuned
+    # bars, against the sample's nominal pitch.
     pitch = {}
     if os.path.exists(rep):
         with open(rep) as f:
@@ -209,6 +211,12 @@ def object_check(struck, clip, obj, ref, cache, tmp):
         if low_obj and low_ref:
             pitch = {"object_lowest_hz": low_obj, "reference_lowest_hz": low_ref,
                      "cents_vs_reference": 1200 * math.log2(low_obj / low_ref)}
+            for key, suffix in (("lowest_strong", ""), ("lowest_strong_30db", "_30db")):
+                ls = ref.get(key)
+                if ls:
+                    pitch[f"reference_lowest_strong{suffix}_hz"] = ls["freq_hz"]
+                    pitch[f"reference_lowest_strong{suffix}_db"] = ls["amplitude_db_re_strongest"]
+                    pitch[f"cents_vs_lowest_strong{suffix}"] = 1200 * math.log2(low_obj / ls["freq_hz"])
             if match.get("lowest_partial_hz"):
                 pitch["cents_vs_match"] = 1200 * math.log2(low_obj / match["lowest_partial_hz"])
             nominal = nominal_hz(clip) if clip["object"] in TUNED_BARS else None
@@ -356,6 +364,11 @@ def main():
                 pc = oc["pitch"].get("cents_vs_reference")
                 if pc is not None:
                     parts.append(f"lowest mode {pc:+.0f} cents from the lowest of the 5 strongest partials")
+                for suffix, db in (("", 20), ("_30db", 30)):
+                    pc = oc["pitch"].get(f"cents_vs_lowest_strong{suffix}")
+                    if pc is not None:
+                        parts.append(f"{pc:+.0f} cents from the lowest partial within {db} dB "
+                                     f"({oc['pitch'][f'reference_lowest_strong{suffix}_hz']:.1f} Hz)")
                 print(f"{c['id']:40s} on {obj} ({oc['recorded_modes']} modes recorded): " + "; ".join(parts))
 
     fin = [r for r in all_ratios if math.isfinite(r)]
@@ -382,6 +395,15 @@ def main():
             summary["objects_pitch_clips"] = len(cents)
             summary["objects_pitch_within_semitone"] = sum(abs(v) <= 100 for v in cents) / len(cents)
             summary["objects_pitch_median_abs_cents"] = sorted(abs(v) for v in cents)[len(cents) // 2]
+        for suffix in ("", "_30db"):
+            cents = [r["pitch"][f"cents_vs_lowest_strong{suffix}"] for r in ok_rows
+                     if f"cents_vs_lowest_strong{suffix}" in r["pitch"]]
+            if cents:
+                summary[f"objects_pitch_clips_lowest_strong{suffix}"] = len(cents)
+                summary[f"objects_pitch_within_semitone_lowest_strong{suffix}"] = \
+                    sum(abs(v) <= 100 for v in cents) / len(cents)
+                summary[f"objects_pitch_median_abs_cents_lowest_strong{suffix}"] = \
+                    sorted(abs(v) for v in cents)[len(cents) // 2]
         nominal = [r["pitch"]["cents_vs_nominal"] for r in ok_rows if "cents_vs_nominal" in r["pitch"]]
         if nominal:
             summary["objects_pitch_tuned_bars"] = len(nominal)
@@ -407,6 +429,11 @@ def main():
                  f"{summary['objects_pitch_within_semitone'] * summary['objects_pitch_clips']:.0f}/"
                  f"{summary['objects_pitch_clips']} clips (median {summary['objects_pitch_median_abs_cents']:.0f} cents)"
                  if "objects_pitch_clips" in summary else "")
+              + "".join(f"; of the lowest partial within {db} dB of the strongest on "
+                        f"{summary[f'objects_pitch_within_semitone_lowest_strong{sx}'] * summary[f'objects_pitch_clips_lowest_strong{sx}']:.0f}/"
+                        f"{summary[f'objects_pitch_clips_lowest_strong{sx}']} (median "
+                        f"{summary[f'objects_pitch_median_abs_cents_lowest_strong{sx}']:.0f} cents)"
+                        for sx, db in (("", 20), ("_30db", 30)) if f"objects_pitch_clips_lowest_strong{sx}" in summary)
               + (f"; of the sample's nominal pitch on {summary['objects_pitch_tuned_within_semitone'] * summary['objects_pitch_tuned_bars']:.0f}/"
                  f"{summary['objects_pitch_tuned_bars']} tuned bars" if "objects_pitch_tuned_bars" in summary else ""))
     if a.json_out:

@@ -37,7 +37,11 @@ Method
    a e^{-d t} cos(2 pi f t + phi)).
 5. A partial counts if 20 Hz <= f <= min(20 kHz, 0.45 fs), 0 < d <= 300 1/s
    (T60 >= 23 ms) and Q = pi f / d >= 10. The strongest five are the
-   reference.
+   reference. Also given: the recording's lowest strong partial, the
+   lowest-frequency partial of all those that count whose amplitude at the
+   window start is within 20 dB of the strongest's (`lowest_strong`; within
+   30 dB: `lowest_strong_30db`), the pitch the object fit is measured
+   against (e2e.py --objects).
 6. Reliability flags: `stable` when a repeat analysis on a window 70 % as
    long with the model order two higher gives the same partial (0.1 % or
    0.5 Hz) with a decay within 10 % (or 0.3 1/s); `single` when the
@@ -346,6 +350,24 @@ def stft_decay(x, fs, f, onset, t0=SKIP_S, T=WINDOW_S, frame_s=0.04):
     return float(np.linalg.lstsq(A, np.log(m[ok]) * m[ok], rcond=None)[0][1])
 
 
+LOWEST_STRONG_DB = 20.0
+LOWEST_STRONG_WIDE_DB = 30.0
+
+
+def lowest_strong(parts, range_db):
+    """The lowest-frequency partial of `parts` (all partials that count, strongest first)
+    whose amplitude at the window start is within `range_db` of the strongest's; None if
+    there are none. `rank`: its place by amplitude (1 = the strongest)."""
+    if not parts:
+        return None
+    top = parts[0]["amplitude"]
+    ok = [(i, p) for i, p in enumerate(parts) if p["amplitude"] >= top * 10 ** (-range_db / 20)]
+    i, p = min(ok, key=lambda ip: ip[1]["freq_hz"])
+    return {"freq_hz": p["freq_hz"], "decay_per_s": p["decay_per_s"],
+            "amplitude_db_re_strongest": 20 * np.log10(p["amplitude"] / top), "rank": i + 1,
+            "range_db": range_db}
+
+
 def reference(x, fs, top=5):
     """The `top` strongest partials of a clip with their reliability flags
     (module docstring, step 6)."""
@@ -362,7 +384,9 @@ def reference(x, fs, top=5):
         p["reliable"] = p["stable"] and p["single"] and not p["crowded"]
         p["decay_stft"] = stft_decay(x, fs, p["freq_hz"], onset, p["t0_s"], WINDOW_S)
         p["stft_agrees"] = bool(abs(p["decay_stft"] - p["decay_per_s"]) <= 0.2 * p["decay_per_s"])
-    return {"onset_s": onset / fs, "clip_s": avail, "partials": best, "all_partials": len(parts)}
+    return {"onset_s": onset / fs, "clip_s": avail, "partials": best, "all_partials": len(parts),
+            "lowest_strong": lowest_strong(parts, LOWEST_STRONG_DB),
+            "lowest_strong_30db": lowest_strong(parts, LOWEST_STRONG_WIDE_DB)}
 
 
 def self_test(verbose=True):
@@ -437,6 +461,11 @@ def main():
                 flags = " ".join(k for k in ("stable", "single", "crowded", "reliable", "stft_agrees") if p[k])
                 print(f"  {p['freq_hz']:10.2f} Hz  d {p['decay_per_s']:8.3f} 1/s  a {p['amplitude']:.4f}"
                       f"  poles {p['poles']}  {flags}")
+            for key in ("lowest_strong", "lowest_strong_30db"):
+                q = res[path][key]
+                if q:
+                    print(f"  {key}: {q['freq_hz']:.2f} Hz  d {q['decay_per_s']:.3f} 1/s"
+                          f"  {q['amplitude_db_re_strongest']:.1f} dB (rank {q['rank']})")
     if a.json:
         print(json.dumps(res, indent=1))
 
