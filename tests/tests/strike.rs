@@ -689,3 +689,30 @@ fn a_release_that_over_damps_the_modes_does_not_cut_the_sound() {
         assert!(peak(&x[off + (0.5 * sr) as usize..]) < 1e-3 * before, "release {release}: still sounding");
     }
 }
+
+/// ... nor leaves the deflection behind as a sub-audio drift (a black-box tester: the sphere
+/// shell at key 0, released 1 ms after its strike with 500 s⁻¹, sat at a mean of −0.76 for
+/// 40 ms and at −13 dBFS after 0.3 s, where the note without release had fallen to −32
+/// dBFS). What is heard of a mode is its velocity, and an over-damped mode's velocity falls
+/// at the fast root d + √(d² − λ) of s² + 2ds + λ = 0 (here d ≥ 500 s⁻¹, so within 10 ms by
+/// 60 dB); what follows the deflection's creep is √λ/(2d) of it or less. Measured through
+/// `process()` on the keys whose lowest modes the release over-damps: from 20 ms after the
+/// note-off the output stays 60 dB under its level before it, and its mean from there on is
+/// 60 dB under that level too.
+#[test]
+fn a_release_that_over_damps_the_modes_leaves_no_drift() {
+    let sr = f64::from(SR);
+    let off = (0.2 * sr) as usize;
+    let from = off + (0.02 * sr) as usize;
+    for key in [0u8, 12, 21] {
+        let mut h = host("fem-sphere-shell", "metal-ren2013", SR, &[("release", 500.0), ("safety", 0.0)]);
+        let n = struck_cli::cli::NoteSpec { duration_s: Some(0.2), ..note(key, 100, Some(0.5)) };
+        let x = render(&mut h, &[n], 1.0, 512);
+        let before = peak(&x[off - (0.02 * sr) as usize..off]);
+        assert!(before > 1e-3, "key {key}: the note did not sound ({before})");
+        let tail = &x[from..];
+        let mean = tail.iter().map(|&v| f64::from(v)).sum::<f64>() / tail.len() as f64;
+        assert!(peak(tail) < 1e-3 * before, "key {key}: {} from 20 ms after the note-off, {before} before", peak(tail));
+        assert!(mean.abs() < 1e-3 * f64::from(before), "key {key}: mean {mean} after the note-off, {before} before");
+    }
+}
