@@ -1050,8 +1050,9 @@ impl PulseShape {
 /// reviewer's simulation: 33 times the ring at d/ω = 100). An over-damped pole (ω = 0: a
 /// release inside the pulse over-damps a low mode) takes w = 0, where Im(w·z) tends as ω → 0:
 /// the rest of the pulse does not drive it, as a strike does not drive a mode that does not
-/// ring (w = i, its creeping state heard, made a zero-length note 0.3 dB quieter than one
-/// released a sample later on the bar at key 28, with 500 s⁻¹ of release).
+/// ring (w = i, its state then heard as it crept at the slow root, made a zero-length note
+/// 0.3 dB quieter than one released a sample later on the bar at key 28, with 500 s⁻¹ of
+/// release).
 #[inline]
 fn pickup(d: f64, omega: f64) -> C64 {
     if omega > 0.0 {
@@ -1158,17 +1159,26 @@ fn mode_decay(lambda: f64, damping: &Damping, support_c: f64, extra_d: f64) -> f
 /// s² + 2ds + λ = 0 (SCIENCE.md §1); `None` if it is not over-damped (it rings, or lies past
 /// Nyquist) or the values are not finite.
 ///
-/// What the bank holds and plays of a mode is its velocity ([`pickup`]). Once over-damped,
-/// the velocity v₀ it had falls at the fast root, and what is left follows the deflection's
-/// creep back at the slow root d − √(d² − λ), at about √λ/(2d) of the deflection's level: a
-/// one-signed, sub-audio drift (the modes a release of at most 500 s⁻¹ over-damps lie under
-/// 80 Hz). The bank has one rate per mode, and the fast one is the sound: holding the state
-/// at the slow root instead kept the deflection's whole level as a drift — a black-box
-/// tester's sphere shell at key 0, released 1 ms after its strike with 500 s⁻¹, sat at a mean
-/// of −0.76 for 40 ms and at −13 dBFS after 0.3 s (−32 dBFS without release), and a staccato
-/// run of keys 0–23 put 85 % of its energy under 20 Hz. The state is not cut either (that
-/// clicked): it falls continuously from where it is
-/// (`a_release_that_over_damps_the_modes_does_not_cut_the_sound`).
+/// What the bank holds and plays of a mode is its velocity ([`pickup`]). Once over-damped
+/// (x'' + 2d x' + λx = 0 from x₀, v₀; r = √(d² − λ)), the velocity is a fast part carrying
+/// v₀, falling at d + r, and a slow part −(a_s v₀ + λ x₀)/(2r) falling at a_s = d − r: the
+/// deflection's creep back, √λ/(2r) of the deflection's level (≈ √λ/(2d) for d ≫ √λ: −26 dB
+/// for the sphere shell's 8 Hz mode at d = 503 s⁻¹; near critical damping it is no longer
+/// small), a one-signed, sub-audio drift (the modes a release of at most 500 s⁻¹ over-damps
+/// lie under 80 Hz). The bank has one complex pole per mode, continuity fixes the state, so
+/// only the rate is free, and the fast root is the best single rate (a reviewer's fit over
+/// 5–75 Hz and d = 500–1190 s⁻¹: within 1.1 dB of the least-squares best rate; d: 1.3–1.9 dB
+/// worse; the slow root: 10–30 dB worse). Holding the state at the slow root, as until stop
+/// 58, kept the output's value at the note-off as a drift — a black-box tester's sphere shell
+/// at key 0, released 1 ms after its strike with 500 s⁻¹, sat at a mean of −0.76 for 40 ms
+/// (−0.21 without release) and a staccato run of keys 0–23 put 85 % of its energy under
+/// 20 Hz. The state is not cut either (that clicked): it falls continuously from where it
+/// is (`a_release_that_over_damps_the_modes_does_not_cut_the_sound`). What this leaves out:
+/// the deflection, which physically stays, so a mode whose damping is lifted again (pressure
+/// eased, the same key struck again on its released voice) does not ring again from it — the
+/// slow root, which kept a velocity that had physically gone, was off by as much on average
+/// (the reviewer: −3.6 dB at 10 Hz held 20 ms, −13.5 dB at 40 Hz; same-key restrike at 10 Hz
+/// 0.389 against the closed form's 0.430, the slow root 0.540).
 fn overdamped_decay(lambda: f64, damping: &Damping, support_c: f64, extra_d: f64) -> Option<f64> {
     let d = mode_decay(lambda, damping, support_c, extra_d);
     if !(d.is_finite() && lambda.is_finite()) || lambda <= 0.0 || d < 0.0 || d * d < lambda {

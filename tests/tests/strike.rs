@@ -672,7 +672,7 @@ fn a_zero_length_note_is_as_loud_as_one_released_a_sample_later() {
 
 /// A note-off whose release damping over-damps the note's modes (a black-box tester: the
 /// steel sphere shell at key 21, release 300–500 s⁻¹, went to exact silence within a sample of
-/// its note-off — a click): over-damped modes creep back at their slow root, so the sound
+/// its note-off — a click): over-damped modes keep their state and fall from it, so the sound
 /// falls away continuously. Measured through `process()`: the 32 samples after the note-off
 /// keep most of the level of the 32 before, and the note is silent half a second later.
 #[test]
@@ -693,12 +693,15 @@ fn a_release_that_over_damps_the_modes_does_not_cut_the_sound() {
 /// ... nor leaves the deflection behind as a sub-audio drift (a black-box tester: the sphere
 /// shell at key 0, released 1 ms after its strike with 500 s⁻¹, sat at a mean of −0.76 for
 /// 40 ms and at −13 dBFS after 0.3 s, where the note without release had fallen to −32
-/// dBFS). What is heard of a mode is its velocity, and an over-damped mode's velocity falls
-/// at the fast root d + √(d² − λ) of s² + 2ds + λ = 0 (here d ≥ 500 s⁻¹, so within 10 ms by
-/// 60 dB); what follows the deflection's creep is √λ/(2d) of it or less. Measured through
-/// `process()` on the keys whose lowest modes the release over-damps: from 20 ms after the
-/// note-off the output stays 60 dB under its level before it, and its mean from there on is
-/// 60 dB under that level too.
+/// dBFS). What is heard of a mode is its velocity, and an over-damped mode's velocity v₀
+/// falls at the fast root a = d + √(d² − λ) of s² + 2ds + λ = 0 (here d ≥ 500 s⁻¹, a ≥ 500:
+/// 60 dB within 13.8 ms), the part the engine plays (`overdamped_decay`; the slow part the
+/// deflection's creep adds, 26–8 dB under the ring at these keys, is left out, so this checks
+/// the chosen approximation, not the whole closed form). Measured through `process()` on the
+/// keys whose modes the release over-damps (all of them: 8–49 Hz): from 20 ms after the
+/// note-off the output stays 60 dB under its level before it, and its mean over the first
+/// 40 ms after the note-off is at most that level over 20 (∫v₀e^(−at)dt ≤ v₀/a; the slow
+/// root's hold gave 0.59 of it).
 #[test]
 fn a_release_that_over_damps_the_modes_leaves_no_drift() {
     let sr = f64::from(SR);
@@ -711,8 +714,12 @@ fn a_release_that_over_damps_the_modes_leaves_no_drift() {
         let before = peak(&x[off - (0.02 * sr) as usize..off]);
         assert!(before > 1e-3, "key {key}: the note did not sound ({before})");
         let tail = &x[from..];
-        let mean = tail.iter().map(|&v| f64::from(v)).sum::<f64>() / tail.len() as f64;
         assert!(peak(tail) < 1e-3 * before, "key {key}: {} from 20 ms after the note-off, {before} before", peak(tail));
-        assert!(mean.abs() < 1e-3 * f64::from(before), "key {key}: mean {mean} after the note-off, {before} before");
+        let first = &x[off..off + (0.04 * sr) as usize];
+        let mean = first.iter().map(|&v| f64::from(v)).sum::<f64>() / first.len() as f64;
+        assert!(
+            mean.abs() <= f64::from(before) / 20.0,
+            "key {key}: mean {mean} over 40 ms after the note-off, {before} before"
+        );
     }
 }
