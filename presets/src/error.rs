@@ -27,6 +27,16 @@ pub enum PresetError {
         max: u64,
     },
 
+    /// The file is a recording or another known binary kind, not a preset (a black-box
+    /// tester: `bank info take.wav` was told to save the WAV "as UTF-8 in your editor").
+    #[error("`{}` is {found}, not a material or bank (JSON): give the preset file itself (`struck estimate` and `struck bank capture` write one from a recording)", path.display())]
+    NotAPreset {
+        /// The file that was read.
+        path: PathBuf,
+        /// What it is ("a WAV recording", "a MIDI file").
+        found: &'static str,
+    },
+
     /// The file was read but is not UTF-8 text (a UTF-16 file from a Windows editor, a
     /// Latin-1 one, a damaged one with NUL bytes).
     #[error("preset file `{}` is not UTF-8 text ({found}). Save it as UTF-8 in your editor, or re-export the preset from Struck", path.display())]

@@ -155,13 +155,16 @@ pub(crate) fn to_pretty<T: Serialize>(value: &T) -> String {
     s
 }
 
-/// Reads a whole file, mapping failure to [`PresetError::Io`] with the path, and text that is
-/// not UTF-8 (or holds a NUL byte: damaged) to [`PresetError::Encoding`] saying what it
-/// looks like.
+/// Reads a whole file, mapping failure to [`PresetError::Io`] with the path, a recording or
+/// MIDI file to [`PresetError::NotAPreset`], and text that is not UTF-8 (or holds a NUL
+/// byte: damaged) to [`PresetError::Encoding`] saying what it looks like.
 pub(crate) fn read(path: &Path) -> Result<String, PresetError> {
     let bytes = crate::read_capped(path, crate::MAX_PRESET_BYTES)
         .map_err(|source| PresetError::Io { path: path.to_path_buf(), source })?
         .ok_or(PresetError::TooLarge { path: path.to_path_buf(), max: crate::MAX_PRESET_BYTES })?;
+    if let Some(found) = crate::output::binary_kind(&bytes) {
+        return Err(PresetError::NotAPreset { path: path.to_path_buf(), found });
+    }
     // UTF-16 or UTF-32 of ASCII text without a byte-order mark is valid UTF-8 (NUL bytes
     // between the characters): a NUL in the first two bytes is never JSON.
     if bytes.len() >= 2 && (bytes[0] == 0 || bytes[1] == 0) {

@@ -125,11 +125,27 @@ pub enum Kind {
     Wav,
 }
 
+/// Whether the first bytes `head` of a file are a WAV header.
+fn is_wav(head: &[u8]) -> bool {
+    head.len() >= 12 && matches!(&head[..4], b"RIFF" | b"RIFX" | b"RF64" | b"BW64") && &head[8..12] == b"WAVE"
+}
+
+/// The binary kinds a preset path is mistaken for, by a file's first bytes: "a WAV
+/// recording", "a MIDI file", else `None`.
+pub(crate) fn binary_kind(head: &[u8]) -> Option<&'static str> {
+    if is_wav(head) {
+        Some("a WAV recording")
+    } else if head.starts_with(b"MThd") {
+        Some("a MIDI file")
+    } else {
+        None
+    }
+}
+
 /// What the first bytes of an existing file say it is: `None` for the kind `kind` itself (or
 /// an empty file), else how to name it.
 fn other_kind(head: &[u8], kind: Kind) -> Option<&'static str> {
-    let wav =
-        head.len() >= 12 && matches!(&head[..4], b"RIFF" | b"RIFX" | b"RF64" | b"BW64") && &head[8..12] == b"WAVE";
+    let wav = is_wav(head);
     let text = head.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(head);
     let json = text.iter().find(|b| !b.is_ascii_whitespace()).is_some_and(|&b| b == b'{' || b == b'[');
     let blank = text.iter().all(u8::is_ascii_whitespace);

@@ -349,6 +349,26 @@ fn a_preset_file_with_a_byte_order_mark_loads() {
     assert_eq!(Bank::from_json(&format!("\u{feff}{}", b.to_json())).unwrap(), b);
 }
 
+/// A recording or a MIDI file given where a material or bank is read is named as what it is
+/// (a black-box tester: `bank info take.wav` was told to save it "as UTF-8 in your editor").
+#[test]
+fn a_recording_given_as_a_preset_is_named() {
+    let mut wav = b"RIFF\x24\x00\x00\x00WAVEfmt ".to_vec();
+    wav.extend_from_slice(&[0x10, 0, 0, 0, 1, 0, 1, 0, 0x44, 0xac, 0, 0, 0x88, 0x58, 1, 0, 2, 0, 16, 0]);
+    wav.extend_from_slice(b"data\x00\x00\x00\x00");
+    let mid = b"MThd\x00\x00\x00\x06\x00\x00\x00\x01\x01\xe0".to_vec();
+    for (name, bytes, says) in [("take.wav", wav, "a WAV recording"), ("song.mid", mid, "a MIDI file")] {
+        let path = scratch(name);
+        std::fs::write(&path, &bytes).unwrap();
+        for err in [Material::load(&path).unwrap_err(), Bank::load(&path).unwrap_err()] {
+            let msg = err.to_string();
+            assert!(matches!(err, PresetError::NotAPreset { .. }), "{name}: {msg}");
+            assert!(msg.contains(name) && msg.contains(says) && msg.contains("not a material or bank"), "{msg}");
+            assert!(!msg.contains("UTF-8") && !msg.contains('\n'), "{msg}");
+        }
+    }
+}
+
 /// A preset saved in another encoding (UTF-16 from a Windows editor, with or without its
 /// byte-order mark; Latin-1) is refused with an error that names the encoding and the file,
 /// not a "could not access" one (the black-box tester's finding).

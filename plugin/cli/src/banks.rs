@@ -627,6 +627,12 @@ pub fn run(cmd: BankCommand) -> Result<(), String> {
                 (Some(_), None) if scale.is_some() => {
                     return Err("--scale applies to --mesh files only; give --dims in metres".into())
                 }
+                // (clap's `requires` does not hold these back here: a black-box tester's
+                // `--shape bar --mesher bogus` built the bar without a word.)
+                (Some(_), None) if mesher.is_some() || no_remesh => {
+                    let opt = if no_remesh { "--no-remesh" } else { "--mesher" };
+                    return Err(format!("{opt} applies to --mesh files only (a built-in shape is meshed as it is)"));
+                }
                 (Some(s), None) => {
                     let dims = dims.ok_or("--shape needs --dims (see `struck bank shapes`)")?;
                     let shape = parse_shape(&s, &dims)?;

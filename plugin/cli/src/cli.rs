@@ -322,9 +322,10 @@ pub fn warn_user_bank(lib: &Library, object: usize, say: bool) {
 /// A preset file's error with the file's name (the JSON and I/O errors name it already).
 fn file_error(path: &Path, e: &presets::PresetError) -> String {
     match e {
-        presets::PresetError::Json { .. } | presets::PresetError::Io { .. } | presets::PresetError::Encoding { .. } => {
-            e.to_string()
-        }
+        presets::PresetError::Json { .. }
+        | presets::PresetError::Io { .. }
+        | presets::PresetError::Encoding { .. }
+        | presets::PresetError::NotAPreset { .. } => e.to_string(),
         _ => format!("{}: {e}", path.display()),
     }
 }

@@ -183,11 +183,11 @@ enum Command {
         image_path: Option<String>,
         /// Contact speed over time, "seconds:m/s,…" (e.g. "0:0.1,1:0.5,2:0"; linear between
         /// points, held outside; 0..=1 m/s). Sent as the mod wheel.
-        #[arg(long, value_name = "T:V,…")]
+        #[arg(long, value_name = "T:V,…", allow_hyphen_values = true)]
         speed_curve: Option<String>,
         /// Normal force over time, "seconds:0..1,…" (linear between points). Sent as every
         /// note's pressure; without it a note's force is its velocity.
-        #[arg(long, value_name = "T:V,…")]
+        #[arg(long, value_name = "T:V,…", allow_hyphen_values = true)]
         force_curve: Option<String>,
         /// Audio in: this WAV drives the object at the strike position (moving at the contact
         /// speed; `--set drywet=…` mixes the input back in), rendered at its sample rate.

@@ -115,6 +115,20 @@ fn argument_errors_are_one_line_and_exit_1() {
     // Errors of the commands themselves follow the same contract.
     let e = error_line(&struck(&dir, &["render", "--object", "no-such-object", "--out", out]));
     assert!(e.contains("unknown object 'no-such-object'"), "{e}");
+    // Mesh-file options with a built-in shape, and a modulus no solid has (a black-box
+    // tester's `--mesher bogus` built the bar without a word; `--young 1e-300` was told the
+    // eigensolver "converged 11 of 11 modes … ask for fewer modes").
+    let bar = ["bank", "build", "--shape", "bar", "--dims", "0.5,0.03,0.01", "--modes", "4", "--out", out];
+    for (extra, names) in [
+        (&["--mesher", "bogus"][..], "--mesher applies to --mesh files only"),
+        (&["--no-remesh"], "--no-remesh applies to --mesh files only"),
+        (&["--scale", "2"], "--scale applies to --mesh files only"),
+        (&["--young", "1e-300"], "Young's modulus must be 1e2..=1e13 Pa"),
+        (&["--density", "1e308"], "density must be 1..=1e5 kg/m^3"),
+    ] {
+        let e = error_line(&struck(&dir, &[&bar[..], extra].concat()));
+        assert!(e.contains(names), "{extra:?}: {e}");
+    }
     assert!(!Path::new(out).exists());
 }
 
@@ -138,6 +152,23 @@ fn a_file_in_the_wrong_place_says_what_it_is() {
     let bank_out = dir.join("b.json");
     let e = error_line(&struck(&dir, &["bank", "build", "--mesh", mesh_dir, "--out", bank_out.to_str().unwrap()]));
     assert!(e.contains("a folder, not a mesh file"), "{e}");
+    // A recording given as the material or the object (was "not UTF-8 text … save it as
+    // UTF-8 in your editor").
+    let take = dir.join("take.wav");
+    let spec = hound::WavSpec {
+        channels: 1,
+        sample_rate: 44_100,
+        bits_per_sample: 16,
+        sample_format: hound::SampleFormat::Int,
+    };
+    let mut w = hound::WavWriter::create(&take, spec).unwrap();
+    (0..441).for_each(|i| w.write_sample((i % 7) as i16).unwrap());
+    w.finalize().unwrap();
+    let take = take.to_str().unwrap();
+    for opt in ["--material", "--object"] {
+        let e = error_line(&struck(&dir, &["render", opt, take, "--notes", "60:100", "--out", out]));
+        assert!(e.contains("is a WAV recording, not a material or bank"), "{opt}: {e}");
+    }
     assert!(!Path::new(out).exists() && !bank_out.exists());
 }
 
@@ -1422,6 +1453,10 @@ fn render_plays_gestures_and_refuses_bad_ones() {
         (&["--speed-curve", "0:2"], "outside 0..=1"),
         (&["--force-curve", "1:0.5,0:0.2"], "must ascend"),
         (&["--force-curve", ""], "no points"),
+        // A negative first time is a curve's value, not an option (a black-box tester got
+        // "unexpected argument '-1'").
+        (&["--force-curve", "-1:0.5"], "time -1 s is not a time from 0 on"),
+        (&["--speed-curve", "-0.5:0.1"], "time -0.5 s is not a time from 0 on"),
     ];
     for (extra, names) in bad {
         let e = error_line(&struck(&dir, &[&["render", "--notes", "60:90~1", "--out", out_s][..], extra].concat()));

@@ -360,6 +360,15 @@ pub const MAX_DIMENSION_M: f64 = 100.0;
 /// Largest ratio of a built-in shape's largest dimension to its smallest.
 pub const MAX_ASPECT: f64 = 1e4;
 
+/// Young's moduli a struck solid can have, Pa: a thousandth of the softest foam's to ten
+/// times diamond's (1.2·10¹²). Outside, a value is a typing error, not a material (a
+/// black-box tester's `--young 1e-300` was told the eigensolver "converged 11 of 11 modes
+/// … ask for fewer modes"; `--density 1e308` wrote a bank with γ₀ = 2·10⁻²⁹⁷).
+pub const YOUNG_RANGE_PA: (f64, f64) = (1e2, 1e13);
+/// Densities a struck solid can have, kg/m³: aerogels (≈ 1 and up) to four times osmium's
+/// (22,590).
+pub const DENSITY_RANGE: (f64, f64) = (1.0, 1e5);
+
 /// An isotropic linear-elastic material.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Material {
@@ -387,14 +396,28 @@ impl Material {
     }
 
     /// # Errors
-    /// [`FemError::InvalidMaterial`] for non-finite or non-positive E, ρ or ν outside
-    /// (−1, 0.5).
+    /// [`FemError::InvalidMaterial`] for E or ρ not finite, not positive or outside
+    /// [`YOUNG_RANGE_PA`] / [`DENSITY_RANGE`], or ν outside (−1, 0.5).
     pub fn validate(&self) -> Result<(), FemError> {
         if !(self.young.is_finite() && self.young > 0.0) {
             return Err(FemError::InvalidMaterial(format!("Young's modulus must be > 0 Pa, found {}", self.young)));
         }
         if !(self.density.is_finite() && self.density > 0.0) {
             return Err(FemError::InvalidMaterial(format!("density must be > 0 kg/m^3, found {}", self.density)));
+        }
+        let (lo, hi) = YOUNG_RANGE_PA;
+        if !(lo..=hi).contains(&self.young) {
+            return Err(FemError::InvalidMaterial(format!(
+                "Young's modulus must be {lo:e}..={hi:e} Pa (soft rubber 1e6, oak 11e9, steel 200e9, diamond 1.2e12), found {:e}",
+                self.young
+            )));
+        }
+        let (lo, hi) = DENSITY_RANGE;
+        if !(lo..=hi).contains(&self.density) {
+            return Err(FemError::InvalidMaterial(format!(
+                "density must be {lo}..={hi:e} kg/m^3 (foam 30, glass 2500, steel 7850, osmium 22590), found {:e}",
+                self.density
+            )));
         }
         if !(self.poisson.is_finite() && self.poisson > -1.0 && self.poisson < 0.5) {
             return Err(FemError::InvalidMaterial(format!(

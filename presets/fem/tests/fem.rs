@@ -295,6 +295,20 @@ fn bad_inputs_are_errors() {
     let opts = BuildOptions::default();
     assert!(matches!(fem::build_bank("a", "a", &BAR, &m, &opts, &quiet), Err(fem::FemError::InvalidMaterial(_))));
     assert!(fem::read_gmsh("hello").is_err());
+    // Moduli and densities no struck solid has are typing errors (a black-box tester's
+    // `--young 1e-300`, `--density 1e308`), named in a short line; the real range passes.
+    for (young, density, says) in [
+        (1e-300, 1000.0, "Young's modulus"),
+        (1e14, 1000.0, "Young's modulus"),
+        (1e9, 1e308, "density"),
+        (1e9, 0.5, "density"),
+    ] {
+        let e = Material { young, density, poisson: 0.3 }.validate().unwrap_err().to_string();
+        assert!(e.contains(says) && e.len() < 200, "{e}");
+    }
+    for (young, density) in [(1e5, 30.0), (1.2e12, 3500.0), (200e9, 22_590.0), (1e6, 1.0)] {
+        Material { young, density, poisson: 0.3 }.validate().unwrap();
+    }
 }
 
 #[test]
