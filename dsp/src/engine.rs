@@ -1171,7 +1171,7 @@ fn mode_decay(lambda: f64, damping: &Damping, support_c: f64, extra_d: f64) -> f
 /// worse; the slow root: 10–30 dB worse). Holding the state at the slow root, as until stop
 /// 58, kept the output's value at the note-off as a drift — a black-box tester's sphere shell
 /// at key 0, released 1 ms after its strike with 500 s⁻¹, sat at a mean of −0.76 for 40 ms
-/// (−0.21 without release) and a staccato run of keys 0–23 put 85 % of its energy under
+/// (+0.20 without release) and a staccato run of keys 0–23 put 85 % of its energy under
 /// 20 Hz. The state is not cut either (that clicked): it falls continuously from where it
 /// is (`a_release_that_over_damps_the_modes_does_not_cut_the_sound`). What this leaves out:
 /// the deflection, which physically stays, so a mode whose damping is lifted again (pressure
