@@ -155,15 +155,7 @@ fn a_file_in_the_wrong_place_says_what_it_is() {
     // A recording given as the material or the object (was "not UTF-8 text … save it as
     // UTF-8 in your editor").
     let take = dir.join("take.wav");
-    let spec = hound::WavSpec {
-        channels: 1,
-        sample_rate: 44_100,
-        bits_per_sample: 16,
-        sample_format: hound::SampleFormat::Int,
-    };
-    let mut w = hound::WavWriter::create(&take, spec).unwrap();
-    (0..441).for_each(|i| w.write_sample((i % 7) as i16).unwrap());
-    w.finalize().unwrap();
+    write_float_wav(&take, 44_100, 441, |i| (i % 7) as f64 * 0.01);
     let take = take.to_str().unwrap();
     for opt in ["--material", "--object"] {
         let e = error_line(&struck(&dir, &["render", opt, take, "--notes", "60:100", "--out", out]));
